@@ -1,0 +1,10 @@
+"""Models of physical things: the stay cable, inertial mass dampers, the servo-hydraulic actuator,
+the rack-and-pinion inerter, HDRB isolators and the TMDI-equipped SDOF.
+
+Plants know nothing of zenoh, MCAP or the loop; they share the small interfaces of
+:mod:`plants.base`.
+"""
+
+from plants.base import Actuator, Kinematics, Specimen, Substructure, drive
+
+__all__ = ["Actuator", "Kinematics", "Specimen", "Substructure", "drive"]

@@ -1,0 +1,1 @@
+"""Sub-commands of the ``rths`` CLI, one module each (discovered by :mod:`rths.cli`)."""

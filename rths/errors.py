@@ -1,0 +1,91 @@
+"""The project's exception hierarchy and the small validators every module uses.
+
+Every error a user can cause by bad input derives from :class:`RTHSError`; the CLI turns it into
+a one-line message and exit code 2.  Messages name the input and carry the offending value, e.g.
+``ParameterError("cable tension T must be positive; got -3.0")``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+__all__ = [
+    "ConfigError",
+    "DataError",
+    "ParameterError",
+    "RTHSError",
+    "TransportError",
+    "check_finite",
+    "check_in_range",
+    "check_nonnegative",
+    "check_positive",
+    "check_positive_int",
+]
+
+
+class RTHSError(Exception):
+    """Base class of every error the framework raises on purpose."""
+
+
+class ParameterError(RTHSError, ValueError):
+    """A model or function parameter is out of its physical or numerical range."""
+
+
+class ConfigError(RTHSError, ValueError):
+    """A scenario or nominal-model file is malformed (names the file, key and value)."""
+
+
+class DataError(RTHSError, ValueError):
+    """A data file (CSV, MCAP) cannot be used: missing columns, non-uniform sampling, ..."""
+
+
+class TransportError(RTHSError, RuntimeError):
+    """The zenoh link to a peer failed or timed out."""
+
+
+def check_finite(value: float, name: str) -> float:
+    """Return ``float(value)`` or raise :class:`ParameterError` naming ``name``."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a number; got {value!r}") from None
+    if not math.isfinite(x):
+        raise ParameterError(f"{name} must be finite; got {value!r}")
+    return x
+
+
+def check_positive(value: float, name: str) -> float:
+    """Return ``float(value)`` if it is finite and > 0, else raise :class:`ParameterError`."""
+    x = check_finite(value, name)
+    if x <= 0.0:
+        raise ParameterError(f"{name} must be positive; got {value!r}")
+    return x
+
+
+def check_nonnegative(value: float, name: str) -> float:
+    """Return ``float(value)`` if it is finite and >= 0, else raise :class:`ParameterError`."""
+    x = check_finite(value, name)
+    if x < 0.0:
+        raise ParameterError(f"{name} must be non-negative; got {value!r}")
+    return x
+
+
+def check_positive_int(value: int, name: str) -> int:
+    """Return ``value`` if it is an integer >= 1, else raise :class:`ParameterError`."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ParameterError(f"{name} must be a positive integer; got {value!r}")
+    return value
+
+
+def check_in_range(value: float, name: str, lo: float, hi: float) -> float:
+    """Return ``float(value)`` if ``lo <= value <= hi``, else raise :class:`ParameterError`."""
+    x = check_finite(value, name)
+    if not lo <= x <= hi:
+        raise ParameterError(f"{name} must lie in [{lo}, {hi}]; got {value!r}")
+    return x
+
+
+def format_choices(choices: Sequence[str]) -> str:
+    """``['a', 'b']`` -> ``"'a', 'b'"`` for error messages listing valid names."""
+    return ", ".join(repr(c) for c in choices)
