@@ -102,6 +102,11 @@ class Substructure(ABC):
     def predict(self, restoring_force: float) -> Kinematics:
         """The interface state one step ahead with the given force, without committing it."""
 
+    def outputs(self) -> dict[str, float]:
+        """Named response quantities (SI) for logging, e.g. the displacement at a monitoring
+        point; empty unless a substructure defines some."""
+        return {}
+
 
 class Specimen(ABC):
     """A physical device driven by the displacement of one end (the other end is fixed).
