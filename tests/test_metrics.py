@@ -140,9 +140,9 @@ def test_tracking_indicator_growth_for_delayed_sine(delay_samples: float) -> Non
     #   sin(a) sin(b - phi) - sin(b) sin(a - phi) = sin(phi) sin(b - a),
     # so every step adds exactly 0.5 A^2 sin(phi) sin(H), whatever the starting phase.
     # Per cycle (2 pi / H steps) that is (pi A^2 sin phi) * sin(H)/H -> pi A^2 sin(phi): the
-    # area of the ellipse x_t = A sin(theta), x_m = A sin(theta - phi).  TI = (A - TA)/2 is that
-    # enclosed area, not half of it (the brief's "pi A^2 sin(omega tau)/2" would be the growth
-    # of A - TA divided by 4).
+    # area of the ellipse x_t = A sin(theta), x_m = A sin(theta - phi): A and TA change by
+    # +/- pi A^2 sin(phi) per cycle, so TI = (A - TA)/2 is the whole enclosed area, not half of
+    # it (pi A^2 sin(phi)/2 would be (A - TA)/4).
     exact = 0.5 * np.arange(N) * AMP**2 * math.sin(phi) * math.sin(H)
     assert ti == pytest.approx(exact, rel=1e-9, abs=1e-12 * AMP**2)  # rounding of a cumsum
     per_cycle = ti[512] - ti[0]
