@@ -1,0 +1,89 @@
+"""``rths damping``: table and JSON output, physical vs normalised input, one-line errors."""
+
+import json
+import math
+import re
+
+import pytest
+
+from plants.cable import CableProperties, physical_damper
+from rths.cli import main
+
+SEED_ARGS = ["damping", "--mode", "3", "--xd", "0.02", "--me", "0.53", "--cd", "0.75", "--elements", "200"]
+
+
+def run_json(capsys, argv):
+    assert main([*argv, "--json"]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_json_output_for_the_seed_imd_point(capsys):
+    doc = run_json(capsys, SEED_ARGS)
+    assert {"mode", "xd", "me", "cd", "roots"} <= doc.keys()
+    assert (doc["mode"], doc["xd"], doc["me"], doc["cd"]) == (3, 0.02, 0.53, 0.75)
+    exact = [r for r in doc["roots"] if r["method"] == "exact"]
+    fe = [r for r in doc["roots"] if r["method"] == "fe"]
+    assert len(exact) == len(fe) == 2
+    assert [r["zeta"] for r in exact] == pytest.approx([0.0905, 0.0878], rel=1e-3)  # values quoted to 3 figures
+    assert [r["zeta"] for r in fe] == pytest.approx([0.0905, 0.0878], rel=2e-2)  # FE at 200 elements: ~0.3 %
+    assert exact[0]["beta"] == pytest.approx([9.46092, 0.85996], abs=1e-5)  # quoted to 6 figures
+    for r in doc["roots"]:
+        assert r["zeta"] == pytest.approx(r["beta"][1] / math.hypot(*r["beta"]), rel=1e-12)  # definition
+        assert r["freq_ratio"] == pytest.approx(math.hypot(*r["beta"]) / (3 * math.pi), rel=1e-12)
+
+
+def test_table_output_shows_exact_and_fe_side_by_side(capsys):
+    assert main(["damping", "--mode", "1", "--xd", "0.02", "--cd", str(1 / (math.pi**2 * 0.02))]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("cable-damper modes near mode 1")
+    exact = next(line for line in lines if line.startswith("exact"))
+    fe = next(line for line in lines if line.startswith("fe/400"))
+    assert float(exact.split()[-2]) / 0.02 == pytest.approx(0.51057, rel=1e-3)  # 6 decimals printed
+    assert float(fe.split()[-2]) == pytest.approx(float(exact.split()[-2]), rel=1e-3)  # FE 400: ~1e-7
+    assert lines[-1].startswith("asymptotic small-damper zeta: 0.010000")  # kappa = 1 -> x_d/2
+
+
+def test_physical_input_is_normalised_with_eq23(capsys):
+    cable = CableProperties(length=120.0, tension=3.0e6, mass_per_length=60.0)
+    inertance, damping = physical_damper(cable, 0.53, 0.75)
+    physical = [
+        "damping", "--mode", "3", "--xd", "0.02", "--length", "120", "--tension", "3e6",
+        "--mass-per-length", "60", "--inertance", repr(inertance), "--damping", repr(damping),
+        "--elements", "200",
+    ]  # fmt: skip
+    a = run_json(capsys, physical)
+    b = run_json(capsys, SEED_ARGS)
+    assert (a["me"], a["cd"]) == pytest.approx((0.53, 0.75), rel=1e-12)  # round trip of Eq.23
+    flat = lambda doc: [x for r in doc["roots"] for x in r["beta"]]  # noqa: E731
+    assert flat(a) == pytest.approx(flat(b), rel=1e-9)  # Eq.23 round-off through Newton / ARPACK
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--xd", "1.2", "--cd", "1"], r"damper position x_d must lie in \(0, 1\); got 1.2"),
+        (["--xd", "0.02", "--me", "-1"], "normalised inertance m_e must be non-negative; got -1.0"),
+        (["--xd", "0.02", "--cd", "-2"], "normalised damping c_d must be non-negative; got -2.0"),
+        (["--xd", "0.02", "--cd", "1", "--length", "3"], "either normalised .* not both"),
+        (["--xd", "0.02"], "no damper given"),
+        (["--xd", "0.02", "--length", "3", "--damping", "4"], "also needs --tension, --mass-per-length"),
+        (["--xd", "0.02", "--length", "3", "--tension", "-1", "--mass-per-length", "1", "--damping", "4"],
+         "cable tension T must be positive; got -1.0"),
+        (["--xd", "0.02", "--length", "3", "--tension", "1", "--mass-per-length", "1", "--inertance", "-4"],
+         "damper inertance must be non-negative; got -4.0"),
+        (["--xd", "0.02", "--cd", "1", "--elements", "1"], "number of elements must be at least 2; got 1"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_code_2(capsys, extra, message):
+    assert main(["damping", "--mode", "3", *extra]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    err = captured.err.strip()
+    assert "\n" not in err and "Traceback" not in err
+    assert err.startswith("rths damping: error: ")
+    assert re.search(message, err)
+
+
+def test_bad_mode_is_rejected(capsys):
+    assert main(["damping", "--mode", "0", "--xd", "0.02", "--cd", "1"]) == 2
+    assert "mode number n must be a positive integer; got 0" in capsys.readouterr().err
