@@ -1,0 +1,419 @@
+"""Zenoh transport between the coordinator (``rths run``) and the specimen (``rths specimen``).
+
+The two processes talk peer-to-peer over explicit endpoints: the coordinator *listens*, the
+specimen *connects* (on loopback by default; ``--listen``/``--connect`` put the specimen on another
+host).  Multicast and gossip scouting are off and no router is involved, so a run only ever talks
+to the peer it was pointed at, and :class:`RunKeys` keeps every key under ``rths/<run-id>/`` so
+two runs never cross-talk.
+
+Building blocks (all context managers; closing a session undeclares everything on it):
+
+* :func:`open_session` -- a peer session on :class:`ZenohEndpoints`.
+* :class:`Inbox` / :class:`Mailbox` -- receive side of a key: every message in order (lockstep)
+  or only the newest one and its age (realtime).
+* :class:`LockstepClient` / :class:`LockstepServer` -- coordinator and specimen ends of the
+  lockstep link: command ``k`` out, measurement ``k`` back, with a timeout.
+* :class:`RealtimeClient` / :class:`RealtimeServer` -- the same keys for free-running clocks:
+  publish without waiting, read the latest sample of the other side.
+* :class:`Presence` -- readiness handshake (liveliness tokens plus a check that the peer's hot
+  subscriber is matched) and the stop signal.
+
+Hot-path choices, measured by ``tools/bench_zenoh.py``: payloads are the fixed ``struct`` records
+of :mod:`rths.codec` sent as ``bytes`` by a publisher declared reliable, express (no batching),
+congestion control BLOCK (never drop a step) and priority REAL_TIME.  The receive side is a
+*direct* callback (``indirect=False``: it runs on zenoh's own thread, no extra Python thread)
+that decodes the payload and puts it into a :class:`queue.SimpleQueue`; the loop waits on the
+queue with a timeout.  A zenoh ``FifoChannel`` (``recv()``) is about as fast but cannot time out,
+and ``indirect=True`` callbacks add one thread hop per message (see the benchmark's output).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import secrets
+import socket
+import threading
+import time
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import zenoh
+
+from rths._links import (
+    Inbox,
+    Latest,
+    LockstepClient,
+    LockstepServer,
+    Mailbox,
+    RealtimeClient,
+    RealtimeServer,
+    declare_hot_publisher,
+)
+from rths.codec import LogRecord
+from rths.errors import ParameterError, TransportError, check_positive
+
+__all__ = [
+    "Inbox",
+    "Latest",
+    "LockstepClient",
+    "LockstepServer",
+    "LogPublisher",
+    "Mailbox",
+    "Presence",
+    "RealtimeClient",
+    "RealtimeServer",
+    "Role",
+    "RunKeys",
+    "ZenohEndpoints",
+    "declare_hot_publisher",
+    "free_loopback_port",
+    "loopback_endpoint",
+    "new_run_id",
+    "open_session",
+    "session_config",
+]
+
+Role = Literal["coordinator", "specimen"]
+_ROLES: tuple[Role, Role] = ("coordinator", "specimen")
+_ENDPOINT = re.compile(r"^[a-z][a-z0-9+-]*/\S+$")
+_RUN_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
+_LOG_NAME = re.compile(r"^[A-Za-z0-9_.-]+(/[A-Za-z0-9_.-]+)*$")
+
+
+# --------------------------------------------------------------------------- session
+
+
+def free_loopback_port(host: str = "127.0.0.1") -> int:
+    """A TCP port on ``host`` that was free a moment ago (the OS picks it; a race is possible)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+        sock.bind((host, 0))
+        return int(sock.getsockname()[1])
+
+
+def loopback_endpoint(port: int | None = None) -> str:
+    """``"tcp/127.0.0.1:<port>"``; a free port is picked when ``port`` is None."""
+    if port is None:
+        port = free_loopback_port()
+    if isinstance(port, bool) or not isinstance(port, int) or not 0 < port < 65536:
+        raise ParameterError(f"TCP port must be an integer in [1, 65535]; got {port!r}")
+    return f"tcp/127.0.0.1:{port}"
+
+
+@dataclass(frozen=True, slots=True)
+class ZenohEndpoints:
+    """Where a peer session listens and what it connects to.
+
+    Endpoints are zenoh locators ``"<protocol>/<address>"``, e.g. ``"tcp/127.0.0.1:7447"``.
+    The coordinator listens, the specimen connects; see :meth:`loopback` and :meth:`peer`.
+    """
+
+    listen: tuple[str, ...] = ()
+    connect: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        for name in ("listen", "connect"):
+            value = getattr(self, name)
+            if isinstance(value, str) or not isinstance(value, Sequence):
+                raise ParameterError(f"{name} endpoints must be a sequence of strings; got {value!r}")
+            for ep in value:
+                if not isinstance(ep, str) or not _ENDPOINT.match(ep):
+                    raise ParameterError(
+                        f"{name} endpoint must look like 'tcp/127.0.0.1:7447'; got {ep!r}"
+                    )
+            object.__setattr__(self, name, tuple(value))
+        if not self.listen and not self.connect:
+            raise ParameterError("endpoints need at least one listen or connect locator; got none")
+
+    @classmethod
+    def loopback(cls, port: int | None = None) -> ZenohEndpoints:
+        """Coordinator default: listen on ``127.0.0.1`` at ``port`` (a free one when None)."""
+        return cls(listen=(loopback_endpoint(port),))
+
+    def peer(self) -> ZenohEndpoints:
+        """The counterpart: connect to what this side listens on (the specimen's endpoints)."""
+        if not self.listen:
+            raise ParameterError(f"peer() needs listen endpoints; got {self.describe()}")
+        return ZenohEndpoints(connect=self.listen)
+
+    def describe(self) -> str:
+        """Human-readable summary used in error messages, e.g. ``"listen tcp/127.0.0.1:7447"``."""
+        parts = [f"listen {', '.join(self.listen)}"] if self.listen else []
+        parts += [f"connect {', '.join(self.connect)}"] if self.connect else []
+        return "; ".join(parts)
+
+
+def session_config(endpoints: ZenohEndpoints) -> zenoh.Config:
+    """Zenoh configuration of an RTHS peer: explicit endpoints, no scouting, quick reconnects."""
+    config = zenoh.Config()
+    config.insert_json5("mode", '"peer"')
+    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("scouting/gossip/enabled", "false")
+    config.insert_json5("listen/endpoints", json.dumps(list(endpoints.listen)))
+    config.insert_json5("connect/endpoints", json.dumps(list(endpoints.connect)))
+    # A specimen may start before the coordinator listens: retry every 0.1-0.5 s, forever (the
+    # readiness handshake, not the session, owns the timeout and its error message).
+    config.insert_json5("connect/retry", '{period_init_ms: 100, period_max_ms: 500}')
+    return config
+
+
+@contextmanager
+def open_session(endpoints: ZenohEndpoints) -> Iterator[zenoh.Session]:
+    """Open a zenoh peer session on ``endpoints``; it is closed on exit, also on error.
+
+    Raises
+    ------
+    TransportError
+        If zenoh refuses the configuration or cannot listen (e.g. the port is taken).
+    """
+    try:
+        session = zenoh.open(session_config(endpoints))
+    except zenoh.ZError as exc:
+        raise TransportError(f"cannot open zenoh session ({endpoints.describe()}): {exc}") from None
+    try:
+        yield session
+    finally:
+        session.close()
+
+
+# --------------------------------------------------------------------------- keys
+
+
+def new_run_id() -> str:
+    """A fresh run id: UTC time stamp and 6 random hex digits, e.g. ``20250101T120000Z-3fa2c1``."""
+    return time.strftime("%Y%m%dT%H%M%SZ", time.gmtime()) + "-" + secrets.token_hex(3)
+
+
+@dataclass(frozen=True, slots=True)
+class RunKeys:
+    """The zenoh key expressions of one run, all under ``rths/<run_id>/``.
+
+    ``run_id`` is 1-64 characters from ``[A-Za-z0-9_.-]`` starting with a letter or digit (no
+    ``/``, ``*``, ``$``, so it can never widen a key expression to another run).
+    """
+
+    run_id: str
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.run_id, str) or not _RUN_ID.match(self.run_id):
+            raise ParameterError(
+                f"run id must be 1-64 characters of [A-Za-z0-9_.-] starting with a letter or "
+                f"digit; got {self.run_id!r}"
+            )
+
+    @property
+    def root(self) -> str:
+        """``rths/<run_id>``."""
+        return f"rths/{self.run_id}"
+
+    @property
+    def command(self) -> str:
+        """Actuator commands, coordinator → specimen (:class:`rths.codec.Command`)."""
+        return f"{self.root}/command"
+
+    @property
+    def measurement(self) -> str:
+        """Measurements, specimen → coordinator (:class:`rths.codec.Measurement`)."""
+        return f"{self.root}/measurement"
+
+    @property
+    def loop(self) -> str:
+        """Live copy of the loop record (JSON) for monitors; the MCAP log is written directly."""
+        return f"{self.root}/loop"
+
+    @property
+    def events(self) -> str:
+        """Run events (JSON): start, overruns, errors, stop."""
+        return f"{self.root}/events"
+
+    @property
+    def stop(self) -> str:
+        """Stop request (JSON ``{"reason": ...}``), coordinator → specimen."""
+        return f"{self.root}/control/stop"
+
+    def ready(self, role: Role) -> str:
+        """Liveliness token of a process that is up and subscribed: ``control/ready/<role>``."""
+        if role not in _ROLES:
+            raise ParameterError(f"role must be one of {_ROLES}; got {role!r}")
+        return f"{self.root}/control/ready/{role}"
+
+    @property
+    def log_all(self) -> str:
+        """``rths/<run_id>/log/**``: JSON log records any process may publish for the recorder."""
+        return f"{self.root}/log/**"
+
+    def log(self, name: str) -> str:
+        """Key of the log stream ``name`` (recorded as MCAP topic ``rths/<name>``)."""
+        if not isinstance(name, str) or not _LOG_NAME.match(name):
+            raise ParameterError(f"log stream name must be like 'specimen' or 'a/b'; got {name!r}")
+        return f"{self.root}/log/{name}"
+
+    @property
+    def specimen_state(self) -> str:
+        """Internal state of the emulated specimen (JSON log records)."""
+        return self.log("specimen")
+
+    def topic_of(self, key: str) -> str:
+        """MCAP topic of a log key: ``rths/<run>/log/<name>`` → ``rths/<name>``."""
+        prefix = f"{self.root}/log/"
+        if not key.startswith(prefix) or len(key) == len(prefix):
+            raise ParameterError(f"key must start with {prefix!r}; got {key!r}")
+        return "rths/" + key[len(prefix) :]
+
+
+# --------------------------------------------------------------------------- handshake
+
+
+class Presence:
+    """This process's readiness, its peer's, and the stop signal.
+
+    Declare the links first, then create the :class:`Presence` and call :meth:`wait_for_peer`:
+    it declares this side's liveliness token (``control/ready/<role>``), waits for the peer's,
+    and waits until every given hot publisher is matched by the peer's subscriber, so step 0
+    cannot be lost.  :attr:`stop` is set when the peer publishes a stop request or its token
+    disappears (process ended or crashed); :attr:`stop_reason` says which.
+
+    Parameters
+    ----------
+    session, keys
+        Open session and the run's keys.
+    role
+        ``"coordinator"`` or ``"specimen"``; the peer is the other one.
+    where
+        Endpoint description for error messages (e.g. ``endpoints.describe()``).
+    """
+
+    def __init__(self, session: zenoh.Session, keys: RunKeys, role: Role, where: str) -> None:
+        if role not in _ROLES:
+            raise ParameterError(f"role must be one of {_ROLES}; got {role!r}")
+        self.role: Role = role
+        self.peer: Role = _ROLES[1 - _ROLES.index(role)]
+        self.where = where
+        self.stop = threading.Event()
+        self.stop_reason = ""
+        self._session = session
+        self._keys = keys
+        self._peer_up = threading.Event()
+        self._token: zenoh.LivelinessToken | None = None
+        liveliness = session.liveliness()
+        self._watch = liveliness.declare_subscriber(
+            keys.ready(self.peer),
+            zenoh.handlers.Callback(self._on_liveliness, indirect=False),
+            history=True,
+        )
+        self._stop_sub = session.declare_subscriber(
+            keys.stop,
+            zenoh.handlers.Callback(self._on_stop, indirect=False),
+            allowed_origin=zenoh.Locality.REMOTE,
+        )
+
+    def _on_liveliness(self, sample: zenoh.Sample) -> None:
+        if sample.kind == zenoh.SampleKind.PUT:
+            self._peer_up.set()
+        elif self._peer_up.is_set():
+            self._peer_up.clear()
+            self._set_stop(f"{self.peer} process went away")
+
+    def _on_stop(self, sample: zenoh.Sample) -> None:
+        try:
+            reason = str(json.loads(sample.payload.to_bytes()).get("reason", "stop requested"))
+        except (ValueError, AttributeError):
+            reason = "stop requested"
+        self._set_stop(f"{self.peer} requested stop: {reason}")
+
+    def _set_stop(self, reason: str) -> None:
+        if not self.stop.is_set():
+            self.stop_reason = reason
+            self.stop.set()
+
+    @property
+    def peer_alive(self) -> bool:
+        """Whether the peer's readiness token is currently present."""
+        return self._peer_up.is_set()
+
+    def announce(self) -> None:
+        """Declare this side's readiness token (idempotent; :meth:`wait_for_peer` calls it)."""
+        if self._token is None:
+            self._token = self._session.liveliness().declare_token(self._keys.ready(self.role))
+
+    def wait_for_peer(
+        self, timeout: float = 10.0, publishers: Sequence[zenoh.Publisher] = ()
+    ) -> None:
+        """Announce readiness and block until the peer is up and matches ``publishers``.
+
+        Raises
+        ------
+        TransportError
+            ``"specimen process did not come up within 10 s on listen tcp/..."`` or, if it came
+            up but never subscribed, which key is unmatched.
+        """
+        check_positive(timeout, "handshake timeout")
+        self.announce()
+        deadline = time.monotonic() + timeout
+        if not self._peer_up.wait(timeout):
+            raise TransportError(
+                f"{self.peer} process did not come up within {timeout:g} s on {self.where}"
+            )
+        for pub in publishers:
+            while not pub.matching_status.matching:
+                if time.monotonic() > deadline:
+                    raise TransportError(
+                        f"{self.peer} process is up but did not subscribe to '{pub.key_expr}' "
+                        f"within {timeout:g} s on {self.where}"
+                    )
+                time.sleep(0.005)
+
+    def request_stop(self, reason: str = "done") -> None:
+        """Ask the peer to stop (it sees ``"<role> requested stop: <reason>"``)."""
+        self._session.put(self._keys.stop, json.dumps({"reason": reason, "pid": os.getpid()}))
+
+    def close(self) -> None:
+        """Withdraw the token and undeclare the subscribers."""
+        if self._token is not None:
+            self._token.undeclare()
+            self._token = None
+        self._watch.undeclare()
+        self._stop_sub.undeclare()
+
+    def __enter__(self) -> Presence:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class LogPublisher:
+    """Publish :class:`rths.codec.LogRecord` s on ``rths/<run>/log/<name>`` for the recorder.
+
+    For slower, self-describing side streams of another process (e.g. the specimen's internal
+    state); the coordinator's :class:`rths.recording.LogBridge` records them as MCAP topic
+    ``rths/<name>``.  Reliable with congestion control BLOCK: a record is never dropped by the
+    transport, and the recorder counts gaps in ``seq`` anyway.
+    """
+
+    def __init__(self, session: zenoh.Session, keys: RunKeys, name: str) -> None:
+        self.key = keys.log(name)
+        self.seq = 0  #: seq of the next record
+        self._publisher = session.declare_publisher(
+            self.key,
+            congestion_control=zenoh.CongestionControl.BLOCK,
+            reliability=zenoh.Reliability.RELIABLE,
+        )
+
+    def put(self, log_time_ns: int, message: Mapping[str, Any]) -> None:
+        """Publish ``message`` (JSON-serialisable, SI units) at simulated time ``log_time_ns``."""
+        self._publisher.put(LogRecord(self.seq, log_time_ns, message).encode())
+        self.seq += 1
+
+    def close(self) -> None:
+        """Undeclare the publisher."""
+        self._publisher.undeclare()
+
+    def __enter__(self) -> LogPublisher:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
