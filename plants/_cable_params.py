@@ -27,6 +27,11 @@ __all__ = [
 ]
 
 
+def _store(instance: object, name: str, value: object) -> None:
+    """Replace a frozen dataclass field by its validated (coerced) value."""
+    object.__setattr__(instance, name, value)
+
+
 @dataclass(frozen=True, slots=True)
 class CableProperties:
     """A taut cable: ``length`` [m], ``tension`` [N] and ``mass_per_length`` [kg/m]."""
@@ -36,9 +41,10 @@ class CableProperties:
     mass_per_length: float
 
     def __post_init__(self) -> None:
-        check_positive(self.length, "cable length L")
-        check_positive(self.tension, "cable tension T")
-        check_positive(self.mass_per_length, "cable mass per length m")
+        _store(self, "length", check_positive(self.length, "cable length L"))
+        _store(self, "tension", check_positive(self.tension, "cable tension T"))
+        mass = check_positive(self.mass_per_length, "cable mass per length m")
+        _store(self, "mass_per_length", mass)
 
     @property
     def wave_speed(self) -> float:
@@ -115,10 +121,10 @@ class DistributedLoad:
     frequency: float | None = None
 
     def __post_init__(self) -> None:
-        check_finite(self.amplitude, "load amplitude p0")
+        _store(self, "amplitude", check_finite(self.amplitude, "load amplitude p0"))
         check_positive_int(self.mode, "load mode n")
         if self.frequency is not None:
-            check_nonnegative(self.frequency, "load frequency Omega")
+            _store(self, "frequency", check_nonnegative(self.frequency, "load frequency Omega"))
 
 
 @dataclass(frozen=True, slots=True)
@@ -129,14 +135,18 @@ class RayleighDamping:
     modes: tuple[int, int] = (1, 3)
 
     def __post_init__(self) -> None:
-        if not 0.0 <= check_finite(self.ratio, "intrinsic damping ratio") < 1.0:
+        ratio = check_finite(self.ratio, "intrinsic damping ratio")
+        if not 0.0 <= ratio < 1.0:
             raise ParameterError(f"intrinsic damping ratio must lie in [0, 1); got {self.ratio!r}")
-        if len(self.modes) != 2 or self.modes[0] == self.modes[1]:
+        _store(self, "ratio", ratio)
+        modes = tuple(self.modes) if isinstance(self.modes, (tuple, list)) else ()
+        if len(modes) != 2 or modes[0] == modes[1]:
             raise ParameterError(
                 f"Rayleigh anchor modes must be two distinct modes; got {self.modes!r}"
             )
-        for n in self.modes:
+        for n in modes:
             check_positive_int(n, "Rayleigh anchor mode")
+        _store(self, "modes", modes)
 
 
 @dataclass(frozen=True, slots=True)
@@ -147,5 +157,5 @@ class PointDamper:
     damping: float = 0.0
 
     def __post_init__(self) -> None:
-        check_nonnegative(self.inertance, "damper inertance")
-        check_nonnegative(self.damping, "damper damping coefficient")
+        _store(self, "inertance", check_nonnegative(self.inertance, "damper inertance"))
+        _store(self, "damping", check_nonnegative(self.damping, "damper damping coefficient"))

@@ -79,6 +79,8 @@ def test_configuration_dataclasses_reject_bad_values():
         RayleighDamping(ratio=1.5)
     with pytest.raises(ParameterError, match=r"two distinct modes; got \(2, 2\)"):
         RayleighDamping(modes=(2, 2))
+    with pytest.raises(ParameterError, match="two distinct modes; got 3"):
+        RayleighDamping(modes=3)
     with pytest.raises(ParameterError, match="Rayleigh anchor mode must be a positive integer; got 0"):
         RayleighDamping(modes=(0, 3))
     with pytest.raises(ParameterError, match="damper inertance must be non-negative; got -1.0"):
@@ -294,3 +296,38 @@ def test_forced_response_matches_the_modal_closed_form(ratio):
     out = cable.outputs()
     assert out["midspan_displacement"] == cable.displacement_at(0.5) == u[-1][49]  # node 50 at L/2
     assert out["kinetic_energy"] + out["strain_energy"] == pytest.approx(energy(cable), rel=1e-15)
+
+
+def test_mock_rths_with_an_internal_imd_follows_its_complex_mode():
+    # Non-classical damping (IMD inside the model, seed optimum): u(t) = Re(phi exp(lam t)) from the
+    # state-space eigenproblem; Newmark-AA must give Re(phi z^k), z = (1 + lam h/2)/(1 - lam h/2),
+    # and lam L/c must be the normalised root of plants.cable_damper for the same mesh.
+    from plants.cable_damper import fe_roots
+
+    n_el, h = 40, 0.01
+    damper = PointDamper(*physical_damper(PROPS, 0.53, 0.75))
+    cable = Cable(PROPS, 0.02, h, elements=n_el, intrinsic_damping=None, damper=damper)
+    fe = fe_matrices(PROPS, 0.02, n_el, damper=damper)
+    k, m, c = (x.toarray() for x in (fe.stiffness, fe.mass, fe.damping))
+    size = k.shape[0]
+    a = np.block([[np.zeros((size, size)), np.eye(size)], [-k, -c]])
+    b = np.block([[np.eye(size), np.zeros((size, size))], [np.zeros((size, size)), m]])
+    lam_all, vectors = sla.eig(a, b)
+    beta = -1j * lam_all * PROPS.length / PROPS.wave_speed
+    j = int(np.argmin(np.abs(beta - 9.46)))  # the lower root of the seed pair
+    lam, phi = lam_all[j], vectors[:size, j] / np.max(np.abs(vectors[:size, j]))
+    roots = fe_roots(3, 0.02, 0.53, 0.75, elements=n_el)
+    assert min(abs(r.beta - beta[j]) for r in roots) < 1e-9 * abs(beta[j])  # same model, units only
+    cable.set_state(phi.real, (lam * phi).real)
+    z = (1 + lam * h / 2) / (1 - lam * h / 2)
+    for step in range(1, 201):
+        cable.step(0.0)
+        expected = (phi * z**step).real
+        np.testing.assert_allclose(cable.displacement, expected, rtol=0, atol=1e-9)  # |phi| <= 1
+
+
+def test_configuration_values_are_stored_as_floats():
+    props = CableProperties(np.float32(100.0), 1_000_000, "50")  # validators coerce like float()
+    assert all(type(v) is float for v in (props.length, props.tension, props.mass_per_length))
+    assert type(DistributedLoad(1, mode=2, frequency=3).frequency) is float
+    assert RayleighDamping(0, [2, 5]).modes == (2, 5)
