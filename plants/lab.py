@@ -1,0 +1,265 @@
+"""The emulated laboratory: DAC → actuator (+ specimen, CSI) → ADC, with the converters' flaws.
+
+This is what the specimen process runs.  Each loop step::
+
+    command [m] --DAC--> quantised command --actuator.step--> true (x, F) at t_{k+1}
+                                                  --ADC(noise, quantisation)--> measured (x, F)
+
+Converters (benchmark, design.md section 5: 18-bit, +/-3.8 V, 0.002 V RMS noise) are
+:class:`Converter` records: resolution ``bits``, input range ``+/- full_scale`` [V], transducer
+calibration ``units_per_volt`` and Gaussian noise ``noise_rms`` [V] added before quantisation.
+A value outside the range is clipped to the nearest code and counted in
+:attr:`EmulatedLab.saturation_counts`.  Noise comes from one seeded ``numpy`` generator that
+:meth:`EmulatedLab.reset` re-seeds, so a run is reproducible from :attr:`EmulatedLab.seed`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from plants.base import Actuator, Kinematics
+from rths.errors import (
+    ParameterError,
+    check_finite,
+    check_nonnegative,
+    check_positive,
+    check_positive_int,
+)
+
+__all__ = ["Converter", "EmulatedLab", "LabConverters"]
+
+_CHANNELS = ("command", "displacement", "force")
+
+
+@dataclass(frozen=True, slots=True)
+class Converter:
+    """One converter channel (DAC or ADC) with its transducer calibration.
+
+    A value ``y`` [engineering units] becomes ``V = y / units_per_volt + noise`` [V], is rounded
+    to the nearest of the ``2**bits`` two's-complement codes ``-2**(bits-1) .. 2**(bits-1)-1``
+    of width ``lsb = 2 full_scale / 2**bits`` [V] (a code outside that range is clipped: a
+    *saturation*) and is converted back to engineering units.  Inside the range the
+    quantisation error is at most ``lsb/2``.
+
+    Attributes
+    ----------
+    units_per_volt
+        Calibration [engineering unit / V], e.g. m/V for displacement, N/V for force; > 0.
+    bits
+        Resolution [bits], 1..32 (benchmark: 18).
+    full_scale
+        Input range ``+/- full_scale`` [V], > 0 (benchmark: 3.8).
+    noise_rms
+        RMS [V] of the Gaussian noise added before quantisation, >= 0 (benchmark ADC: 0.002).
+    """
+
+    units_per_volt: float
+    bits: int = 18
+    full_scale: float = 3.8
+    noise_rms: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_positive(self.units_per_volt, "converter units_per_volt")
+        check_positive_int(self.bits, "converter bits")
+        if self.bits > 32:
+            raise ParameterError(f"converter bits must be at most 32; got {self.bits!r}")
+        check_positive(self.full_scale, "converter full_scale")
+        check_nonnegative(self.noise_rms, "converter noise_rms")
+
+    @property
+    def lsb(self) -> float:
+        """Code width [V]."""
+        return 2.0 * self.full_scale / 2**self.bits
+
+    @property
+    def resolution(self) -> float:
+        """Code width in engineering units (``lsb * units_per_volt``)."""
+        return self.lsb * self.units_per_volt
+
+    @property
+    def span(self) -> float:
+        """Largest magnitude in engineering units (``full_scale * units_per_volt``)."""
+        return self.full_scale * self.units_per_volt
+
+    def convert(self, value: float, noise: float = 0.0) -> tuple[float, bool]:
+        """Quantise one value [engineering units] with ``noise`` [V] added.
+
+        Returns
+        -------
+        tuple
+            The converted value [engineering units] and whether it saturated.
+        """
+        code = math.floor((value / self.units_per_volt + noise) / self.lsb + 0.5)
+        top = 2 ** (self.bits - 1)
+        if code >= top:
+            return (top - 1) * self.resolution, True
+        if code < -top:
+            return -top * self.resolution, True
+        return code * self.resolution, False
+
+    def quantise(self, values: ArrayLike) -> NDArray[np.float64]:
+        """Noise-free conversion of an array (same rounding and clipping as :meth:`convert`)."""
+        v = np.asarray(values, dtype=float)
+        top = 2 ** (self.bits - 1)
+        codes = np.clip(np.floor(v / self.units_per_volt / self.lsb + 0.5), -top, top - 1)
+        return codes * self.resolution
+
+
+#: Default displacement calibration [m/V]: +/-3.8 V spans +/-76 mm, the +/-75.2 mm stroke of the
+#: MTS 204.63 actuator of S0 section 3.
+DISPLACEMENT_M_PER_V = 0.02
+#: Default force calibration [N/V]: +/-3.8 V spans the 100 kN capacity of the same actuator.
+FORCE_N_PER_V = 1.0e5 / 3.8
+
+
+@dataclass(frozen=True, slots=True)
+class LabConverters:
+    """The three converter channels of the emulated lab (benchmark defaults: 18 bit, +/-3.8 V).
+
+    Attributes
+    ----------
+    command
+        DAC of the actuator command (m/V as the displacement transducer: the servo-controller
+        compares them); noise-free by default.
+    displacement
+        ADC of the displacement transducer (LVDT), 0.002 V RMS noise (40 um with 0.02 m/V).
+    force
+        ADC of the load cell, 0.002 V RMS noise (53 N with 1e5/3.8 N/V).
+    """
+
+    command: Converter = Converter(DISPLACEMENT_M_PER_V)
+    displacement: Converter = Converter(DISPLACEMENT_M_PER_V, noise_rms=0.002)
+    force: Converter = Converter(FORCE_N_PER_V, noise_rms=0.002)
+
+    def __post_init__(self) -> None:
+        for name in _CHANNELS:
+            if not isinstance(getattr(self, name), Converter):
+                raise ParameterError(
+                    f"LabConverters.{name} must be a Converter; got {getattr(self, name)!r}"
+                )
+
+
+class EmulatedLab:
+    """An actuator with its specimen behind a DAC and two ADCs, stepped once per loop step.
+
+    Parameters
+    ----------
+    actuator
+        The actuator (it owns the specimen); its ``dt`` is the lab's loop step.
+    converters
+        DAC/ADC channels and calibrations.
+    seed
+        Seed of the noise generator (``None``: fresh OS entropy, recorded in :attr:`seed`).
+    """
+
+    def __init__(
+        self,
+        actuator: Actuator,
+        converters: LabConverters | None = None,
+        *,
+        seed: int | None = None,
+    ) -> None:
+        if not isinstance(actuator, Actuator):
+            raise ParameterError(f"actuator must be a plants.base.Actuator; got {actuator!r}")
+        self.actuator: Actuator = actuator
+        self.converters: LabConverters = LabConverters() if converters is None else converters
+        if not isinstance(self.converters, LabConverters):
+            raise ParameterError(f"converters must be LabConverters; got {converters!r}")
+        self._seed_sequence = np.random.SeedSequence(seed)
+        #: The noise seed actually used (reproduces the run when passed back as ``seed``).
+        self.seed: int = int(self._seed_sequence.entropy)
+        c = self.converters
+        self._noise_rms = np.array(
+            [c.command.noise_rms, c.displacement.noise_rms, c.force.noise_rms]
+        )
+        self.reset()
+
+    @property
+    def dt(self) -> float:
+        """Loop step [s] (the actuator's)."""
+        return self.actuator.dt
+
+    @property
+    def time(self) -> float:
+        """Simulated time [s] at the end of the last step."""
+        return self._steps * self.actuator.dt
+
+    @property
+    def kinematics(self) -> Kinematics:
+        """True kinematics of the specimen end after the last step."""
+        return self._kinematics
+
+    @property
+    def force(self) -> float:
+        """True specimen restoring force [N] after the last step."""
+        return self._force
+
+    @property
+    def saturation_counts(self) -> dict[str, int]:
+        """Number of saturated conversions per channel since :meth:`reset`."""
+        return dict(self._saturations)
+
+    def reset(self) -> None:
+        """Back to rest at ``t = 0``; the noise generator restarts from :attr:`seed`."""
+        self.actuator.reset()
+        self._rng = np.random.default_rng(self._seed_sequence)
+        self._saturations = dict.fromkeys(_CHANNELS, 0)
+        self._steps = 0
+        self._kinematics = Kinematics(0.0, 0.0, 0.0)
+        self._force = 0.0
+        self._command = 0.0
+        self._command_dac = 0.0
+        self._measured = (0.0, 0.0)
+
+    def step(self, command: float) -> tuple[float, float]:
+        """Send ``command`` [m] through the DAC, advance one step and read both ADCs.
+
+        Returns
+        -------
+        tuple
+            Measured displacement [m] and measured force [N] at the end of the step.
+        """
+        command = check_finite(command, "lab command")
+        c = self.converters
+        noise = self._rng.standard_normal(3) * self._noise_rms
+        command_dac, sat_u = c.command.convert(command, noise[0])
+        kinematics, force = self.actuator.step(command_dac)
+        displacement, sat_x = c.displacement.convert(kinematics.displacement, noise[1])
+        measured_force, sat_f = c.force.convert(force, noise[2])
+        self._saturations["command"] += sat_u
+        self._saturations["displacement"] += sat_x
+        self._saturations["force"] += sat_f
+        self._steps += 1
+        self._kinematics, self._force = kinematics, force
+        self._command, self._command_dac = command, command_dac
+        self._measured = (displacement, measured_force)
+        return self._measured
+
+    def truth(self) -> dict[str, float]:
+        """True and measured signals after the last step, for logging (SI).
+
+        Keys: ``t`` [s], ``command`` and ``command_dac`` [m], ``displacement`` [m], ``velocity``
+        [m/s], ``acceleration`` [m/s^2], ``force`` [N], ``measured_displacement`` [m],
+        ``measured_force`` [N], then the actuator's ``state()`` (if it has one) under
+        ``actuator.<name>``.
+        """
+        k = self._kinematics
+        out = {
+            "t": self.time,
+            "command": self._command,
+            "command_dac": self._command_dac,
+            "displacement": k.displacement,
+            "velocity": k.velocity,
+            "acceleration": k.acceleration,
+            "force": self._force,
+            "measured_displacement": self._measured[0],
+            "measured_force": self._measured[1],
+        }
+        state = getattr(self.actuator, "state", None)
+        if state is not None:
+            out.update({f"actuator.{name}": value for name, value in state().items()})
+        return out
