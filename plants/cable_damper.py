@@ -54,8 +54,8 @@ from plants.cable import (
     physical_damper,
 )
 from rths.errors import (
+    NumericalError,
     ParameterError,
-    RTHSError,
     check_finite,
     check_nonnegative,
     check_positive,
@@ -159,7 +159,7 @@ def _winding(corners: list[complex], x: float, m_e: float, c_d: float) -> int:
         jumps = np.angle(f[1:] / f[:-1])
         if np.max(np.abs(jumps)) < math.pi / 4:
             return round(float(np.sum(jumps)) / (2.0 * math.pi))
-    raise RTHSError("a root of the frequency equation lies on the search window's boundary; "
+    raise NumericalError("a root of the frequency equation lies on the search window's boundary; "
                     "change max_imag slightly")
 
 
@@ -182,7 +182,7 @@ def exact_roots(
 
     Raises
     ------
-    RTHSError
+    NumericalError
         If Newton iterations from ever finer grids of starts cannot find as many roots as the
         argument principle counts (not seen in practice).
     """
@@ -212,7 +212,7 @@ def exact_roots(
         if sum(multiplicity) == count:
             order = np.argsort([z.real for z in found])
             return tuple(DamperRoot(found[i], n, "exact", multiplicity[i]) for i in order)
-    raise RTHSError(
+    raise NumericalError(
         f"found {len(found)} of the {count} roots of the frequency equation near mode {n}"
     )
 

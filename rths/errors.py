@@ -13,6 +13,7 @@ from collections.abc import Sequence
 __all__ = [
     "ConfigError",
     "DataError",
+    "NumericalError",
     "ParameterError",
     "RTHSError",
     "TransportError",
@@ -38,6 +39,10 @@ class ConfigError(RTHSError, ValueError):
 
 class DataError(RTHSError, ValueError):
     """A data file (CSV, MCAP) cannot be used: missing columns, non-uniform sampling, ..."""
+
+
+class NumericalError(RTHSError, RuntimeError):
+    """A numerical method failed (a root finder did not converge, a run diverged)."""
 
 
 class TransportError(RTHSError, RuntimeError):
