@@ -130,6 +130,16 @@ class ServoHydraulicActuator(Actuator):
         Flow limit ``v_max = Q_max / A`` [m/s] of the displacement, applied per sub-step after
         the linear dynamics; ``None`` for none.
 
+    Attributes
+    ----------
+    substep : float
+        Internal sub-step [s] (``dt / substeps``).
+    rigid_mass, rigid_damping : float
+        The specimen's rigid part [kg], [N s/m] integrated with the piston.
+    open_loop : control.StateSpace
+        The continuous model, inputs ``[command, remainder_force]``, outputs
+        ``[displacement, velocity, acceleration, hydraulic_force]``.
+
     Raises
     ------
     ParameterError
@@ -158,8 +168,12 @@ class ServoHydraulicActuator(Actuator):
         self.substeps: int = check_positive_int(substeps, "substeps")
         self.substep: float = self.dt / self.substeps
         self.delay: float = check_nonnegative(delay, "delay")
-        self.rigid_mass = check_nonnegative(specimen.rigid_inertance, "specimen rigid_inertance")
-        self.rigid_damping = check_nonnegative(specimen.rigid_damping, "specimen rigid_damping")
+        self.rigid_mass: float = check_nonnegative(
+            specimen.rigid_inertance, "specimen rigid_inertance"
+        )
+        self.rigid_damping: float = check_nonnegative(
+            specimen.rigid_damping, "specimen rigid_damping"
+        )
         mass = parameters.piston_mass + self.rigid_mass
         if mass <= 0.0:
             raise ParameterError(
@@ -184,7 +198,7 @@ class ServoHydraulicActuator(Actuator):
         self._n_states = m.A.shape[0]
         self._delay_line = _optional_delay(self.delay, self.dt)
         self._limiter = _optional_limiter(velocity_limit, self.substep)
-        self.velocity_limit = velocity_limit
+        self.velocity_limit: float | None = velocity_limit
         self.reset()
 
     def _check_substeps(self, stiffness: float, what: str) -> None:
@@ -222,14 +236,15 @@ class ServoHydraulicActuator(Actuator):
         for _ in range(self.substeps):
             stacked = advance @ z + held + by_remainder * remainder
             z = stacked[:n]
-            x, v, a, f_a = stacked[n:].tolist()
-            self._outputs = (x, v, a, f_a)
+            outputs = stacked[n:].tolist()
+            x, v, a, _ = outputs
             if limiter is not None:
                 x = limiter.step(x)
                 v, a = limiter.clip(v, a)
             force = self.specimen.step(x, v, a, h)
             remainder = force - m_r * a - c_r * v
         self._z, self._remainder, self._command = z, remainder, u
+        self._outputs = tuple(outputs)
         self._kinematics, self._force = Kinematics(x, v, a), force
         return self._kinematics, force
 
@@ -331,7 +346,7 @@ class TransferFunctionActuator(Actuator):
         model, self._tf, self.relative_degree = derivative_model(num, den)
         self._model = discretise(model, self.dt)
         self.delay: float = check_nonnegative(delay, "delay")
-        self.velocity_limit = velocity_limit
+        self.velocity_limit: float | None = velocity_limit
         self._delay_line = _optional_delay(self.delay, self.dt)
         self._limiter = _optional_limiter(velocity_limit, self.dt)
         m = self._model

@@ -18,12 +18,14 @@ QUIET = LabConverters(
 )  # benchmark converters without noise
 
 
-def benchmark_lab(converters=None, seed=0):
+def benchmark_lab(
+    converters: LabConverters | None = None, seed: int | None = 0
+) -> EmulatedLab:
     return EmulatedLab(ServoHydraulicActuator(benchmark_specimen(), DT), converters, seed=seed)
 
 
 @pytest.mark.parametrize("bits", [8, 18])
-def test_quantisation_error_is_at_most_half_an_lsb(bits):
+def test_quantisation_error_is_at_most_half_an_lsb(bits: int) -> None:
     c = Converter(0.02, bits=bits)
     values = np.random.default_rng(bits).uniform(-c.span, c.span - c.resolution, 20000)
     converted = np.array([c.convert(v)[0] for v in values])
@@ -34,7 +36,7 @@ def test_quantisation_error_is_at_most_half_an_lsb(bits):
     assert c.lsb == pytest.approx(7.6 / 2**bits, rel=1e-15)  # +/-3.8 V over 2^bits codes
 
 
-def test_saturation_clips_to_the_end_codes_and_is_counted():
+def test_saturation_clips_to_the_end_codes_and_is_counted() -> None:
     c = Converter(0.02, bits=8)
     assert c.convert(10 * c.span) == (127 * c.resolution, True)
     assert c.convert(-10 * c.span) == (-128 * c.resolution, True)
@@ -49,7 +51,7 @@ def test_saturation_clips_to_the_end_codes_and_is_counted():
     assert lab.saturation_counts == {"command": 0, "displacement": 0, "force": 0}
 
 
-def test_force_channel_saturation():
+def test_force_channel_saturation() -> None:
     force_adc = Converter(1.0, bits=12)  # +/-3.8 N
     converters = LabConverters(Converter(0.02), Converter(0.02), force_adc)
     ideal = TransferFunctionActuator([1.0], [1.0], LinearSpecimen(0, 0, 1e6), DT)
@@ -59,7 +61,7 @@ def test_force_channel_saturation():
     assert force == pytest.approx(2047 * converters.force.resolution, rel=1e-15)
 
 
-def test_noise_rms_within_statistical_band():
+def test_noise_rms_within_statistical_band() -> None:
     lab = benchmark_lab(seed=123)
     n = 20000
     measured = np.array([lab.step(0.0) for _ in range(n)])  # at rest: the truth is exactly 0
@@ -74,7 +76,7 @@ def test_noise_rms_within_statistical_band():
     assert np.corrcoef(measured.T)[0, 1] == pytest.approx(0.0, abs=5 / math.sqrt(n))  # independent
 
 
-def test_noise_is_reproducible_by_seed_and_after_reset():
+def test_noise_is_reproducible_by_seed_and_after_reset() -> None:
     command = 0.002 * np.sin(np.arange(300) * 0.05)
     lab = benchmark_lab(seed=42)
     first = [lab.step(u) for u in command]
@@ -89,7 +91,7 @@ def test_noise_is_reproducible_by_seed_and_after_reset():
     assert [replay.step(u) for u in command[:5]] == trace
 
 
-def test_noise_free_lab_is_the_quantised_actuator():
+def test_noise_free_lab_is_the_quantised_actuator() -> None:
     command = 0.003 * np.sin(2 * math.pi * 2 * np.arange(2000) * DT)
     lab = benchmark_lab(QUIET)
     reference = ServoHydraulicActuator(benchmark_specimen(), DT)
@@ -116,12 +118,12 @@ def test_noise_free_lab_is_the_quantised_actuator():
         ({"units_per_volt": 1.0, "noise_rms": -0.1}, "noise_rms must be non-negative; got -0.1"),
     ],
 )
-def test_converter_validation(kwargs, match):
+def test_converter_validation(kwargs: dict[str, float], match: str) -> None:
     with pytest.raises(ParameterError, match=match):
         Converter(**kwargs)
 
 
-def test_lab_validation():
+def test_lab_validation() -> None:
     with pytest.raises(ParameterError, match="LabConverters.force must be a Converter; got 3"):
         LabConverters(force=3)
     with pytest.raises(ParameterError, match="actuator must be a plants.base.Actuator; got 'a'"):

@@ -12,7 +12,7 @@ from plants.linear_specimen import BenchmarkSpecimenParameters, LinearSpecimen, 
 from rths.errors import ParameterError
 
 
-def test_force_is_the_algebraic_sum_and_all_of_mass_and_dashpot_is_rigid():
+def test_force_is_the_algebraic_sum_and_all_of_mass_and_dashpot_is_rigid() -> None:
     s = LinearSpecimen(2.0, 3.0, 5.0)
     expected = 2.0 * 0.3 + 3.0 * -0.2 + 5.0 * 0.1
     assert s.step(0.1, -0.2, 0.3, 1e-3) == pytest.approx(expected, rel=1e-15)
@@ -23,7 +23,7 @@ def test_force_is_the_algebraic_sum_and_all_of_mass_and_dashpot_is_rigid():
     assert s.kind == "linear" and "stiffness=5.0" in repr(s)
 
 
-def test_drive_with_exact_derivatives_reproduces_the_harmonic_force():
+def test_drive_with_exact_derivatives_reproduces_the_harmonic_force() -> None:
     # F = (k - m w^2) A sin(wt) + c w A cos(wt) for u = A sin(wt): closed form
     m, c, k, amplitude, w = 29.13, 114.0, 1.19e6, 0.002, 2 * math.pi * 5
     t = np.arange(0, 1, 1e-3)
@@ -33,7 +33,7 @@ def test_drive_with_exact_derivatives_reproduces_the_harmonic_force():
     np.testing.assert_allclose(force, expected, rtol=1e-12, atol=1e-9)
 
 
-def test_benchmark_values():
+def test_benchmark_values() -> None:
     p = BenchmarkSpecimenParameters()
     s = benchmark_specimen()
     assert (s.mass, s.stiffness) == (29.13, 1.19e6)
@@ -43,7 +43,7 @@ def test_benchmark_values():
     assert LinearSpecimen.from_damping_ratio(29.13, 1.19e6, 0.0097).damping == s.damping
 
 
-def test_monte_carlo_stiffness_is_reproducible_with_documented_spread():
+def test_monte_carlo_stiffness_is_reproducible_with_documented_spread() -> None:
     a = [benchmark_specimen(np.random.default_rng(9)).stiffness for _ in range(2)]
     assert a[0] == a[1] != 1.19e6
     rng = np.random.default_rng(12)
@@ -67,7 +67,7 @@ def test_monte_carlo_stiffness_is_reproducible_with_documented_spread():
         ((1.0, 0.0, math.nan), "specimen stiffness must be finite; got nan"),
     ],
 )
-def test_validation(args, match):
+def test_validation(args: tuple[float, float, float], match: str) -> None:
     with pytest.raises(ParameterError, match=match):
         LinearSpecimen(*args)
 
@@ -80,7 +80,7 @@ def test_validation(args, match):
         ((1.0, 1e6, -0.01), "specimen damping ratio must be non-negative; got -0.01"),
     ],
 )
-def test_from_damping_ratio_validation(args, match):
+def test_from_damping_ratio_validation(args: tuple[float, float, float], match: str) -> None:
     with pytest.raises(ParameterError, match=match):
         LinearSpecimen.from_damping_ratio(*args)
 
@@ -94,6 +94,6 @@ def test_from_damping_ratio_validation(args, match):
         ("stiffness_std", -1.0, "specimen stiffness_std must be non-negative; got -1.0"),
     ],
 )
-def test_benchmark_parameter_validation(field, value, match):
+def test_benchmark_parameter_validation(field: str, value: float, match: str) -> None:
     with pytest.raises(ParameterError, match=match):
         BenchmarkSpecimenParameters(**{field: value})
