@@ -194,6 +194,10 @@ class Actuator(ABC):
     def transfer_function(self):  # -> control.TransferFunction (import kept out of hot modules)
         """Linear continuous-time command→displacement model (python-control)."""
 
+    def state(self) -> dict[str, float]:
+        """Named internal variables (SI) for logging; empty unless a model has some."""
+        return {}
+
 
 def drive(
     specimen: Specimen,
