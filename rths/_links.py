@@ -31,6 +31,9 @@ __all__ = [
 ]
 
 T = TypeVar("T")
+_ALARM = b"\x00rths-inbox-timeout:"
+_CLOSING = 2**64 - 1  # alarm id that tells a waiting get() the inbox is closing
+_ALARM_SIZE = len(_ALARM) + 8  # 28 bytes: never the size of a Command (24) or Measurement (40)
 
 
 class _HotKeys(Protocol):
@@ -55,26 +58,56 @@ def declare_hot_publisher(session: zenoh.Session, key: str) -> zenoh.Publisher:
     )
 
 
+def _alarm_id(payload: bytes) -> int | None:
+    """The wait id of an :class:`Inbox` alarm sample, or None for an ordinary payload."""
+    if len(payload) != _ALARM_SIZE or not payload.startswith(_ALARM):
+        return None
+    return int.from_bytes(payload[-8:], "little")
+
+
 class Inbox(Generic[T]):
     """Every message published on ``key``, decoded, in arrival order (lockstep receive side).
 
-    Decoding runs on zenoh's receive thread; a payload that fails to decode is queued as its
-    :class:`DataError` and raised by :meth:`get`, so a malformed sample is never skipped silently.
+    Samples wait in a zenoh ``FifoChannel`` (filled by zenoh's thread without taking the GIL)
+    and are decoded on the caller's thread by :meth:`get`, which blocks in ``recv()``.  That
+    call cannot time out, so a watchdog thread checks every ``tick`` [s] whether a wait has
+    passed its deadline and then wakes it with a session-local *alarm* sample on the same key;
+    timeouts are therefore honoured to within ``tick``.  A payload that fails to decode raises
+    :class:`DataError` from :meth:`get`: a malformed sample is never skipped silently.
     """
 
-    def __init__(self, session: zenoh.Session, key: str, decode: Callable[[bytes], T]) -> None:
+    def __init__(
+        self,
+        session: zenoh.Session,
+        key: str,
+        decode: Callable[[bytes], T],
+        capacity: int = 1024,
+        tick: float = 0.01,
+    ) -> None:
         self.key = key
         self._decode = decode
-        self._queue: queue.SimpleQueue[T | DataError] = queue.SimpleQueue()
-        self._subscriber = session.declare_subscriber(
-            key, zenoh.handlers.Callback(self._on_sample, indirect=False)
+        self._tick = check_positive(tick, "watchdog tick")
+        self._subscriber = session.declare_subscriber(key, zenoh.handlers.FifoChannel(capacity))
+        self._alarm = session.declare_publisher(
+            key,
+            congestion_control=zenoh.CongestionControl.BLOCK,
+            express=True,
+            allowed_destination=zenoh.Locality.SESSION_LOCAL,
         )
+        self._wait = (0, 0)  # (deadline [ns] on time.monotonic_ns, wait id); 0 = not waiting
+        self._wait_id = 0
+        self._closed = threading.Event()
+        self._receiving = threading.Lock()
+        self._watchdog = threading.Thread(target=self._watch, name=f"rths-inbox {key}", daemon=True)
+        self._watchdog.start()
 
-    def _on_sample(self, sample: zenoh.Sample) -> None:
-        try:
-            self._queue.put(self._decode(sample.payload.to_bytes()))
-        except DataError as exc:
-            self._queue.put(DataError(f"on key '{self.key}': {exc}"))
+    def _watch(self) -> None:
+        alarmed = 0
+        while not self._closed.wait(self._tick):
+            deadline, wait_id = self._wait
+            if deadline and wait_id != alarmed and time.monotonic_ns() >= deadline:
+                alarmed = wait_id
+                self._alarm.put(_ALARM + wait_id.to_bytes(8, "little"))
 
     def get(self, timeout: float | None) -> T:
         """The next message; wait at most ``timeout`` [s] (forever if None).
@@ -86,18 +119,51 @@ class Inbox(Generic[T]):
         DataError
             If the next payload could not be decoded.
         """
-        item = self._queue.get(timeout=timeout)
-        if isinstance(item, DataError):
-            raise item
-        return item
+        with self._receiving:  # close() must not undeclare while recv() runs
+            if self._closed.is_set():
+                raise TransportError(f"inbox on key '{self.key}' is closed")
+            payload = self._receive(timeout)
+        try:
+            return self._decode(payload)
+        except DataError as exc:
+            raise DataError(f"on key '{self.key}': {exc}") from None
 
-    def pending(self) -> int:
-        """Messages received but not yet taken."""
-        return self._queue.qsize()
+    def _receive(self, timeout: float | None) -> bytes:
+        while (sample := self._subscriber.try_recv()) is not None:
+            payload = sample.payload.to_bytes()
+            if _alarm_id(payload) is None:
+                return payload  # already there: no wait, no watchdog involved
+        if timeout is not None and timeout <= 0.0:
+            raise queue.Empty
+        self._wait_id += 1
+        wait_id = self._wait_id
+        if timeout is not None:
+            self._wait = (time.monotonic_ns() + max(int(timeout * 1e9), 1), wait_id)
+        try:
+            while True:
+                payload = self._subscriber.recv().payload.to_bytes()
+                alarm_id = _alarm_id(payload)
+                if alarm_id is None:
+                    return payload
+                if alarm_id == wait_id:
+                    raise queue.Empty
+                if alarm_id == _CLOSING:
+                    raise TransportError(f"inbox on key '{self.key}' was closed while waiting")
+                # else: the alarm of an earlier wait that was answered just in time
+        finally:
+            self._wait = (0, 0)
 
     def close(self) -> None:
-        """Undeclare the subscriber."""
-        self._subscriber.undeclare()
+        """Wake a waiting :meth:`get`, stop the watchdog, undeclare subscriber and publisher."""
+        if self._closed.is_set():
+            return
+        self._closed.set()
+        self._watchdog.join()
+        if self._receiving.locked():
+            self._alarm.put(_ALARM + _CLOSING.to_bytes(8, "little"))
+        with self._receiving:
+            self._alarm.undeclare()
+            self._subscriber.undeclare()
 
     def __enter__(self) -> Inbox[T]:
         return self

@@ -157,6 +157,8 @@ def session_config(endpoints: ZenohEndpoints) -> zenoh.Config:
     # A specimen may start before the coordinator listens: retry every 0.1-0.5 s, forever (the
     # readiness handshake, not the session, owns the timeout and its error message).
     config.insert_json5("connect/retry", '{period_init_ms: 100, period_max_ms: 500}')
+    # open() need not wait (up to 0.5 s) for the peer's initial declarations: Presence does.
+    config.insert_json5("open/return_conditions/declares", "false")
     return config
 
 

@@ -7,6 +7,7 @@ broken), never a duration that is asserted.
 
 from __future__ import annotations
 
+import queue
 import re
 import struct
 import subprocess
@@ -18,6 +19,7 @@ from collections.abc import Iterator
 import pytest
 import zenoh
 
+from rths._links import _ALARM
 from rths.codec import Command, LogRecord, Measurement
 from rths.errors import DataError, ParameterError, TransportError
 from rths.transport import (
@@ -282,6 +284,36 @@ def test_mailbox_counts_malformed_payloads(pair) -> None:
             pub.put(Measurement(1, 0, 0.0, 0.0, 0).pack())
             assert raw.get(PATIENCE) == b"bad" and raw.get(PATIENCE) == Measurement(1, 0, 0.0, 0.0, 0).pack()
         assert box.rejected == 1 and box.received == 1 and box.latest().message.seq == 1
+
+
+def test_inbox_timeouts_stale_alarms_and_close(pair) -> None:
+    co, sp, _ = pair
+    inbox = Inbox(co, "rths/i/command", Command.unpack, tick=0.005)
+    with pytest.raises(queue.Empty):
+        inbox.get(0.0)  # nothing there: no wait at all
+    with pytest.raises(queue.Empty):
+        inbox.get(0.02)  # woken by the watchdog's alarm
+    # An alarm that lost the race against a real message must not end a later wait.
+    inbox._alarm.put(_ALARM + (10**6).to_bytes(8, "little"))
+    with declare_hot_publisher(sp, "rths/i/command") as pub:
+        _wait_matched(pub)
+        pub.put(Command(1, 2, 3.0).pack())
+        assert inbox.get(PATIENCE) == Command(1, 2, 3.0)
+    # close() wakes a get() blocked in another thread instead of leaving it hanging.
+    outcome: list[BaseException] = []
+    waiter = threading.Thread(target=lambda: outcome.append(pytest.raises(TransportError, inbox.get, None).value))
+    waiter.start()
+    deadline = time.monotonic() + PATIENCE
+    while not inbox._receiving.locked() and time.monotonic() < deadline:
+        time.sleep(0.001)
+    inbox.close()
+    waiter.join(PATIENCE)
+    assert "inbox on key 'rths/i/command' was closed while waiting" in str(outcome[0])
+    with pytest.raises(TransportError, match=r"inbox on key 'rths/i/command' is closed"):
+        inbox.get(0.0)
+    inbox.close()  # idempotent
+    with pytest.raises(ParameterError, match=r"watchdog tick must be positive; got 0"):
+        Inbox(co, "rths/i/x", bytes, tick=0)
 
 
 def test_handshake_timeout_names_peer_and_endpoint(pair) -> None:
