@@ -1,8 +1,9 @@
 """Hot-path links of :mod:`rths.transport` (private; import them from there).
 
 Receive sides (:class:`Inbox`, :class:`Mailbox`) and the coordinator/specimen ends of the lockstep
-and realtime links.  The choices (reliable + express + BLOCK publishers, direct callbacks into a
-``queue.SimpleQueue``) and their measured cost are documented in :mod:`rths.transport`.
+and realtime links.  The choices (reliable + express + BLOCK publishers, a FifoChannel with a
+timeout watchdog for lockstep, an arrival-stamping callback for realtime) and their measured cost
+are documented in :mod:`rths.transport`.
 """
 
 from __future__ import annotations

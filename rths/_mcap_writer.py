@@ -19,6 +19,8 @@ import queue
 import threading
 import time
 from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
 from typing import IO, Any
 
 from mcap.writer import CompressionType, Writer
@@ -27,12 +29,61 @@ from rths import __version__
 from rths.codec import LogRecord
 from rths.errors import DataError
 
-__all__ = ["STOP", "WriterThread", "open_schema"]
+__all__ = ["EVENTS_TOPIC", "STOP", "RecordingSummary", "TopicStats", "WriterThread", "open_schema"]
 
 STOP = object()
-_EVENTS = "rths/events"
+EVENTS_TOPIC = "rths/events"
 _COMPRESSION = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}
 _COUNTS = ("written", "missing", "reordered", "first_seq", "last_seq", "nonfinite", "rejected")
+
+
+@dataclass(frozen=True, slots=True)
+class TopicStats:
+    """What was written on one topic.
+
+    Attributes
+    ----------
+    written
+        Messages written.
+    missing
+        Sequence numbers skipped (sum of the sizes of all gaps).
+    reordered
+        Messages whose sequence number was not above the previous one (repeats, reordering).
+    first_seq, last_seq
+        First and last sequence numbers seen (-1 if none).
+    nonfinite
+        Messages in which a NaN or infinity was written as ``null``.
+    rejected
+        Payloads from another process that were not valid log records (not written).
+    """
+
+    written: int = 0
+    missing: int = 0
+    reordered: int = 0
+    first_seq: int = -1
+    last_seq: int = -1
+    nonfinite: int = 0
+    rejected: int = 0
+
+    @property
+    def complete(self) -> bool:
+        """No gap, no reordering, no rejected payload."""
+        return self.missing == 0 and self.reordered == 0 and self.rejected == 0
+
+
+@dataclass(frozen=True, slots=True)
+class RecordingSummary:
+    """Returned by :meth:`Recorder.close`: per-topic counts, events, largest queue backlog."""
+
+    path: Path
+    topics: Mapping[str, TopicStats]
+    events: int
+    max_backlog: int
+
+    @property
+    def complete(self) -> bool:
+        """True if every topic is complete (no sample lost, repeated or rejected)."""
+        return all(s.complete for s in self.topics.values())
 
 
 def open_schema(topic: str) -> bytes:
@@ -60,6 +111,11 @@ def _finite(obj: Any) -> Any:
     if hasattr(obj, "tolist"):
         return _finite(obj.tolist())
     return obj
+
+
+# One encoder each, built once: json.dumps(**options) would build a new one per message.
+_STRICT = json.JSONEncoder(allow_nan=False, separators=(",", ":"), default=_plain)
+_LENIENT = json.JSONEncoder(separators=(",", ":"), default=_plain)
 
 
 class _Topic:
@@ -105,12 +161,12 @@ class WriterThread(threading.Thread):
         self._dirty = False
         self._last_flush = time.monotonic()
 
-    def counts(self) -> dict[str, dict[str, int]]:
-        """``{topic: {written, missing, reordered, first_seq, last_seq, nonfinite, rejected}}``."""
+    def stats(self) -> dict[str, TopicStats]:
+        """Counts per topic so far (``rths/events`` excluded)."""
         return {
-            name: {c: getattr(t, c) for c in _COUNTS}
+            name: TopicStats(**{c: getattr(t, c) for c in _COUNTS})
             for name, t in self._topics.items()
-            if name != _EVENTS
+            if name != EVENTS_TOPIC
         }
 
     def run(self) -> None:
@@ -127,9 +183,9 @@ class WriterThread(threading.Thread):
     def _finish(self) -> None:
         try:
             summary = {"complete": "true", "max_backlog": str(self.max_backlog)}
-            for name, counts in self.counts().items():
-                summary.update({f"{name}.{c}": str(v) for c, v in counts.items()})
-                if counts["missing"] or counts["reordered"] or counts["rejected"]:
+            for name, stats in self.stats().items():
+                summary.update({f"{name}.{c}": str(getattr(stats, c)) for c in _COUNTS})
+                if not stats.complete:
                     summary["complete"] = "false"
             self._writer.add_metadata("rths.recording", summary)
             self._writer.finish()
@@ -182,9 +238,9 @@ class WriterThread(threading.Thread):
     ) -> None:
         entry = self._topics[topic]
         try:
-            data = json.dumps(message, allow_nan=False, separators=(",", ":"), default=_plain)
+            data = _STRICT.encode(message)
         except ValueError:
-            data = json.dumps(_finite(message), separators=(",", ":"), default=_plain)
+            data = _LENIENT.encode(_finite(message))
             entry.nonfinite += 1
         except TypeError as exc:
             entry.rejected += 1
@@ -230,7 +286,7 @@ class WriterThread(threading.Thread):
         self._write(topic, record.seq, record.log_time_ns, record.log_time_ns, record.message)
 
     def _event(self, log_time: int, event: Mapping[str, Any]) -> None:
-        entry = self._topics[_EVENTS]
+        entry = self._topics[EVENTS_TOPIC]
         data = json.dumps(_finite(event), separators=(",", ":"), default=str).encode()
         self._writer.add_message(entry.channel_id, log_time, data, log_time, self.events)
         entry.written += 1

@@ -31,12 +31,11 @@ import operator
 import os
 import queue
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 from rths import __version__
-from rths._mcap_writer import STOP, WriterThread
+from rths._mcap_writer import EVENTS_TOPIC, STOP, RecordingSummary, TopicStats, WriterThread
 from rths.errors import DataError, ParameterError, check_positive, check_positive_int
 
 if TYPE_CHECKING:  # zenoh is only needed by LogBridge, which receives an open session
@@ -57,7 +56,6 @@ __all__ = [
 ]
 
 LOOP_TOPIC = "rths/loop"
-EVENTS_TOPIC = "rths/events"
 _Compression = Literal["zstd", "lz4", "none"]
 
 
@@ -124,55 +122,6 @@ EVENTS_SCHEMA: dict[str, Any] = {
     },
     "required": ["kind", "message"],
 }
-
-
-@dataclass(frozen=True, slots=True)
-class TopicStats:
-    """What was written on one topic.
-
-    Attributes
-    ----------
-    written
-        Messages written.
-    missing
-        Sequence numbers skipped (sum of the sizes of all gaps).
-    reordered
-        Messages whose sequence number was not above the previous one (repeats, reordering).
-    first_seq, last_seq
-        First and last sequence numbers seen (-1 if none).
-    nonfinite
-        Messages in which a NaN or infinity was written as ``null``.
-    rejected
-        Payloads from another process that were not valid log records (not written).
-    """
-
-    written: int = 0
-    missing: int = 0
-    reordered: int = 0
-    first_seq: int = -1
-    last_seq: int = -1
-    nonfinite: int = 0
-    rejected: int = 0
-
-    @property
-    def complete(self) -> bool:
-        """No gap, no reordering, no rejected payload."""
-        return self.missing == 0 and self.reordered == 0 and self.rejected == 0
-
-
-@dataclass(frozen=True, slots=True)
-class RecordingSummary:
-    """Returned by :meth:`Recorder.close`: per-topic counts, events, largest queue backlog."""
-
-    path: Path
-    topics: Mapping[str, TopicStats]
-    events: int
-    max_backlog: int
-
-    @property
-    def complete(self) -> bool:
-        """True if every topic is complete (no sample lost, repeated or rejected)."""
-        return all(s.complete for s in self.topics.values())
 
 
 class Recorder:
@@ -277,12 +226,7 @@ class Recorder:
             raise DataError(f"recorder for '{self.path}' was never started")
         self._queue.put(STOP)
         writer.join()
-        self.summary = RecordingSummary(
-            path=self.path,
-            topics={t: TopicStats(**c) for t, c in writer.counts().items()},
-            events=writer.events,
-            max_backlog=writer.max_backlog,
-        )
+        self.summary = RecordingSummary(self.path, writer.stats(), writer.events, writer.max_backlog)
         if writer.error is not None:
             raise DataError(f"recording to '{self.path}' failed: {writer.error!r}") from writer.error
         return self.summary

@@ -18,13 +18,16 @@ Building blocks (all context managers; closing a session undeclares everything o
 * :class:`Presence` -- readiness handshake (liveliness tokens plus a check that the peer's hot
   subscriber is matched) and the stop signal.
 
-Hot-path choices, measured by ``tools/bench_zenoh.py``: payloads are the fixed ``struct`` records
-of :mod:`rths.codec` sent as ``bytes`` by a publisher declared reliable, express (no batching),
-congestion control BLOCK (never drop a step) and priority REAL_TIME.  The receive side is a
-*direct* callback (``indirect=False``: it runs on zenoh's own thread, no extra Python thread)
-that decodes the payload and puts it into a :class:`queue.SimpleQueue`; the loop waits on the
-queue with a timeout.  A zenoh ``FifoChannel`` (``recv()``) is about as fast but cannot time out,
-and ``indirect=True`` callbacks add one thread hop per message (see the benchmark's output).
+Hot-path choices, measured with ``tools/bench_zenoh.py`` (cross-process round trip, see
+there): payloads are the fixed ``struct`` records of :mod:`rths.codec`, sent as ``bytes`` by
+publishers declared reliable, express (no batching), congestion control BLOCK (a step is never
+dropped) and priority REAL_TIME.  The lockstep receive side (:class:`Inbox`) is a zenoh
+``FifoChannel`` read with ``recv()`` on the loop thread: zenoh's thread fills it without the GIL,
+so one thread wake-up per message instead of two for a Python callback feeding a
+``queue.SimpleQueue`` (p50 XX µs vs YY µs).  ``recv()`` cannot time out, so a watchdog thread
+wakes an overdue wait with a session-local alarm sample.  The realtime receive side
+(:class:`Mailbox`) is a direct callback (``indirect=False``, no extra Python thread) that
+stamps each arrival, so the loop can read the newest sample and its age without blocking.
 """
 
 from __future__ import annotations

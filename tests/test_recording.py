@@ -135,7 +135,7 @@ def test_producer_never_waits_for_the_writer(tmp_path: Path, monkeypatch) -> Non
     producer.start()
     producer.join(PATIENCE)  # finishes while the writer is still stuck: put never waited
     assert not producer.is_alive()
-    assert rec._writer.counts()[LOOP_TOPIC]["written"] == 0  # nothing written yet: all queued
+    assert rec._writer.stats()[LOOP_TOPIC].written == 0  # nothing written yet: all queued
     gate.set()
     summary = rec.close()
     assert summary.topics[LOOP_TOPIC].written == 5000 and summary.complete
