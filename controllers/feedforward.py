@@ -133,7 +133,7 @@ def fit_low_order(
     ------
     ParameterError
         If the nominal model is not a stable continuous-time SISO system, ``order`` is out of
-        range, or the band is not ``0 <= lo < hi``.
+        range, the band is not ``0 <= lo < hi``, or no stable model of that order fits.
     """
     num, den = siso_polynomials(nominal)
     if isinstance(order, bool) or not isinstance(order, int) or not 1 <= order <= MAX_ORDER:
@@ -166,10 +166,18 @@ def fit_low_order(
         e = (model(np.exp(log_a)) - h) / h
         return np.concatenate([e.real, e.imag])
 
-    a_fit = p0[:order]
-    sol = least_squares(residual, np.log(a_fit), method="lm", x_scale="jac")
-    if np.max(np.roots(np.r_[1.0, np.exp(sol.x)[::-1]]).real) < 0.0:
-        a_fit = np.exp(sol.x)  # else keep Levy's solution (the refinement left the stable region)
+    def stable(a: FloatArray) -> bool:
+        return bool(np.max(np.roots(np.r_[1.0, a[::-1]]).real) < 0.0)
+
+    sol = least_squares(residual, np.log(p0[:order]), method="lm", x_scale="jac")
+    a_fit = np.exp(sol.x)
+    if not stable(a_fit):  # the refinement left the stable region: fall back on Levy
+        a_fit = p0[:order]
+    if not stable(a_fit):
+        raise ParameterError(
+            f"no stable all-pole fit of order {order} over {lo}-{hi} Hz; "
+            "raise the order or narrow the band"
+        )
     err = np.abs(model(a_fit) - h) / np.abs(h)
     fitted = LowOrderModel(
         b0=float(g0 * a_fit[0]), den=(1.0, *map(float, a_fit[::-1])), delay=delay
