@@ -84,21 +84,26 @@ class ATSSettings:
                 f"{len(self.initial)}, {len(self.bounds)}, {len(self.max_rate)}"
             )
         for i, (lo, hi) in enumerate(self.bounds):
-            if not (check_finite(lo, f"ATS lower bound of a{i}") < check_finite(hi, f"ATS upper bound of a{i}")):
+            lo_ok = check_finite(lo, f"ATS lower bound of a{i}")
+            if not lo_ok < check_finite(hi, f"ATS upper bound of a{i}"):
                 raise ParameterError(f"ATS bounds of a{i} must satisfy lo < hi; got {(lo, hi)!r}")
             if not lo <= check_finite(self.initial[i], f"ATS initial a{i}") <= hi:
                 raise ParameterError(
-                    f"ATS initial a{i} must lie within its bounds {(lo, hi)!r}; got {self.initial[i]!r}"
+                    f"ATS initial a{i} must lie within its bounds {(lo, hi)!r}; "
+                    f"got {self.initial[i]!r}"
                 )
             check_positive(self.max_rate[i], f"ATS max_rate of a{i}")
         check_positive(self.window, "ATS window")
         check_nonnegative(self.threshold, "ATS threshold")
-        if isinstance(self.update_every, bool) or not isinstance(self.update_every, int) or self.update_every < 1:
-            raise ParameterError(f"ATS update_every must be a positive integer; got {self.update_every!r}")
+        every = self.update_every
+        if isinstance(every, bool) or not isinstance(every, int) or every < 1:
+            raise ParameterError(f"ATS update_every must be a positive integer; got {every!r}")
         if self.cutoff_hz is not None:
             check_positive(self.cutoff_hz, "ATS cutoff_hz")
         if self.filter_order not in (2, 4, 6, 8):
-            raise ParameterError(f"ATS filter_order must be 2, 4, 6 or 8; got {self.filter_order!r}")
+            raise ParameterError(
+                f"ATS filter_order must be 2, 4, 6 or 8; got {self.filter_order!r}"
+            )
 
 
 class _Biquads:
@@ -143,11 +148,12 @@ class AdaptiveTimeSeries(Compensator):
             )
         if s.cutoff_hz is not None and not s.cutoff_hz < 0.5 / self.dt:
             raise ParameterError(
-                f"ATS cutoff_hz must be below the Nyquist frequency {0.5 / self.dt}; got {s.cutoff_hz!r}"
+                f"ATS cutoff_hz must be below the Nyquist frequency {0.5 / self.dt}; "
+                f"got {s.cutoff_hz!r}"
             )
-        self._sos = (
-            None if s.cutoff_hz is None else butter(s.filter_order, s.cutoff_hz, fs=1.0 / self.dt, output="sos")
-        )
+        self._sos = None
+        if s.cutoff_hz is not None:
+            self._sos = butter(s.filter_order, s.cutoff_hz, fs=1.0 / self.dt, output="sos")
         self._lo = np.array([b[0] for b in s.bounds])
         self._hi = np.array([b[1] for b in s.bounds])
         self._step_limit = np.asarray(s.max_rate) * s.update_every * self.dt

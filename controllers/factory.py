@@ -68,7 +68,9 @@ def _low_order(nominal: object, delay: float, options: dict[str, Any]) -> LowOrd
     return fit_low_order(nominal, order, options.get("band_hz", (0.0, 20.0)), delay).model
 
 
-def _feedforward(dt: float, nominal: object, delay: float, options: dict[str, Any]) -> FeedforwardCompensator:
+def _feedforward(
+    dt: float, nominal: object, delay: float, options: dict[str, Any]
+) -> FeedforwardCompensator:
     model = _low_order(_require(nominal, "ff"), delay, options)
     return FeedforwardCompensator(dt, model, options.get("hold_correction", True))
 
@@ -77,11 +79,15 @@ def _weights(options: dict[str, Any]) -> LQGWeights:
     return LQGWeights(**{k: v for k, v in options.items() if k in _LQG_OPTIONS})
 
 
-def _make_none(dt: float, nominal: object, delay: float, options: dict[str, Any]) -> Compensator:
+def _make_none(
+    dt: float, nominal: object, delay: float, options: dict[str, Any]
+) -> Compensator:
     return NoCompensation(dt)
 
 
-def _make_polynomial(dt: float, nominal: object, delay: float, options: dict[str, Any]) -> Compensator:
+def _make_polynomial(
+    dt: float, nominal: object, delay: float, options: dict[str, Any]
+) -> Compensator:
     if "horizon" in options:
         horizon = options["horizon"]
     else:
@@ -91,7 +97,9 @@ def _make_polynomial(dt: float, nominal: object, delay: float, options: dict[str
     return PolynomialExtrapolation(dt, horizon, options.get("order", 3))
 
 
-def _make_ats(dt: float, nominal: object, delay: float, options: dict[str, Any]) -> Compensator:
+def _make_ats(
+    dt: float, nominal: object, delay: float, options: dict[str, Any]
+) -> Compensator:
     opts = dict(options)
     if "initial" not in opts and nominal is not None:
         num, den = siso_polynomials(nominal)
@@ -101,16 +109,22 @@ def _make_ats(dt: float, nominal: object, delay: float, options: dict[str, Any])
     return AdaptiveTimeSeries(dt, ATSSettings(**opts))
 
 
-def _make_ff(dt: float, nominal: object, delay: float, options: dict[str, Any]) -> Compensator:
+def _make_ff(
+    dt: float, nominal: object, delay: float, options: dict[str, Any]
+) -> Compensator:
     return _feedforward(dt, nominal, delay, options)
 
 
-def _make_lqg(dt: float, nominal: object, delay: float, options: dict[str, Any]) -> Compensator:
+def _make_lqg(
+    dt: float, nominal: object, delay: float, options: dict[str, Any]
+) -> Compensator:
     design = design_lqg(_require(nominal, "lqg"), dt, _weights(options), delay)
     return LQGCompensator(dt, design)
 
 
-def _make_ff_lqg(dt: float, nominal: object, delay: float, options: dict[str, Any]) -> Compensator:
+def _make_ff_lqg(
+    dt: float, nominal: object, delay: float, options: dict[str, Any]
+) -> Compensator:
     ff = _feedforward(dt, _require(nominal, "ff_lqg"), delay, options)
     design = design_lqg(nominal, dt, _weights(options), delay)
     return FFLQGCompensator(dt, design, ff)
@@ -157,7 +171,9 @@ def make_compensator(
         Unknown kind or option, missing nominal model, or any invalid value.
     """
     if kind not in _REGISTRY:
-        raise ParameterError(f"unknown compensator kind {kind!r}; choose one of {format_choices(KINDS)}")
+        raise ParameterError(
+            f"unknown compensator kind {kind!r}; choose one of {format_choices(KINDS)}"
+        )
     builder, allowed = _REGISTRY[kind]
     unknown = sorted(set(options) - set(allowed))
     if unknown:

@@ -16,10 +16,10 @@ This is the feedforward half of the FF+LQG compensator used in the seed RTHS tes
 
 References
 ----------
-B. M. Phillips and B. F. Spencer Jr., "Model-based multiactuator control for real-time hybrid
-simulation", J. Struct. Eng. 139(7), 1269-1278, 2013.
 B. M. Phillips and B. F. Spencer Jr., "Model-based feedforward-feedback actuator control for
-real-time hybrid simulation", J. Struct. Eng. 139(7), 1205-1214, 2013 (NSEL report 2012).
+real-time hybrid simulation", J. Struct. Eng. 139(7), 2013 (NSEL report, 2012).
+B. M. Phillips and B. F. Spencer Jr., "Model-based multiactuator control for real-time hybrid
+simulation", 2013.
 """
 
 from __future__ import annotations

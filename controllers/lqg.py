@@ -25,10 +25,10 @@ Padé approximant):
 
 References
 ----------
-B. M. Phillips and B. F. Spencer Jr., "Model-based multiactuator control for real-time hybrid
-simulation", J. Struct. Eng. 139(7), 1269-1278, 2013.
-G. F. Franklin, J. D. Powell, M. Workman, Digital Control of Dynamic Systems, 3rd ed., §8.3
-(current estimator) and §9.5 (integral control), 1998.
+B. M. Phillips and B. F. Spencer Jr., "Model-based feedforward-feedback actuator control for
+real-time hybrid simulation", J. Struct. Eng. 139(7), 2013 (NSEL report, 2012).
+G. F. Franklin, J. D. Powell, M. Workman, Digital Control of Dynamic Systems, 3rd ed., 1998
+(current estimator; integral control by state augmentation).
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ from controllers.feedforward import FeedforwardCompensator
 from plants.base import Kinematics
 from rths.errors import ParameterError, check_nonnegative, check_positive, check_positive_int
 
-__all__ = ["LQGCompensator", "LQGDesign", "LQGWeights", "design_lqg"]
+__all__ = ["LQGCompensator", "LQGDesign", "LQGWeights", "design_lqg", "discrete_nominal"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -239,7 +239,9 @@ class LQGCompensator(Compensator):
                 f"LQG design time step must equal dt={self.dt!r}; got {design.dt!r}"
             )
         if feedforward is not None and not isinstance(feedforward, FeedforwardCompensator):
-            raise ParameterError(f"feedforward must be a FeedforwardCompensator; got {feedforward!r}")
+            raise ParameterError(
+                f"feedforward must be a FeedforwardCompensator; got {feedforward!r}"
+            )
         if feedforward is not None and not np.isclose(feedforward.dt, self.dt, rtol=1e-12):
             raise ParameterError(
                 f"feedforward time step must equal dt={self.dt!r}; got {feedforward.dt!r}"
