@@ -35,11 +35,16 @@ is the cubic Hermite interpolant of ``(u, v)``.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numba import njit
 
 from rths.errors import RTHSError
+
+if TYPE_CHECKING:
+    from plants.inerter import RackPinionParameters
+    from plants.tmdi import TMDIParameters
 
 # ---- parameter vector layout ---------------------------------------------------------------------
 P_M_I, P_K1_I, P_K2_I, P_K3_I, P_C_I = 0, 1, 2, 3, 4
@@ -62,6 +67,14 @@ N_INPUT = 8
 O_U_I, O_A_I_TOT, O_F_I, O_U_TI, O_A_T_TOT, O_F_T, O_U_T, O_A_T, O_F_B = 0, 1, 2, 3, 4, 5, 6, 7, 8
 O_V_I, O_V_T, O_TH_S, O_TH_G, O_OM_G, O_TORQUE, O_MODE = 9, 10, 11, 12, 13, 14, 15
 N_OUTPUT = 16
+#: Output column of each named response quantity (S1 Eq.7 names and internal states).
+OUTPUT_FIELDS: dict[str, int] = {
+    "u_I": O_U_I, "a_I_tot": O_A_I_TOT, "F_I": O_F_I, "u_TI": O_U_TI,
+    "a_T_tot": O_A_T_TOT, "F_T": O_F_T, "u_T": O_U_T, "a_T": O_A_T,
+    "F_B": O_F_B, "v_I": O_V_I, "v_T": O_V_T, "theta_S": O_TH_S,
+    "theta_G": O_TH_G, "omega_G": O_OM_G, "torque": O_TORQUE,
+    "contact": O_MODE,
+}
 
 OPEN, FORWARD, BACKWARD = 0, 1, -1
 MAX_EVENTS = 8  # mode changes resolved per sub-step before falling back to projection
@@ -70,11 +83,41 @@ NEWTON_TOL = 1e-13  # [m] displacement increment (flywheel angle scaled by r_P)
 GAP_TOL = 1e-13  # [rad] penetration tolerated before a contact event is declared
 
 
+def pack_parameters(
+    structure: TMDIParameters | None = None,
+    inertance: float = 0.0,
+    device: RackPinionParameters | None = None,
+) -> np.ndarray:
+    """The kernel's parameter vector from validated parameter objects.
+
+    ``structure`` is a :class:`plants.tmdi.TMDIParameters` (None for the inerter alone, which
+    gets a placeholder primary mass), ``inertance`` the ideal inerter's ``b`` [kg] and
+    ``device`` a :class:`plants.inerter.RackPinionParameters` or None.
+    """
+    p = np.zeros(N_PARAM)
+    p[P_M_I] = 1.0
+    if structure is not None:
+        iso = structure.primary_isolator
+        p[P_M_I : P_C_I + 1] = (structure.primary_mass, iso.k1, iso.k2, iso.k3, iso.c)
+        if structure.has_tmd:
+            iso = structure.secondary_isolator
+            p[P_M_T : P_C_T + 1] = (structure.secondary_mass, iso.k1, iso.k2, iso.k3, iso.c)
+    p[P_B] = inertance
+    if device is not None:
+        p[P_RACK] = 1.0
+        p[P_R : P_VEPS + 1] = (
+            device.pinion_radius, device.flywheel_inertia, device.series_stiffness,
+            device.series_damping, device.flywheel_damping, device.clearance_forward,
+            device.clearance_backward, device.friction_force, device.friction_velocity,
+        )
+    return p
+
+
 class IntegrationError(RTHSError, ArithmeticError):
     """An implicit step did not converge (non-finite input or a non-monotonic spring)."""
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def hermite(u0: float, v0: float, u1: float, v1: float, dt: float, s: float) -> tuple:
     """Cubic Hermite interpolant of (u, v) over ``[0, dt]`` at the fraction ``s``: (u, v)."""
     s2 = s * s
@@ -93,19 +136,19 @@ def hermite(u0: float, v0: float, u1: float, v1: float, dt: float, s: float) -> 
     return u, v
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _spring(u: float, k1: float, k2: float, k3: float) -> tuple:
     """HDRB spring S1 Eq.8: force and tangent stiffness."""
     au = abs(u)
     return k1 * u + k2 * u * au + k3 * u * u * u, k1 + 2.0 * k2 * au + 3.0 * k3 * u * u
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _offset(mode: int, p: np.ndarray) -> float:
     return p[P_EPS1] if mode == FORWARD else -p[P_EPS2]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def torque(s: np.ndarray, mode: int, p: np.ndarray) -> float:
     """Torque [N m] transmitted through the gap to the flywheel (0 while open), S1 Eq.9/11."""
     if mode == OPEN or p[P_RACK] == 0.0:
@@ -116,7 +159,7 @@ def torque(s: np.ndarray, mode: int, p: np.ndarray) -> float:
     )
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def friction(v_t: float, p: np.ndarray) -> float:
     """Regularised Coulomb friction of the rack ``f_y tanh(v/v_eps)`` [N], S1 Eq.10."""
     if p[P_RACK] == 0.0 or p[P_FY] == 0.0:
@@ -124,7 +167,7 @@ def friction(v_t: float, p: np.ndarray) -> float:
     return p[P_FY] * math.tanh(v_t / p[P_VEPS])
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def accelerations(s: np.ndarray, ag: float, f_ext: float, p: np.ndarray) -> tuple:
     """Accelerations (a_I, a_T, α_G) from equilibrium (S1 Eq.12) at the state ``s``."""
     mode = int(s[S_MODE])
@@ -147,7 +190,7 @@ def accelerations(s: np.ndarray, ag: float, f_ext: float, p: np.ndarray) -> tupl
     return a_i, a_t, alpha
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _solve3(a: np.ndarray, b: np.ndarray) -> None:
     """Solve the symmetric positive definite 3x3 system ``a x = b`` in place (x in ``b``)."""
     for k in range(3):
@@ -163,13 +206,14 @@ def _solve3(a: np.ndarray, b: np.ndarray) -> None:
         b[k] = acc / a[k, k]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _advance(
     s0: np.ndarray, s1: np.ndarray, mode: int, sig0: float, sig1: float, dt: float,
-    inp: np.ndarray, p: np.ndarray,
+    inp: np.ndarray, p: np.ndarray, work: np.ndarray,
 ) -> bool:
     """Trapezoidal step of the given contact mode from ``s0`` (loop-step fraction ``sig0``) to
-    ``s1`` (fraction ``sig1``).  Returns False if Newton did not converge."""
+    ``s1`` (fraction ``sig1``); ``work`` is a ``(7, 3)`` scratch array.  Returns False if Newton
+    did not converge."""
     h = (sig1 - sig0) * dt
     for k in range(N_STATE):
         s1[k] = s0[k]
@@ -187,7 +231,7 @@ def _advance(
     a0 = accelerations(s0, ag0, f_ext, p)
     x0 = (s0[S_U_I], s0[S_U_T], s0[S_TH_G])
     v0 = (s0[S_V_I], s0[S_V_T], s0[S_OM_G])
-    x = np.empty(3)
+    x, v, a, res, jac = work[0], work[1], work[2], work[3], work[4:7]
     for k in range(3):
         x[k] = x0[k] + h * v0[k] + 0.5 * h * h * a0[k]
     u_drv, v_drv = 0.0, 0.0
@@ -196,11 +240,7 @@ def _advance(
         x[0] = 0.0
         x[1] = u_drv
     ci, mi = 2.0 / h, 4.0 / (h * h)
-    jac = np.empty((3, 3))
-    res = np.empty(3)
     delta = _offset(mode, p) if contact else 0.0
-    v = np.empty(3)
-    a = np.empty(3)
     ok = False
     for _ in range(MAX_NEWTON):
         for k in range(3):
@@ -273,7 +313,16 @@ def _advance(
     return ok
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
+def _crossing(y0: float, y1: float, level: float) -> float:
+    """Fraction of a segment where the linear interpolant from ``y0`` to ``y1`` meets ``level``
+    (0 if ``y0`` is already there or beyond)."""
+    if (level - y0) * (y1 - y0) <= 0.0:
+        return 0.0
+    return min((level - y0) / (y1 - y0), 1.0)
+
+
+@njit(cache=True, error_model="numpy")
 def _event(s0: np.ndarray, s1: np.ndarray, mode: int, p: np.ndarray) -> tuple:
     """(fraction of the segment where the mode changes, new mode); fraction < 0: no change."""
     if p[P_RACK] == 0.0:
@@ -282,27 +331,26 @@ def _event(s0: np.ndarray, s1: np.ndarray, mode: int, p: np.ndarray) -> tuple:
         g0 = s0[S_TH_S] - s0[S_TH_G]
         g1 = s1[S_TH_S] - s1[S_TH_G]
         if g1 > p[P_EPS1] + GAP_TOL:
-            return (p[P_EPS1] - g0) / (g1 - g0), FORWARD
+            return _crossing(g0, g1, p[P_EPS1]), FORWARD
         if g1 < -p[P_EPS2] - GAP_TOL:
-            return (-p[P_EPS2] - g0) / (g1 - g0), BACKWARD
+            return _crossing(g0, g1, -p[P_EPS2]), BACKWARD
         return -1.0, OPEN
     if p[P_EPS1] + p[P_EPS2] <= 0.0:  # no clearance: the gap never opens
         return -1.0, mode
     t1 = torque(s1, mode, p)
     if t1 * mode < 0.0:
-        t0 = torque(s0, mode, p)
-        return t0 / (t0 - t1), OPEN
+        return _crossing(torque(s0, mode, p), t1, 0.0), OPEN
     return -1.0, mode
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _enter(s: np.ndarray, mode: int, p: np.ndarray) -> None:
     s[S_MODE] = mode
     if mode != OPEN:  # the massless node sits on the contact face
         s[S_TH_S] = s[S_TH_G] + _offset(mode, p)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def step(s: np.ndarray, dt: float, n_sub: int, inp: np.ndarray, p: np.ndarray) -> int:
     """Advance the state ``s`` in place over one loop step ``dt`` [s] with ``n_sub`` sub-steps.
 
@@ -310,6 +358,7 @@ def step(s: np.ndarray, dt: float, n_sub: int, inp: np.ndarray, p: np.ndarray) -
     """
     trial = np.empty(N_STATE)
     start = np.empty(N_STATE)
+    work = np.empty((7, 3))
     failures = 0
     for j in range(n_sub):
         sig = j / n_sub
@@ -317,17 +366,16 @@ def step(s: np.ndarray, dt: float, n_sub: int, inp: np.ndarray, p: np.ndarray) -
         resolved = False
         for _ in range(MAX_EVENTS):
             mode = int(s[S_MODE])
-            if not _advance(s, trial, mode, sig, sig_end, dt, inp, p):
+            if not _advance(s, trial, mode, sig, sig_end, dt, inp, p, work):
                 failures += 1
             frac, new_mode = _event(s, trial, mode, p)
             if frac < 0.0:
                 s[:] = trial
                 resolved = True
                 break
-            frac = min(max(frac, 0.0), 1.0)
             sig_ev = sig + frac * (sig_end - sig)
             start[:] = s
-            if not _advance(start, s, mode, sig, sig_ev, dt, inp, p):
+            if not _advance(start, s, mode, sig, sig_ev, dt, inp, p, work):
                 failures += 1
             _enter(s, new_mode, p)
             sig = sig_ev
@@ -336,7 +384,7 @@ def step(s: np.ndarray, dt: float, n_sub: int, inp: np.ndarray, p: np.ndarray) -
                 break
         if not resolved:  # chattering: finish in the current mode and project onto the gap
             mode = int(s[S_MODE])
-            if not _advance(s, trial, mode, sig, sig_end, dt, inp, p):
+            if not _advance(s, trial, mode, sig, sig_end, dt, inp, p, work):
                 failures += 1
             s[:] = trial
             g = s[S_TH_S] - s[S_TH_G]
@@ -347,7 +395,7 @@ def step(s: np.ndarray, dt: float, n_sub: int, inp: np.ndarray, p: np.ndarray) -
     return failures
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def outputs(s: np.ndarray, ag: float, f_ext: float, p: np.ndarray, out: np.ndarray) -> None:
     """S1 Eq.7 response quantities (and internal states) at the state ``s`` into ``out``."""
     a_i, a_t, _ = accelerations(s, ag, f_ext, p)
@@ -377,7 +425,7 @@ def outputs(s: np.ndarray, ag: float, f_ext: float, p: np.ndarray, out: np.ndarr
     out[O_MODE] = mode
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def simulate(ag: np.ndarray, dt: float, n_sub: int, p: np.ndarray, s: np.ndarray) -> tuple:
     """Run the structure from the state ``s`` through the ground acceleration samples ``ag``.
 

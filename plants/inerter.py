@@ -142,21 +142,6 @@ class RackPinionParameters:
             scales.append(self.flywheel_inertia / (self.series_damping + self.flywheel_damping))
         return SUBSTEP_FRACTION * min(scales)
 
-    def kernel_vector(self) -> np.ndarray:
-        """The device's entries of the integration kernel's parameter vector (private use)."""
-        p = np.zeros(kern.N_PARAM)
-        p[kern.P_RACK] = 1.0
-        p[kern.P_R] = self.pinion_radius
-        p[kern.P_J] = self.flywheel_inertia
-        p[kern.P_KS] = self.series_stiffness
-        p[kern.P_CS] = self.series_damping
-        p[kern.P_CB] = self.flywheel_damping
-        p[kern.P_EPS1] = self.clearance_forward
-        p[kern.P_EPS2] = self.clearance_backward
-        p[kern.P_FY] = self.friction_force
-        p[kern.P_VEPS] = self.friction_velocity
-        return p
-
 
 #: The identified IF device of S1 §4.2 (``J_B / r_P² = 47.8 kg``).
 S1_RACK_PINION: Final[RackPinionParameters] = RackPinionParameters()
@@ -234,8 +219,7 @@ class RackPinionInerter(Specimen):
                 f"parameters must be RackPinionParameters; got {type(parameters).__name__}"
             )
         self.parameters: Final[RackPinionParameters] = parameters
-        self._p = parameters.kernel_vector()
-        self._p[kern.P_M_I] = 1.0  # placeholder: no structure in the specimen-only kernel
+        self._p = kern.pack_parameters(device=parameters)
         self._state = np.zeros(kern.N_STATE)
         self._input = np.zeros(kern.N_INPUT)
         self._input[kern.I_DRIVEN] = 1.0
