@@ -300,8 +300,12 @@ class Recorder:
         DataError
             If the writer thread has failed (e.g. disk full).
         """
-        if topic not in self._schemas:
-            raise ParameterError(f"topic {topic!r} is not registered; known: {sorted(self._schemas)}")
+        if topic not in self._schemas or topic == EVENTS_TOPIC:
+            known = sorted(set(self._schemas) - {EVENTS_TOPIC})
+            raise ParameterError(
+                f"topic {topic!r} is not registered for put() (events go through event()); "
+                f"known: {known}"
+            )
         try:
             seq, log_time_ns = operator.index(seq), operator.index(log_time_ns)
             publish = log_time_ns if publish_time_ns is None else operator.index(publish_time_ns)

@@ -228,8 +228,10 @@ def test_recorder_validation(tmp_path: Path) -> None:
     with rec:
         with pytest.raises(DataError, match=r"already started"):
             rec.start()
-        with pytest.raises(ParameterError, match=r"topic 'nope' is not registered; known: \['rths/events', 'rths/loop'\]"):
+        with pytest.raises(ParameterError, match=r"topic 'nope' is not registered .*known: \['rths/loop'\]"):
             rec.put("nope", 0, 0, {})
+        with pytest.raises(ParameterError, match=r"'rths/events' is not registered for put\(\) \(events go"):
+            rec.put(EVENTS_TOPIC, 0, 0, {})
         with pytest.raises(ParameterError, match=r"seq and times must be integers; got seq=1.0"):
             rec.put(LOOP_TOPIC, 1.0, 0, {})  # type: ignore[arg-type]
         with pytest.raises(ParameterError, match=r"must be >= 0; got seq=0, log_time_ns=-5"):
