@@ -1,9 +1,5 @@
-"""Hot-path links of :mod:`rths.transport` (private; import them from there).
-
-Receive sides (:class:`Inbox`, :class:`Mailbox`) and the coordinator/specimen ends of the lockstep
-and realtime links.  The choices (reliable + express + BLOCK publishers, a FifoChannel with a
-timeout watchdog for lockstep, an arrival-stamping callback for realtime) and their measured cost
-are documented in :mod:`rths.transport`.
+"""Coordinator and specimen ends of the lockstep and realtime links (private; import them from
+:mod:`rths.transport`).  Each pairs a hot publisher with a receive side from :mod:`rths._inbox`.
 """
 
 from __future__ import annotations
@@ -12,29 +8,15 @@ import queue
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Any, Generic, Protocol, TypeVar
+from typing import Any, Protocol
 
 import zenoh
 
+from rths._inbox import Inbox, Latest, Mailbox, declare_hot_publisher
 from rths.codec import Command, Measurement
-from rths.errors import DataError, TransportError, check_positive
+from rths.errors import TransportError, check_positive
 
-__all__ = [
-    "Inbox",
-    "Latest",
-    "LockstepClient",
-    "LockstepServer",
-    "Mailbox",
-    "RealtimeClient",
-    "RealtimeServer",
-    "declare_hot_publisher",
-]
-
-T = TypeVar("T")
-_ALARM = b"\x00rths-inbox-timeout:"
-_CLOSING = 2**64 - 1  # alarm id that tells a waiting get() the inbox is closing
-_ALARM_SIZE = len(_ALARM) + 8  # 28 bytes: never the size of a Command (24) or Measurement (40)
+__all__ = ["LockstepClient", "LockstepServer", "RealtimeClient", "RealtimeServer"]
 
 
 class _HotKeys(Protocol):
@@ -45,192 +27,6 @@ class _HotKeys(Protocol):
 
     @property
     def measurement(self) -> str: ...
-
-
-
-def declare_hot_publisher(session: zenoh.Session, key: str) -> zenoh.Publisher:
-    """Publisher for the per-step messages: reliable, express, blocking, REAL_TIME priority."""
-    return session.declare_publisher(
-        key,
-        congestion_control=zenoh.CongestionControl.BLOCK,
-        priority=zenoh.Priority.REAL_TIME,
-        express=True,
-        reliability=zenoh.Reliability.RELIABLE,
-    )
-
-
-def _alarm_id(payload: bytes) -> int | None:
-    """The wait id of an :class:`Inbox` alarm sample, or None for an ordinary payload."""
-    if len(payload) != _ALARM_SIZE or not payload.startswith(_ALARM):
-        return None
-    return int.from_bytes(payload[-8:], "little")
-
-
-class Inbox(Generic[T]):
-    """Every message published on ``key``, decoded, in arrival order (lockstep receive side).
-
-    Samples wait in a zenoh ``FifoChannel`` (filled by zenoh's thread without taking the GIL)
-    and are decoded on the caller's thread by :meth:`get`, which blocks in ``recv()``.  That
-    call cannot time out, so a watchdog thread checks every ``tick`` [s] whether a wait has
-    passed its deadline and then wakes it with a session-local *alarm* sample on the same key;
-    timeouts are therefore honoured to within ``tick``.  A payload that fails to decode raises
-    :class:`DataError` from :meth:`get`: a malformed sample is never skipped silently.
-    """
-
-    def __init__(
-        self,
-        session: zenoh.Session,
-        key: str,
-        decode: Callable[[bytes], T],
-        capacity: int = 1024,
-        tick: float = 0.01,
-    ) -> None:
-        self.key = key
-        self._decode = decode
-        self._tick = check_positive(tick, "watchdog tick")
-        self._subscriber = session.declare_subscriber(key, zenoh.handlers.FifoChannel(capacity))
-        self._alarm = session.declare_publisher(
-            key,
-            congestion_control=zenoh.CongestionControl.BLOCK,
-            express=True,
-            allowed_destination=zenoh.Locality.SESSION_LOCAL,
-        )
-        self._wait = (0, 0)  # (deadline [ns] on time.monotonic_ns, wait id); 0 = not waiting
-        self._wait_id = 0
-        self._closed = threading.Event()
-        self._receiving = threading.Lock()
-        self._watchdog = threading.Thread(target=self._watch, name=f"rths-inbox {key}", daemon=True)
-        self._watchdog.start()
-
-    def _watch(self) -> None:
-        alarmed = 0
-        while not self._closed.wait(self._tick):
-            deadline, wait_id = self._wait
-            if deadline and wait_id != alarmed and time.monotonic_ns() >= deadline:
-                alarmed = wait_id
-                self._alarm.put(_ALARM + wait_id.to_bytes(8, "little"))
-
-    def get(self, timeout: float | None) -> T:
-        """The next message; wait at most ``timeout`` [s] (forever if None).
-
-        Raises
-        ------
-        queue.Empty
-            If nothing arrived in time (callers turn it into a :class:`TransportError`).
-        DataError
-            If the next payload could not be decoded.
-        """
-        with self._receiving:  # close() must not undeclare while recv() runs
-            if self._closed.is_set():
-                raise TransportError(f"inbox on key '{self.key}' is closed")
-            payload = self._receive(timeout)
-        try:
-            return self._decode(payload)
-        except DataError as exc:
-            raise DataError(f"on key '{self.key}': {exc}") from None
-
-    def _receive(self, timeout: float | None) -> bytes:
-        while (sample := self._subscriber.try_recv()) is not None:
-            payload = sample.payload.to_bytes()
-            if _alarm_id(payload) is None:
-                return payload  # already there: no wait, no watchdog involved
-        if timeout is not None and timeout <= 0.0:
-            raise queue.Empty
-        self._wait_id += 1
-        wait_id = self._wait_id
-        if timeout is not None:
-            self._wait = (time.monotonic_ns() + max(int(timeout * 1e9), 1), wait_id)
-        try:
-            while True:
-                payload = self._subscriber.recv().payload.to_bytes()
-                alarm_id = _alarm_id(payload)
-                if alarm_id is None:
-                    return payload
-                if alarm_id == wait_id:
-                    raise queue.Empty
-                if alarm_id == _CLOSING:
-                    raise TransportError(f"inbox on key '{self.key}' was closed while waiting")
-                # else: the alarm of an earlier wait that was answered just in time
-        finally:
-            self._wait = (0, 0)
-
-    def close(self) -> None:
-        """Wake a waiting :meth:`get`, stop the watchdog, undeclare subscriber and publisher."""
-        if self._closed.is_set():
-            return
-        self._closed.set()
-        self._watchdog.join()
-        if self._receiving.locked():
-            self._alarm.put(_ALARM + _CLOSING.to_bytes(8, "little"))
-        with self._receiving:
-            self._alarm.undeclare()
-            self._subscriber.undeclare()
-
-    def __enter__(self) -> Inbox[T]:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-
-@dataclass(frozen=True, slots=True)
-class Latest(Generic[T]):
-    """The newest message of a :class:`Mailbox`, when it arrived and how old it is [ns]."""
-
-    message: T
-    received_ns: int
-    age_ns: int
-
-
-class Mailbox(Generic[T]):
-    """Only the newest message on ``key`` (realtime receive side); reading never blocks.
-
-    ``clock`` is the monotonic clock [ns] used to stamp arrivals (inject a fake one in tests).
-    Malformed payloads are counted in :attr:`rejected` and the previous message is kept.
-    """
-
-    def __init__(
-        self,
-        session: zenoh.Session,
-        key: str,
-        decode: Callable[[bytes], T],
-        clock: Callable[[], int] = time.monotonic_ns,
-    ) -> None:
-        self.key = key
-        self.received = 0
-        self.rejected = 0
-        self._decode = decode
-        self._clock = clock
-        self._latest: tuple[T, int] | None = None
-        self._subscriber = session.declare_subscriber(
-            key, zenoh.handlers.Callback(self._on_sample, indirect=False)
-        )
-
-    def _on_sample(self, sample: zenoh.Sample) -> None:
-        try:
-            message = self._decode(sample.payload.to_bytes())
-        except DataError:
-            self.rejected += 1
-            return
-        self._latest = (message, self._clock())  # one reference store: atomic for readers
-        self.received += 1
-
-    def latest(self) -> Latest[T] | None:
-        """The newest message and its age, or None before the first one."""
-        slot = self._latest
-        if slot is None:
-            return None
-        return Latest(slot[0], slot[1], self._clock() - slot[1])
-
-    def close(self) -> None:
-        """Undeclare the subscriber."""
-        self._subscriber.undeclare()
-
-    def __enter__(self) -> Mailbox[T]:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
 
 class _Link:
@@ -309,7 +105,13 @@ class LockstepClient(_Link):
 
 
 class LockstepServer(_Link):
-    """Specimen end of the lockstep link: take each command in order, publish its measurement."""
+    """Specimen end of the lockstep link: take each command in order, publish its measurement.
+
+    Parameters
+    ----------
+    session, keys
+        Open session and the run's keys.
+    """
 
     def __init__(self, session: zenoh.Session, keys: _HotKeys) -> None:
         self._receiver: Inbox[Command] = Inbox(session, keys.command, Command.unpack)
@@ -332,9 +134,16 @@ class LockstepServer(_Link):
         stop: threading.Event,
         poll: float = 0.05,
     ) -> int:
-        """Answer commands with ``respond`` until ``stop`` is set; return how many were served.
+        """Answer commands until ``stop`` is set; return how many were served.
 
-        ``poll`` [s] bounds how long a stop request can go unnoticed while no command arrives.
+        Parameters
+        ----------
+        respond
+            The specimen's step: command in, measurement (same ``seq``) out.
+        stop
+            Set by another thread (e.g. :attr:`rths.transport.Presence.stop`) to end serving.
+        poll
+            Longest time [s] a stop request goes unnoticed while no command arrives.
         """
         check_positive(poll, "poll interval")
         served = 0
@@ -347,7 +156,15 @@ class LockstepServer(_Link):
 
 
 class RealtimeClient(_Link):
-    """Coordinator end for the realtime clock: publish commands, read the newest measurement."""
+    """Coordinator end for the realtime clock: publish commands, read the newest measurement.
+
+    Parameters
+    ----------
+    session, keys
+        Open session and the run's keys.
+    clock
+        Monotonic clock [ns] that stamps arrivals (see :class:`Mailbox`).
+    """
 
     def __init__(
         self, session: zenoh.Session, keys: _HotKeys, clock: Callable[[], int] = time.monotonic_ns
@@ -372,7 +189,15 @@ class RealtimeClient(_Link):
 
 
 class RealtimeServer(_Link):
-    """Specimen end for the realtime clock: read the newest command, publish measurements."""
+    """Specimen end for the realtime clock: read the newest command, publish measurements.
+
+    Parameters
+    ----------
+    session, keys
+        Open session and the run's keys.
+    clock
+        Monotonic clock [ns] that stamps arrivals (see :class:`Mailbox`).
+    """
 
     def __init__(
         self, session: zenoh.Session, keys: _HotKeys, clock: Callable[[], int] = time.monotonic_ns
@@ -387,5 +212,3 @@ class RealtimeServer(_Link):
     def publish(self, measurement: Measurement) -> None:
         """Publish a measurement."""
         self.publisher.put(measurement.pack())
-
-

@@ -111,6 +111,13 @@ def _column(values: list[Any]) -> np.ndarray:
 def read_topic(path: str | os.PathLike[str], topic: str) -> dict[str, np.ndarray]:
     """All messages of ``topic`` as columns.
 
+    Parameters
+    ----------
+    path
+        MCAP log (finished or truncated).
+    topic
+        Topic name, e.g. ``"rths/loop"``.
+
     Returns
     -------
     dict

@@ -324,16 +324,33 @@ class Recorder:
         self._queue.put(("m", topic, seq, log_time_ns, publish, message))
 
     def put_record(self, topic: str, payload: bytes) -> None:
-        """Queue an encoded :class:`rths.codec.LogRecord` from another process for ``topic``.
+        """Queue an encoded :class:`rths.codec.LogRecord` from another process.
 
-        Decoding happens on the writer thread; a bad payload is counted as ``rejected``.
-        Unregistered topics get an open schema (any JSON object).
+        Parameters
+        ----------
+        topic
+            MCAP topic; an unregistered one gets an open schema (any JSON object).
+        payload
+            :meth:`rths.codec.LogRecord.encode` bytes, decoded on the writer thread; a bad
+            payload is counted as ``rejected`` and logged as an event.
         """
         self._check_alive()
         self._queue.put(("r", topic, payload))
 
     def event(self, log_time_ns: int, kind: str, message: str, **details: Any) -> None:
-        """Queue an event on ``rths/events`` at simulated time ``log_time_ns`` [ns]."""
+        """Queue an event on ``rths/events``.
+
+        Parameters
+        ----------
+        log_time_ns
+            Simulated time [ns] of the event.
+        kind
+            Short machine-readable kind, e.g. ``"overrun"``, ``"stop"``.
+        message
+            Human-readable description.
+        **details
+            Further JSON-serialisable fields (SI units).
+        """
         self._check_alive()
         self._queue.put(("e", int(log_time_ns), {"kind": kind, "message": message, **details}))
 

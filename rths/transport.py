@@ -34,31 +34,22 @@ stamps each arrival, so the loop can read the newest sample and its age without 
 from __future__ import annotations
 
 import json
-import os
 import re
 import secrets
 import socket
-import threading
 import time
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
 import zenoh
 
-from rths._links import (
-    Inbox,
-    Latest,
-    LockstepClient,
-    LockstepServer,
-    Mailbox,
-    RealtimeClient,
-    RealtimeServer,
-    declare_hot_publisher,
-)
+from rths._inbox import Inbox, Latest, Mailbox, declare_hot_publisher
+from rths._links import LockstepClient, LockstepServer, RealtimeClient, RealtimeServer
+from rths._presence import ROLES, Presence, Role
 from rths.codec import LogRecord
-from rths.errors import ParameterError, TransportError, check_positive
+from rths.errors import ParameterError, TransportError
 
 __all__ = [
     "Inbox",
@@ -81,8 +72,6 @@ __all__ = [
     "session_config",
 ]
 
-Role = Literal["coordinator", "specimen"]
-_ROLES: tuple[Role, Role] = ("coordinator", "specimen")
 _ENDPOINT = re.compile(r"^[a-z][a-z0-9+-]*/\S+$")
 _RUN_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 _LOG_NAME = re.compile(r"^[A-Za-z0-9_.-]+(/[A-Za-z0-9_.-]+)*$")
@@ -151,7 +140,19 @@ class ZenohEndpoints:
 
 
 def session_config(endpoints: ZenohEndpoints) -> zenoh.Config:
-    """Zenoh configuration of an RTHS peer: explicit endpoints, no scouting, quick reconnects."""
+    """Zenoh configuration of an RTHS peer: explicit endpoints, no scouting, quick reconnects.
+
+    Parameters
+    ----------
+    endpoints
+        Locators to listen on and to connect to.
+
+    Returns
+    -------
+    zenoh.Config
+        Mode ``peer``; multicast and gossip scouting off; connect retried every 0.1-0.5 s;
+        ``zenoh.open`` returns without waiting for the peer's declarations.
+    """
     config = zenoh.Config()
     config.insert_json5("mode", '"peer"')
     config.insert_json5("scouting/multicast/enabled", "false")
@@ -169,6 +170,16 @@ def session_config(endpoints: ZenohEndpoints) -> zenoh.Config:
 @contextmanager
 def open_session(endpoints: ZenohEndpoints) -> Iterator[zenoh.Session]:
     """Open a zenoh peer session on ``endpoints``; it is closed on exit, also on error.
+
+    Parameters
+    ----------
+    endpoints
+        Listen/connect locators (see :func:`session_config`).
+
+    Yields
+    ------
+    zenoh.Session
+        The open session; closing it undeclares everything declared on it.
 
     Raises
     ------
@@ -242,8 +253,8 @@ class RunKeys:
 
     def ready(self, role: Role) -> str:
         """Liveliness token of a process that is up and subscribed: ``control/ready/<role>``."""
-        if role not in _ROLES:
-            raise ParameterError(f"role must be one of {_ROLES}; got {role!r}")
+        if role not in ROLES:
+            raise ParameterError(f"role must be one of {ROLES}; got {role!r}")
         return f"{self.root}/control/ready/{role}"
 
     @property
@@ -270,129 +281,15 @@ class RunKeys:
         return "rths/" + key[len(prefix) :]
 
 
-# --------------------------------------------------------------------------- handshake
-
-
-class Presence:
-    """This process's readiness, its peer's, and the stop signal.
-
-    Declare the links first, then create the :class:`Presence` and call :meth:`wait_for_peer`:
-    it declares this side's liveliness token (``control/ready/<role>``), waits for the peer's,
-    and waits until every given hot publisher is matched by the peer's subscriber, so step 0
-    cannot be lost.  :attr:`stop` is set when the peer publishes a stop request or its token
-    disappears (process ended or crashed); :attr:`stop_reason` says which.
+class LogPublisher:
+    """Publish :class:`rths.codec.LogRecord` s on ``rths/<run>/log/<name>`` for the recorder.
 
     Parameters
     ----------
     session, keys
         Open session and the run's keys.
-    role
-        ``"coordinator"`` or ``"specimen"``; the peer is the other one.
-    where
-        Endpoint description for error messages (e.g. ``endpoints.describe()``).
-    """
-
-    def __init__(self, session: zenoh.Session, keys: RunKeys, role: Role, where: str) -> None:
-        if role not in _ROLES:
-            raise ParameterError(f"role must be one of {_ROLES}; got {role!r}")
-        self.role: Role = role
-        self.peer: Role = _ROLES[1 - _ROLES.index(role)]
-        self.where = where
-        self.stop = threading.Event()
-        self.stop_reason = ""
-        self._session = session
-        self._keys = keys
-        self._peer_up = threading.Event()
-        self._token: zenoh.LivelinessToken | None = None
-        liveliness = session.liveliness()
-        self._watch = liveliness.declare_subscriber(
-            keys.ready(self.peer),
-            zenoh.handlers.Callback(self._on_liveliness, indirect=False),
-            history=True,
-        )
-        self._stop_sub = session.declare_subscriber(
-            keys.stop,
-            zenoh.handlers.Callback(self._on_stop, indirect=False),
-            allowed_origin=zenoh.Locality.REMOTE,
-        )
-
-    def _on_liveliness(self, sample: zenoh.Sample) -> None:
-        if sample.kind == zenoh.SampleKind.PUT:
-            self._peer_up.set()
-        elif self._peer_up.is_set():
-            self._peer_up.clear()
-            self._set_stop(f"{self.peer} process went away")
-
-    def _on_stop(self, sample: zenoh.Sample) -> None:
-        try:
-            reason = str(json.loads(sample.payload.to_bytes()).get("reason", "stop requested"))
-        except (ValueError, AttributeError):
-            reason = "stop requested"
-        self._set_stop(f"{self.peer} requested stop: {reason}")
-
-    def _set_stop(self, reason: str) -> None:
-        if not self.stop.is_set():
-            self.stop_reason = reason
-            self.stop.set()
-
-    @property
-    def peer_alive(self) -> bool:
-        """Whether the peer's readiness token is currently present."""
-        return self._peer_up.is_set()
-
-    def announce(self) -> None:
-        """Declare this side's readiness token (idempotent; :meth:`wait_for_peer` calls it)."""
-        if self._token is None:
-            self._token = self._session.liveliness().declare_token(self._keys.ready(self.role))
-
-    def wait_for_peer(
-        self, timeout: float = 10.0, publishers: Sequence[zenoh.Publisher] = ()
-    ) -> None:
-        """Announce readiness and block until the peer is up and matches ``publishers``.
-
-        Raises
-        ------
-        TransportError
-            ``"specimen process did not come up within 10 s on listen tcp/..."`` or, if it came
-            up but never subscribed, which key is unmatched.
-        """
-        check_positive(timeout, "handshake timeout")
-        self.announce()
-        deadline = time.monotonic() + timeout
-        if not self._peer_up.wait(timeout):
-            raise TransportError(
-                f"{self.peer} process did not come up within {timeout:g} s on {self.where}"
-            )
-        for pub in publishers:
-            while not pub.matching_status.matching:
-                if time.monotonic() > deadline:
-                    raise TransportError(
-                        f"{self.peer} process is up but did not subscribe to '{pub.key_expr}' "
-                        f"within {timeout:g} s on {self.where}"
-                    )
-                time.sleep(0.005)
-
-    def request_stop(self, reason: str = "done") -> None:
-        """Ask the peer to stop (it sees ``"<role> requested stop: <reason>"``)."""
-        self._session.put(self._keys.stop, json.dumps({"reason": reason, "pid": os.getpid()}))
-
-    def close(self) -> None:
-        """Withdraw the token and undeclare the subscribers."""
-        if self._token is not None:
-            self._token.undeclare()
-            self._token = None
-        self._watch.undeclare()
-        self._stop_sub.undeclare()
-
-    def __enter__(self) -> Presence:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-
-class LogPublisher:
-    """Publish :class:`rths.codec.LogRecord` s on ``rths/<run>/log/<name>`` for the recorder.
+    name
+        Stream name, e.g. ``"specimen"`` (recorded as MCAP topic ``rths/specimen``).
 
     For slower, self-describing side streams of another process (e.g. the specimen's internal
     state); the coordinator's :class:`rths.recording.LogBridge` records them as MCAP topic
@@ -410,7 +307,15 @@ class LogPublisher:
         )
 
     def put(self, log_time_ns: int, message: Mapping[str, Any]) -> None:
-        """Publish ``message`` (JSON-serialisable, SI units) at simulated time ``log_time_ns``."""
+        """Publish one record; ``seq`` counts up from 0.
+
+        Parameters
+        ----------
+        log_time_ns
+            Simulated time [ns] the record refers to.
+        message
+            JSON-serialisable mapping of named values in SI units.
+        """
         self._publisher.put(LogRecord(self.seq, log_time_ns, message).encode())
         self.seq += 1
 

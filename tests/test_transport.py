@@ -19,7 +19,7 @@ from collections.abc import Iterator
 import pytest
 import zenoh
 
-from rths._links import _ALARM
+from rths._inbox import _ALARM
 from rths.codec import Command, LogRecord, Measurement
 from rths.errors import DataError, ParameterError, TransportError
 from rths.transport import (
