@@ -20,8 +20,9 @@ Log contract (read it with ``mcap.reader.make_reader``, no project code needed):
 * run metadata are MCAP metadata records (name → string map) written first; a record named
   ``rths.recording`` with the per-topic counts is written last.
 
-:class:`LogBridge` feeds :class:`rths.codec.LogRecord` s that another process publishes on
-``rths/<run>/log/**`` into the recorder; they are decoded on the writer thread too.
+:class:`rths.transport.LogBridge` feeds the :class:`rths.codec.LogRecord` s that another process
+publishes on ``rths/<run>/log/**`` into :meth:`Recorder.put_record`; they are decoded on the
+writer thread too.  This module does not import zenoh.
 """
 
 from __future__ import annotations
@@ -32,23 +33,17 @@ import os
 import queue
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal
+from typing import Any, Literal
 
 from rths import __version__
 from rths._mcap_writer import EVENTS_TOPIC, STOP, RecordingSummary, TopicStats, WriterThread
 from rths.errors import DataError, ParameterError, check_positive, check_positive_int
-
-if TYPE_CHECKING:  # zenoh is only needed by LogBridge, which receives an open session
-    import zenoh
-
-    from rths.transport import RunKeys
 
 __all__ = [
     "EVENTS_SCHEMA",
     "EVENTS_TOPIC",
     "LOOP_SCHEMA",
     "LOOP_TOPIC",
-    "LogBridge",
     "Recorder",
     "RecordingSummary",
     "TopicStats",
@@ -377,47 +372,3 @@ def _check_metadata(metadata: Mapping[str, Mapping[str, str]]) -> dict[str, dict
                 )
         checked[name] = dict(record)
     return checked
-
-
-class LogBridge:
-    """Record the JSON log streams other processes publish on ``rths/<run>/log/**``.
-
-    A direct zenoh callback hands each payload to :meth:`Recorder.put_record` (an enqueue);
-    the record for key ``rths/<run>/log/<name>`` lands on MCAP topic ``rths/<name>``.
-
-    Parameters
-    ----------
-    session
-        Open zenoh session (the coordinator's).
-    keys
-        The run's :class:`rths.transport.RunKeys`.
-    recorder
-        A started :class:`Recorder`.
-    """
-
-    def __init__(self, session: zenoh.Session, keys: RunKeys, recorder: Recorder) -> None:
-        import zenoh  # noqa: PLC0415 -- keep zenoh out of offline (fast-clock) imports
-
-        self._keys = keys
-        self._recorder = recorder
-        self.received = 0
-        self._subscriber = session.declare_subscriber(
-            keys.log_all, zenoh.handlers.Callback(self._on_sample, indirect=False)
-        )
-
-    def _on_sample(self, sample: zenoh.Sample) -> None:
-        self.received += 1
-        try:
-            self._recorder.put_record(self._keys.topic_of(str(sample.key_expr)), sample.payload.to_bytes())
-        except DataError:  # recorder closed or failed: it reports that itself on close
-            pass
-
-    def close(self) -> None:
-        """Undeclare the subscriber."""
-        self._subscriber.undeclare()
-
-    def __enter__(self) -> LogBridge:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()

@@ -17,6 +17,8 @@ Building blocks (all context managers; closing a session undeclares everything o
   publish without waiting, read the latest sample of the other side.
 * :class:`Presence` -- readiness handshake (liveliness tokens plus a check that the peer's hot
   subscriber is matched) and the stop signal.
+* :class:`LogPublisher` / :class:`LogBridge` -- JSON side streams (e.g. the specimen's internal
+  state) from another process into the coordinator's :class:`rths.recording.Recorder`.
 
 Hot-path choices, measured with ``tools/bench_zenoh.py`` (cross-process round trip, see
 there): payloads are the fixed ``struct`` records of :mod:`rths.codec`, sent as ``bytes`` by
@@ -41,7 +43,7 @@ import time
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import zenoh
 
@@ -49,18 +51,20 @@ from rths._inbox import Inbox, Latest, Mailbox, declare_hot_publisher
 from rths._links import LockstepClient, LockstepServer, RealtimeClient, RealtimeServer
 from rths._presence import ROLES, Presence, Role
 from rths.codec import LogRecord
-from rths.errors import ParameterError, TransportError
+from rths.errors import DataError, ParameterError, TransportError
 
 __all__ = [
     "Inbox",
     "Latest",
     "LockstepClient",
     "LockstepServer",
+    "LogBridge",
     "LogPublisher",
     "Mailbox",
     "Presence",
     "RealtimeClient",
     "RealtimeServer",
+    "RecordSink",
     "Role",
     "RunKeys",
     "ZenohEndpoints",
@@ -324,6 +328,57 @@ class LogPublisher:
         self._publisher.undeclare()
 
     def __enter__(self) -> LogPublisher:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class RecordSink(Protocol):
+    """What :class:`LogBridge` feeds: :class:`rths.recording.Recorder` satisfies it."""
+
+    def put_record(self, topic: str, payload: bytes) -> None:
+        """Queue an encoded :class:`rths.codec.LogRecord` for ``topic`` without blocking."""
+
+
+class LogBridge:
+    """Record the JSON log streams other processes publish on ``rths/<run>/log/**``.
+
+    A direct zenoh callback hands each payload to ``Recorder.put_record`` (an enqueue);
+    the record for key ``rths/<run>/log/<name>`` lands on MCAP topic ``rths/<name>``.
+
+    Parameters
+    ----------
+    session
+        Open zenoh session (the coordinator's).
+    keys
+        The run's :class:`rths.transport.RunKeys`.
+    recorder
+        A started :class:`rths.recording.Recorder` (anything with its ``put_record``).
+    """
+
+    def __init__(self, session: zenoh.Session, keys: RunKeys, recorder: RecordSink) -> None:
+        self._keys = keys
+        self._recorder = recorder
+        self.received = 0  #: payloads received
+        self.dropped = 0  #: payloads the recorder refused (closed or failed) -- lost, but counted
+        self._subscriber = session.declare_subscriber(
+            keys.log_all, zenoh.handlers.Callback(self._on_sample, indirect=False)
+        )
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        self.received += 1
+        topic = self._keys.topic_of(str(sample.key_expr))
+        try:
+            self._recorder.put_record(topic, sample.payload.to_bytes())
+        except DataError:  # the recorder is closed or failed; it reports the failure itself
+            self.dropped += 1
+
+    def close(self) -> None:
+        """Undeclare the subscriber."""
+        self._subscriber.undeclare()
+
+    def __enter__(self) -> LogBridge:
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -25,11 +25,10 @@ from rths.recording import (
     EVENTS_TOPIC,
     LOOP_SCHEMA,
     LOOP_TOPIC,
-    LogBridge,
     Recorder,
     object_schema,
 )
-from rths.transport import LogPublisher, RunKeys, ZenohEndpoints, open_session
+from rths.transport import LogBridge, LogPublisher, RunKeys, ZenohEndpoints, open_session
 
 PATIENCE = 10.0  # upper bound for asynchronous deliveries; reached only if the code is broken
 DT_NS = 250_000  # 4 kHz loop step [ns]
@@ -327,7 +326,8 @@ def test_log_bridge_records_another_sessions_stream(tmp_path: Path) -> None:
     ep = ZenohEndpoints.loopback()
     keys = RunKeys("bridge")
     path = tmp_path / "bridge.mcap"
-    with open_session(ep) as co, open_session(ep.peer()) as sp, Recorder(path) as rec:
+    with open_session(ep) as co, open_session(ep.peer()) as sp:
+        rec = Recorder(path).start()
         with LogBridge(co, keys, rec) as bridge, LogPublisher(sp, keys, "specimen") as pub:
             deadline = time.monotonic() + PATIENCE
             while not pub._publisher.matching_status.matching:
@@ -340,6 +340,11 @@ def test_log_bridge_records_another_sessions_stream(tmp_path: Path) -> None:
             sp.put(keys.log("specimen"), b"not json")
             while bridge.received < 101 and time.monotonic() < deadline:
                 time.sleep(0.001)
+            rec.close()
+            pub.put(0, {"x_i": 0.0})  # after the recorder closed: refused, and counted
+            while bridge.dropped < 1 and time.monotonic() < deadline:
+                time.sleep(0.001)
+            assert bridge.dropped == 1
     stats = rec.summary.topics["rths/specimen"]
     assert (stats.written, stats.missing, stats.rejected) == (100, 1, 1)
     spec = read_topic(path, "rths/specimen")
