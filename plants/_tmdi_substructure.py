@@ -53,7 +53,8 @@ class TMDISubstructure(Substructure):
         if not parameters.has_tmd:
             raise ParameterError("the TMDI substructure needs a secondary mass; got 0.0 kg")
         self.parameters: Final[TMDIParameters] = parameters
-        self._ground = _ground_motion(ground_acceleration, excitation_dt or dt)
+        spacing = self.dt if excitation_dt is None else excitation_dt
+        self._ground = _ground_motion(ground_acceleration, spacing)
         self._p = kern.pack_parameters(parameters)
         self._state = np.zeros(kern.N_STATE)
         self._input = np.zeros(kern.N_INPUT)

@@ -227,12 +227,12 @@ class RackPinionInerter(Specimen):
         self.reset()
 
     def reset(self) -> None:
-        """Rest at ``u = 0`` with the node centred in the gap (closed if there is no play)."""
+        """Rest at ``u = 0`` with zero gap ``θ_S = θ_G = 0`` (inside the play ``[-ε2, ε1]``, or
+        closed if there is no play)."""
         self._state[:] = 0.0
         no_play = self.parameters.total_clearance == 0.0
         self._state[kern.S_MODE] = kern.FORWARD if no_play else kern.OPEN
         self._torque = 0.0
-        self._force = 0.0
 
     def substeps(self, dt: float) -> int:
         """Number of internal sub-steps taken over a call of length ``dt`` [s]."""
@@ -258,8 +258,7 @@ class RackPinionInerter(Specimen):
             )
         mode = int(self._state[kern.S_MODE])
         self._torque = kern.torque(self._state, mode, self._p)
-        self._force = kern.friction(v, self._p) + self._torque / self.parameters.pinion_radius
-        return self._force
+        return kern.friction(v, self._p) + self._torque / self.parameters.pinion_radius
 
     def state(self) -> dict[str, float]:
         """Node and flywheel angles [rad], flywheel speed [rad/s], gap [rad], torque [N m],

@@ -297,6 +297,14 @@ def test_callable_and_sampled_excitation_agree() -> None:
     for _ in range(3):
         sampled.step(0.0)
     assert sampled.outputs()["a_G"] == 0.0
+    # coarser samples are interpolated linearly between the loop steps
+    coarse = TMDISubstructure(s1_configuration("IM", "IF")[0], [0.0, 2.0, 4.0], dt,
+                              excitation_dt=2 * dt)
+    seen = [coarse.outputs()["a_G"]]
+    for _ in range(5):
+        coarse.step(0.0)
+        seen.append(coarse.outputs()["a_G"])
+    assert seen == pytest.approx([0.0, 1.0, 2.0, 3.0, 4.0, 0.0], abs=1e-12)
 
 
 # --- validation --------------------------------------------------------------------------------
@@ -364,6 +372,8 @@ def test_bad_substructure_inputs_are_rejected() -> None:
     par, _ = s1_configuration("IM", "IF")
     with pytest.raises(ParameterError, match="excitation_dt must be positive; got -1.0"):
         TMDISubstructure(par, np.zeros(3), 1e-3, excitation_dt=-1.0)
+    with pytest.raises(ParameterError, match="excitation_dt must be positive; got 0.0"):
+        TMDISubstructure(par, np.zeros(3), 1e-3, excitation_dt=0.0)
     sub = make_substructure(lambda t: math.nan if t > 0.0 else 0.0)
     with pytest.raises(ParameterError, match="ground acceleration at t=0.001 s must be finite"):
         sub.step(0.0)
