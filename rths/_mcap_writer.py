@@ -170,6 +170,7 @@ class WriterThread(threading.Thread):
         }
 
     def run(self) -> None:
+        """Write the header and metadata, drain the queue until :data:`STOP`, finish the file."""
         try:
             self._writer.start(profile="", library=f"rths {__version__}")
             for name, data in self._metadata.items():

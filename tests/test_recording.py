@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from mcap.reader import make_reader
+from mcap.writer import Writer
 
 import rths._mcap_writer
 from rths import __version__
@@ -272,6 +273,18 @@ def test_mcap_io_errors(tmp_path: Path) -> None:
     (tmp_path / "x.csv").write_text("time,command,measured,force\n0,0,0,0\n")
     with pytest.raises(DataError, match=r"'.*x.csv' is not a readable MCAP log: InvalidMagic"):
         list_topics(tmp_path / "x.csv")
+    for name, data in (("notjson", b"{oops"), ("array", b"[1, 2]")):
+        with open(tmp_path / f"{name}.mcap", "wb") as f:  # a foreign log, plain mcap writer
+            writer = Writer(f)
+            writer.start()
+            schema = writer.register_schema("s", "jsonschema", b"{}")
+            channel = writer.register_channel("rths/loop", "json", schema)
+            writer.add_message(channel, 0, data, 0)
+            writer.finish()
+    with pytest.raises(DataError, match=r"message on 'rths/loop' in '.*notjson.mcap' is not JSON"):
+        read_topic(tmp_path / "notjson.mcap", LOOP_TOPIC)
+    with pytest.raises(DataError, match=r"'rths/loop' in '.*array.mcap' is not a JSON object: \[1, 2\]"):
+        read_topic(tmp_path / "array.mcap", LOOP_TOPIC)
     (tmp_path / "empty.mcap").write_bytes(b"")
     with pytest.raises(DataError, match=r"'.*empty.mcap' is empty or not an MCAP log"):
         read_metadata(tmp_path / "empty.mcap")

@@ -231,6 +231,9 @@ def test_lockstep_timeout_names_key_seq_and_timeout(pair) -> None:
             client.exchange(Command(5, 0, 0.0), timeout=0.05)
     with pytest.raises(ParameterError, match=r"lockstep timeout must be positive; got 0"):
         LockstepClient(co, RunKeys("x"), timeout=0)
+    with LockstepServer(co, RunKeys("y")) as server:
+        with pytest.raises(ParameterError, match=r"poll interval must be positive; got -1"):
+            server.serve(echo, threading.Event(), poll=-1)
 
 
 def test_lockstep_discards_stale_and_rejects_future_measurements(pair) -> None:
@@ -324,6 +327,8 @@ def test_handshake_timeout_names_peer_and_endpoint(pair) -> None:
             match=rf"specimen process did not come up within 0.2 s on listen tcp/127.0.0.1:\d+",
         ):
             presence.wait_for_peer(0.2)
+        with pytest.raises(ParameterError, match=r"handshake timeout must be positive; got 0"):
+            presence.wait_for_peer(0)
     with pytest.raises(ParameterError, match=r"role must be one of .*got 'lab'"):
         Presence(co, RunKeys("alone"), "lab", "")  # type: ignore[arg-type]
 
