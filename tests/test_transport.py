@@ -367,6 +367,7 @@ from rths.transport import LockstepServer, Presence, RunKeys, ZenohEndpoints, op
 ep = ZenohEndpoints(connect=(sys.argv[1],))
 keys = RunKeys(sys.argv[2])
 with open_session(ep) as session, LockstepServer(session, keys) as server:
+    print("session open", flush=True)
     with Presence(session, keys, "specimen", ep.describe()) as presence:
         presence.wait_for_peer(30.0, [server.publisher])
         n = server.serve(
@@ -377,7 +378,13 @@ print(f"served {n}: {presence.stop_reason}")
 """
 
 
-def test_lockstep_across_processes() -> None:
+@pytest.mark.parametrize("specimen_first", [False, True])
+def test_lockstep_across_processes(specimen_first: bool) -> None:
+    """A child process runs an echo specimen with the public API; the parent is the coordinator.
+
+    With ``specimen_first`` the child's session is open before anyone listens, so its first
+    connection attempt fails and the link comes up through zenoh's reconnection.
+    """
     ep = ZenohEndpoints.loopback()
     keys = RunKeys(new_run_id())
     child = subprocess.Popen(
@@ -387,6 +394,8 @@ def test_lockstep_across_processes() -> None:
         text=True,
     )
     try:
+        if specimen_first:
+            assert child.stdout.readline().strip() == "session open"
         with (
             open_session(ep) as session,
             LockstepClient(session, keys, timeout=PATIENCE) as client,
@@ -403,4 +412,4 @@ def test_lockstep_across_processes() -> None:
             child.kill()
             child.wait()
     assert child.returncode == 0, err
-    assert out.strip() == "served 300: coordinator requested stop: test over"
+    assert out.strip().splitlines()[-1] == "served 300: coordinator requested stop: test over"
