@@ -26,8 +26,9 @@ publishers declared reliable, express (no batching), congestion control BLOCK (a
 dropped) and priority REAL_TIME.  The lockstep receive side (:class:`Inbox`) is a zenoh
 ``FifoChannel`` read with ``recv()`` on the loop thread: zenoh's thread fills it without the GIL,
 so one thread wake-up per message instead of two for a Python callback feeding a
-``queue.SimpleQueue`` (round-trip p50 97-125 µs vs 125-166 µs over three runs on a loaded
-2-core machine; a bare FifoChannel without the timeout machinery: 92-105 µs).  ``recv()`` cannot time out, so a watchdog thread
+``queue.SimpleQueue`` (cross-process round trip p50 97 / 153 µs vs 136 / 176 µs in two full
+benchmark runs on a loaded 2-core machine; a bare FifoChannel without the timeout machinery:
+92 / 147 µs).  ``recv()`` cannot time out, so a watchdog thread
 wakes an overdue wait with a session-local alarm sample.  The realtime receive side
 (:class:`Mailbox`) is a direct callback (``indirect=False``, no extra Python thread) that
 stamps each arrival, so the loop can read the newest sample and its age without blocking.
