@@ -66,8 +66,9 @@ class Substructure(ABC):
     -----------------
     * ``dt`` [s] is fixed at construction.
     * ``_step_impl(F)`` advances from ``t_k`` to ``t_{k+1} = t_k + dt`` with the device restoring
-      force ``F`` [N] (prototype scale) acting on the interface for that step, and returns the
-      interface kinematics at ``t_{k+1}``.
+      force ``F`` [N] (prototype scale) acting on the interface for that step (held over the
+      step), and returns the interface kinematics at ``t_{k+1}``.  When the substructure carries a
+      nominal interface device (``device_force``), ``F`` is the *correction* on top of it.
     * ``predict(F)`` returns what ``step(F)`` would return without changing any state; the
       feedforward compensator uses it to look one step further ahead.
     * ``reset()`` returns to the initial state (rest, ``t = 0``).
@@ -101,6 +102,17 @@ class Substructure(ABC):
     @abstractmethod
     def predict(self, restoring_force: float) -> Kinematics:
         """The interface state one step ahead with the given force, without committing it."""
+
+    @property
+    def device_force(self) -> float:
+        """Restoring force [N] of the nominal interface device the substructure carries
+        implicitly at the current time (0 when it carries none).
+
+        The loop feeds back only the correction ``measured force - device_force``: the nominal
+        device is integrated with the structure (unconditionally stable) and the physical
+        specimen supplies its departure from it (see :mod:`rths.loop`).
+        """
+        return 0.0
 
     def outputs(self) -> dict[str, float]:
         """Named response quantities (SI) for logging, e.g. the displacement at a monitoring
