@@ -50,7 +50,13 @@ from plants._actuator_linear import (
     servo_hydraulic_model,
     siso_transfer_function,
 )
-from plants._actuator_parameters import BENCHMARK, HEAVY_INERTIAL_LOAD, BenchmarkParameters
+from plants._actuator_parameters import (
+    BENCHMARK,
+    HEAVY_INERTIAL_LOAD,
+    MTS_IDENTIFIED,
+    BenchmarkParameters,
+    IdentifiedTransferFunction,
+)
 from plants.base import Actuator, Kinematics, Specimen
 from plants.linear_specimen import LinearSpecimen
 from rths.errors import ParameterError, check_nonnegative, check_positive, check_positive_int
@@ -59,8 +65,10 @@ __all__ = [
     "BENCHMARK",
     "HEAVY_INERTIAL_LOAD",
     "MAX_SUBSTEP",
+    "MTS_IDENTIFIED",
     "BenchmarkParameters",
     "DelayLine",
+    "IdentifiedTransferFunction",
     "RateLimiter",
     "ServoHydraulicActuator",
     "TransferFunctionActuator",
