@@ -225,6 +225,8 @@ class WriterThread(threading.Thread):
             self._event(item[1], item[2])
         elif tag == "s":
             self._register(item[1], item[2])
+        elif tag == "md":
+            self._writer.add_metadata(item[1], dict(item[2]))
 
     def _register(self, topic: str, schema: bytes) -> _Topic:
         schema_id = self._writer.register_schema(name=topic, encoding="jsonschema", data=schema)

@@ -318,6 +318,18 @@ class Recorder:
         self._last_time_ns = log_time_ns
         self._queue.put(("m", topic, seq, log_time_ns, publish, message))
 
+    def add_metadata(self, name: str, data: Mapping[str, str]) -> None:
+        """Queue one more MCAP metadata record (e.g. the run's summary, known only at the end).
+
+        Raises
+        ------
+        ParameterError
+            If ``name`` is empty or ``data`` is not a mapping of strings to strings.
+        """
+        checked = _check_metadata({name: data})
+        self._check_alive()
+        self._queue.put(("md", name, checked[name]))
+
     def put_record(self, topic: str, payload: bytes) -> None:
         """Queue an encoded :class:`rths.codec.LogRecord` from another process.
 

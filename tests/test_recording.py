@@ -365,3 +365,19 @@ def test_log_bridge_records_another_sessions_stream(tmp_path: Path) -> None:
     assert list(spec["sequence"][39:42]) == [39, 41, 42]
     kinds = list(read_topic(path, EVENTS_TOPIC)["kind"])
     assert sorted(kinds) == ["gap", "rejected"]
+
+
+def test_metadata_added_at_the_end_is_readable_by_the_plain_reader(tmp_path: Path) -> None:
+    path = tmp_path / "summary.mcap"
+    with Recorder(path, metadata={"scenario": {"text": "x = 1"}}) as rec:
+        rec.put(LOOP_TOPIC, 0, 0, {"t": 0.0, "target": 0.0, "command": 0.0, "measured": 0.0,
+                                   "force": 0.0})  # fmt: skip
+        rec.add_metadata("rths.summary", {"j2": "0.0012"})
+        with pytest.raises(ParameterError, match="keys and values must be strings"):
+            rec.add_metadata("bad", {"j2": 0.1})  # type: ignore[dict-item]
+    with open(path, "rb") as f:
+        records = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
+    assert records["rths.summary"] == {"j2": "0.0012"}
+    assert records["scenario"] == {"text": "x = 1"}
+    with pytest.raises(DataError, match="closed"):
+        rec.add_metadata("late", {"a": "b"})
