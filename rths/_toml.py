@@ -57,6 +57,10 @@ class Table:
         return default
 
     # -- typed getters -------------------------------------------------------------------------
+    def raw(self, key: str, default: Any = _MISSING) -> Any:
+        """The value as parsed, unchecked (for keys that accept several types)."""
+        return self._get(key, default)
+
     def number(
         self,
         key: str,

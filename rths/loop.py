@@ -194,9 +194,11 @@ class Loop:
         self.command_limit = check_positive(command_limit, "command limit")
         self.force_filter = force_filter
         self._stop = threading.Event()
+        self._stop_reason = "stopped by request"
 
-    def stop(self) -> None:
-        """Ask the loop to stop after the current step (thread-safe)."""
+    def stop(self, reason: str = "stopped by request") -> None:
+        """Ask the loop to stop after the current step (thread-safe); ``reason`` is reported."""
+        self._stop_reason = reason
         self._stop.set()
 
     def run(self, progress: Callable[[int], None] | None = None) -> LoopResult:
@@ -212,7 +214,7 @@ class Loop:
         k = 0
         for k in range(self.n_steps):
             if self._stop.is_set():
-                stopped = "stopped by request"
+                stopped = self._stop_reason
                 break
             pacer.wait(k)
             target = sub.step(fed).scaled(lam_u)

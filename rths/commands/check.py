@@ -1,0 +1,56 @@
+"""``rths check run.mcap --max-rmse PCT``: gate a CI job on a run's synchronisation error.
+
+Exit codes: 0 the sync-subspace RMSE is within the bound (and the log has no gaps unless
+``--allow-gaps``); 1 it is not; 2 the log cannot be used (missing file, not an RTHS log).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "check",
+        help="exit non-zero when a run's sync-subspace RMSE exceeds a bound (for CI)",
+        description="Read the rths/loop topic of an MCAP log written by 'rths run' and compare "
+        "the synchronisation-subspace RMSE = RMS(measured - target)/RMS(target) with a bound.",
+    )
+    p.add_argument("log", type=Path, help="MCAP log written by 'rths run'")
+    p.add_argument("--max-rmse", type=float, required=True, metavar="PCT",
+                   help="largest acceptable sync-subspace RMSE [%%]")  # fmt: skip
+    p.add_argument("--from", dest="start", type=float, default=0.0, metavar="S",
+                   help="ignore the record before this time [s] (start-up transient)")  # fmt: skip
+    p.add_argument("--allow-gaps", action="store_true",
+                   help="do not fail on missing loop samples (sequence gaps)")  # fmt: skip
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from rths.errors import DataError
+    from rths.mcap_io import read_topic
+    from rths.metrics import sync_subspace_rmse
+
+    if args.max_rmse <= 0:
+        raise DataError(f"--max-rmse must be a positive percentage; got {args.max_rmse!r}")
+    loop = read_topic(args.log, "rths/loop")
+    for name in ("t", "target", "measured"):
+        if name not in loop:
+            raise DataError(f"'{args.log}': topic rths/loop has no field {name!r}; "
+                            "is this a log written by 'rths run'?")  # fmt: skip
+    seq = loop["sequence"]
+    gaps = int(np.sum(np.diff(seq) - 1)) if seq.size > 1 else 0
+    keep = loop["t"] >= args.start
+    if np.count_nonzero(keep) < 16:
+        raise DataError(f"'{args.log}': fewer than 16 loop samples after t = {args.start} s")
+    rmse = 100.0 * sync_subspace_rmse(loop["target"][keep], loop["measured"][keep])
+    ok = rmse <= args.max_rmse and (gaps == 0 or args.allow_gaps)
+    verdict = "PASS" if ok else "FAIL"
+    print(f"{verdict}: sync-subspace RMSE {rmse:.3f} % (bound {args.max_rmse:g} %), "
+          f"{int(np.count_nonzero(keep))} samples, {gaps} gaps -- {args.log}")  # fmt: skip
+    return 0 if ok else 1

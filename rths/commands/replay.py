@@ -1,0 +1,43 @@
+"""``rths replay run.mcap [--speed x]``: republish a log on zenoh at its recorded pace."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "replay",
+        help="republish a recorded run on zenoh at its recorded pace",
+        description="Publish the rths/loop (and rths/specimen) records of an MCAP log on "
+        "rths/<run-id>/log/<stream>, the keys a live run uses, paced by their log times.",
+    )
+    p.add_argument("log", type=Path, help="MCAP log written by 'rths run'")
+    p.add_argument("--speed", type=float, default=1.0, help="pace multiplier (2 = twice as fast)")
+    p.add_argument("--run-id", help="key prefix rths/<run-id>/ (default: the recorded run id)")
+    p.add_argument("--topic", action="append", default=None, metavar="TOPIC",
+                   help="topics to replay (default rths/loop and rths/specimen if present)")  # fmt: skip
+    p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
+                   help="zenoh endpoint to listen on for subscribers")  # fmt: skip
+    p.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
+                   help="zenoh endpoint of a subscriber/router to connect to")  # fmt: skip
+    p.add_argument("--wait", type=float, default=0.0, metavar="S",
+                   help="wait this long for subscribers before publishing")  # fmt: skip
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    from rths.errors import DataError
+    from rths.replay import replay
+    from rths.transport import ZenohEndpoints
+
+    if not args.speed > 0:
+        raise DataError(f"--speed must be positive; got {args.speed!r}")
+    endpoints = ZenohEndpoints(listen=tuple(args.listen), connect=tuple(args.connect))
+    count = replay(args.log, endpoints, speed=args.speed, run_id=args.run_id, topics=args.topic,
+                   wait=args.wait)  # fmt: skip
+    print(f"replayed {count} records from {args.log}")
+    return 0

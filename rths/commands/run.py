@@ -1,0 +1,83 @@
+"""``rths run SCENARIO``: run an RTHS scenario and write its MCAP log."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "run",
+        help="run a scenario (RTHS over zenoh, or in process) and record it to MCAP",
+        description="Run an RTHS scenario. The specimen process is started on loopback unless "
+        "--external-specimen is given. Prints a one-line summary: J1, J2, J3, sync-subspace RMSE, "
+        "overruns, recording gaps.",
+    )
+    p.add_argument("scenario", type=Path, help="scenario TOML file")
+    p.add_argument("--clock", choices=("lockstep", "realtime", "fast"),
+                   help="override the scenario's clock")  # fmt: skip
+    p.add_argument("--out", type=Path, help="MCAP log path (default runs/<run-id>.mcap)")
+    p.add_argument("--compensator", help="override the compensator kind (none, polynomial, ats, "
+                   "ff, lqg, ff_lqg); with --monte-carlo also 'all'")  # fmt: skip
+    p.add_argument("--monte-carlo", type=int, metavar="N", default=None,
+                   help="run N perturbed draws of the lab on the fast clock instead")  # fmt: skip
+    p.add_argument("--seed", type=int, help="noise seed (default: the scenario's)")
+    p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
+                   help="zenoh endpoint to listen on (default tcp/127.0.0.1:<free port>)")  # fmt: skip
+    p.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
+                   help="zenoh endpoint to connect to")  # fmt: skip
+    p.add_argument("--external-specimen", action="store_true",
+                   help="do not start 'rths specimen'; wait for one started elsewhere")  # fmt: skip
+    p.add_argument("--ready-timeout", type=float, default=30.0, metavar="S",
+                   help="how long to wait for the specimen process [s]")  # fmt: skip
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    from rths.scenario import load_scenario
+
+    scn = load_scenario(args.scenario)
+    if args.monte_carlo is not None:
+        from rths.montecarlo import main as monte_carlo
+
+        return monte_carlo(scn, args)
+    from tqdm import tqdm
+
+    from rths.runner import RunOptions, run_scenario
+
+    bar = None if args.no_progress else tqdm(total=scn.run.steps, unit="step", leave=False,
+                                             desc=scn.run.name, file=sys.stderr)  # fmt: skip
+
+    def progress(done: int, total: int) -> None:
+        if bar is not None:
+            bar.update(done - bar.n)
+
+    options = RunOptions(
+        clock=args.clock, out=args.out, compensator=args.compensator, listen=tuple(args.listen),
+        connect=tuple(args.connect), external_specimen=args.external_specimen,
+        ready_timeout=args.ready_timeout, progress=progress if bar else None, seed=args.seed,
+    )  # fmt: skip
+    try:
+        outcome = run_scenario(scn, options)
+    finally:
+        if bar is not None:
+            bar.close()
+    if args.json:
+        doc = {"path": str(outcome.path), "run_id": outcome.run_id, "clock": outcome.clock,
+               "steps": outcome.result.steps, "stopped": outcome.result.stopped,
+               "overruns": outcome.result.timing.overruns,
+               "metrics": outcome.metrics.to_dict() if outcome.metrics else None}  # fmt: skip
+        print(json.dumps(doc, indent=2))
+    else:
+        print(outcome.line())
+    if outcome.result.stopped:
+        print(f"rths run: stopped early: {outcome.result.stopped}", file=sys.stderr)
+        return 1
+    return 0

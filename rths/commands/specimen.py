@@ -1,0 +1,40 @@
+"""``rths specimen SCENARIO``: serve the scenario's emulated lab over zenoh."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "specimen",
+        help="serve the emulated lab (actuator + specimen + converters) over zenoh",
+        description="The specimen process. 'rths run' starts it on loopback by default; start it "
+        "yourself with --connect (or --listen) to put the lab on another host.",
+    )
+    p.add_argument("scenario", type=Path, help="scenario TOML file (the same as the coordinator's)")
+    p.add_argument("--run-id", required=True, help="the coordinator's run id")
+    p.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
+                   help="coordinator endpoint, e.g. tcp/127.0.0.1:7447")  # fmt: skip
+    p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
+                   help="endpoint to listen on instead")  # fmt: skip
+    p.add_argument("--clock", choices=("lockstep", "realtime"), default="lockstep")
+    p.add_argument("--ready-timeout", type=float, default=30.0, metavar="S")
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    from rths.errors import ConfigError
+    from rths.scenario import load_scenario
+    from rths.specimen_process import serve
+    from rths.transport import ZenohEndpoints
+
+    if not args.connect and not args.listen:
+        raise ConfigError("give the coordinator's endpoint with --connect (or --listen)")
+    scn = load_scenario(args.scenario)
+    endpoints = ZenohEndpoints(listen=tuple(args.listen), connect=tuple(args.connect))
+    serve(scn, args.run_id, endpoints, args.clock, ready_timeout=args.ready_timeout)
+    return 0

@@ -1,0 +1,393 @@
+"""Run a scenario end to end: build, connect the specimen, loop, record, summarise.
+
+``fast``      everything in this process; the loop writes the MCAP log through the recorder's
+              queue.
+``lockstep``  and ``realtime``: the specimen is a separate process (``rths specimen``) started here
+              (or elsewhere, ``external_specimen=True``); the loop publishes its record on zenoh
+              (``rths/<run>/log/loop``) and the recorder, subscribed through a
+              :class:`rths.transport.LogBridge`, writes it -- with the specimen's own stream --
+              into the MCAP log.  Nothing but publishing happens on the loop thread.
+
+A crashed or vanished specimen ends the run with a :class:`rths.errors.TransportError`; the log is
+finished, carries an ``error`` event with the specimen's last words (its stderr), and the summary
+of what was recorded.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rths import __version__, build
+from rths.clocks import FreeRunning, Pacer, WallClock
+from rths.codec import Command
+from rths.errors import RTHSError, TransportError
+from rths.loop import InProcessLink, LinkSample, Loop, LoopResult
+from rths.metrics import TrackingSummary, summarize
+from rths.recording import LOOP_SCHEMA, LOOP_TOPIC, Recorder, RecordingSummary, object_schema
+from rths.scenario import Scenario
+
+__all__ = ["RunOptions", "RunOutcome", "run_scenario"]
+
+SPECIMEN_TOPIC = "rths/specimen"
+
+#: Schema of ``rths/specimen``: the emulated lab's truth each step (plus the actuator's and the
+#: specimen's internal states as ``actuator.<name>`` / ``actuator.specimen.<name>``, SI).
+SPECIMEN_SCHEMA = object_schema(
+    "rths.specimen",
+    {
+        "t": "simulated time at the end of the step [s]",
+        "command": "command received [m]",
+        "command_dac": "command after the DAC [m]",
+        "displacement": "true displacement of the specimen end [m]",
+        "velocity": "true velocity of the specimen end [m/s]",
+        "acceleration": "true acceleration of the specimen end [m/s^2]",
+        "force": "true restoring force of the specimen [N]",
+        "measured_displacement": "displacement after the ADC (noise, quantisation) [m]",
+        "measured_force": "force after the ADC (noise, quantisation) [N]",
+    },
+    description="One step of the emulated lab, specimen scale.",
+)
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """How to run a scenario (the CLI's flags).
+
+    Attributes
+    ----------
+    clock
+        ``lockstep``, ``realtime`` or ``fast`` (default: the scenario's).
+    out
+        MCAP path (default ``runs/<run-id>.mcap``).
+    compensator
+        Compensator kind overriding the scenario's (with default options).
+    listen, connect
+        zenoh endpoints of the coordinator (default: listen on a free loopback port).
+    external_specimen
+        Do not start ``rths specimen``; wait for one started elsewhere.
+    ready_timeout, step_timeout
+        Handshake and per-step (lockstep) timeouts [s].
+    progress
+        Called from a display thread with (steps done, total).
+    seed
+        Noise seed overriding the scenario's.
+    """
+
+    clock: str | None = None
+    out: Path | None = None
+    compensator: str | None = None
+    listen: tuple[str, ...] = ()
+    connect: tuple[str, ...] = ()
+    external_specimen: bool = False
+    ready_timeout: float = 30.0
+    step_timeout: float = 5.0
+    progress: Callable[[int, int], None] | None = None
+    seed: int | None = None
+
+
+@dataclass
+class RunOutcome:
+    """What a run produced: the log, the loop result, metrics and the recording's counts."""
+
+    path: Path
+    run_id: str
+    clock: str
+    result: LoopResult
+    metrics: TrackingSummary | None
+    recording: RecordingSummary | None = None
+    events: list[str] = field(default_factory=list)
+
+    def line(self) -> str:
+        """The one-line summary the CLI prints."""
+        m, t = self.metrics, self.result.timing
+        parts = [f"{self.result.steps} steps"]
+        if m is not None:
+            parts += [
+                f"J1 {1e3 * m.j1_delay:.3f} ms",
+                f"J2 {100 * m.j2:.3f} %",
+                f"J3 {100 * m.j3:.3f} %",
+                f"sync RMSE {100 * m.sync_rmse:.3f} %",
+            ]
+        parts.append(f"overruns {t.overruns}/{t.steps}")
+        if self.clock == "realtime":
+            parts.append(f"p99 jitter {1e6 * t.jitter_p99:.0f} us")
+        gaps = sum(s.missing for s in self.recording.topics.values()) if self.recording else 0
+        parts.append(f"gaps {gaps}")
+        return ", ".join(parts) + f" -> {self.path}"
+
+
+class _Collector:
+    """Keeps target, measured and force per step for the summary (preallocated, no I/O)."""
+
+    def __init__(self, n: int) -> None:
+        self.target, self.measured, self.force = np.zeros(n), np.zeros(n), np.zeros(n)
+        self.age = np.zeros(n)
+        self.count = 0
+
+    def __call__(self, record: dict[str, float]) -> None:
+        k = int(record["seq"])
+        self.target[k], self.measured[k] = record["target"], record["measured"]
+        self.force[k], self.age[k] = record["force"], record["age"]
+        self.count = k + 1
+
+
+class _Progress(threading.Thread):
+    """Calls ``report(done, total)`` a few times a second from its own thread."""
+
+    def __init__(self, report: Callable[[int, int], None], total: int) -> None:
+        super().__init__(daemon=True)
+        self.report, self.total, self.done = report, total, 0
+        self._stop = threading.Event()
+
+    def run(self) -> None:
+        while not self._stop.wait(0.2):
+            self.report(self.done, self.total)
+
+    def finish(self) -> None:
+        self._stop.set()
+        self.report(self.done, self.total)
+
+
+class _LockstepLink:
+    def __init__(self, client: Any, timeout: float) -> None:
+        self.client, self.timeout = client, timeout
+
+    def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
+        m = self.client.exchange(Command(seq, t_ns, command), self.timeout)
+        return LinkSample(m.displacement, m.force, 0, m.seq)
+
+
+class _RealtimeLink:
+    def __init__(self, client: Any) -> None:
+        self.client = client
+
+    def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
+        self.client.send(Command(seq, t_ns, command))
+        latest = self.client.latest()
+        if latest is None:  # the specimen has not sampled yet: rest
+            return LinkSample(0.0, 0.0, 0, -1)
+        m = latest.message
+        return LinkSample(m.displacement, m.force, time.monotonic_ns() - m.sample_ns, m.seq)
+
+
+class _TruthLink(InProcessLink):
+    """The fast clock's link, also recording the lab's truth on ``rths/specimen``."""
+
+    def __init__(self, lab: Any, recorder: Recorder) -> None:
+        super().__init__(lab)
+        self.recorder = recorder
+
+    def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
+        sample = super().exchange(seq, t_ns, command)
+        self.recorder.put(SPECIMEN_TOPIC, seq, t_ns, self.lab.truth())
+        return sample
+
+
+def _metadata(scn: Scenario, run_id: str, clock: str, comp_kind: str) -> dict[str, dict[str, str]]:
+    s = scn.scaling
+    return {
+        "scenario": {"path": scn.source, "text": scn.text, "name": scn.run.name},
+        "rths": {"version": __version__, "run_id": run_id, "python": sys.version.split()[0]},
+        "run": {
+            "clock": clock, "rate_hz": repr(scn.run.rate), "dt_s": repr(scn.run.dt),
+            "steps": str(scn.run.steps), "seed": str(scn.run.seed), "compensator": comp_kind,
+            "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        },  # fmt: skip
+        "scaling": {
+            "displacement": repr(s.displacement), "force": repr(s.force),
+            "impedance": repr(s.impedance),
+            "meaning": "specimen displacement = displacement * prototype displacement; "
+            "prototype force = force * specimen force",
+        },  # fmt: skip
+        "units": {
+            "t": "s", "target": "m", "command": "m", "measured": "m", "force": "N",
+            "correction": "N (prototype scale)", "age": "s",
+            "scale": "target/command/measured/force are at specimen scale",
+        },  # fmt: skip
+    }
+
+
+def _new_run_id(name: str) -> str:
+    from rths.transport import new_run_id
+
+    safe = "".join(c if c.isalnum() or c in "-_." else "-" for c in name)[:32].strip("-.") or "run"
+    return f"{safe}-{new_run_id()}"[:64]
+
+
+def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome:
+    """Run ``scn`` (see the module docstring); the MCAP log is always finished."""
+    opts = options or RunOptions()
+    clock = opts.clock or scn.run.clock
+    comp_kind = opts.compensator or scn.compensator_kind
+    run_id = _new_run_id(scn.run.name)
+    path = opts.out or Path("runs") / f"{run_id}.mcap"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    n, dt = scn.run.steps, scn.run.dt
+    substructure = build.substructure(scn)
+    compensator = build.compensator(scn, opts.compensator)
+    substructure.predict(0.0)  # compile kernels before the clock starts
+    pacer: Pacer = WallClock(dt, n) if clock == "realtime" else FreeRunning(dt, n)
+    collector = _Collector(n)
+    progress = _Progress(opts.progress, n) if opts.progress else None
+    topics = {LOOP_TOPIC: LOOP_SCHEMA, SPECIMEN_TOPIC: SPECIMEN_SCHEMA}
+    outcome = RunOutcome(path, run_id, clock, LoopResult(0, pacer.stats()), None)
+    with Recorder(path, topics=topics, metadata=_metadata(scn, run_id, clock, comp_kind)) as rec:
+        rec.event(0, "start", f"run {run_id}: {scn.run.name}, clock {clock}, {n} steps")
+
+        def make_loop(link: Any, sink: Callable[[dict[str, float]], None]) -> Loop:
+            def record(r: dict[str, float]) -> None:
+                collector(r)
+                sink(r)
+
+            return Loop(
+                substructure, compensator, link, scn.scaling, n, pacer, record,
+                command_limit=scn.loop.stroke, force_filter=build.correction_filter(scn),
+            )  # fmt: skip
+
+        def on_progress(k: int) -> None:
+            if progress is not None:
+                progress.done = k
+
+        if progress is not None:
+            progress.start()
+        try:
+            if clock == "fast":
+                lab = build.lab(scn, opts.seed)
+                loop = make_loop(
+                    _TruthLink(lab, rec),
+                    lambda r: rec.put(LOOP_TOPIC, int(r["seq"]), round(r["t"] * 1e9), r),
+                )
+                outcome.result = loop.run(on_progress)
+            else:
+                outcome.result = _run_over_zenoh(scn, opts, clock, run_id, rec, make_loop,
+                                                 on_progress, outcome)  # fmt: skip
+        finally:
+            if progress is not None:
+                progress.finish()
+        t_end = round(outcome.result.steps * dt * 1e9)
+        if outcome.result.stopped:
+            rec.event(t_end, "stopped", outcome.result.stopped)
+        k = collector.count
+        if k >= 16 and float(np.sqrt(np.mean(collector.target[:k] ** 2))) > 0:
+            outcome.metrics = summarize(
+                collector.target[:k], collector.measured[:k], collector.force[:k], dt,
+                max_delay=min(0.1, 0.25 * k * dt),
+            )  # fmt: skip
+        rec.add_metadata("rths.summary", _summary(outcome))
+        rec.event(t_end, "end", f"{outcome.result.steps} steps")
+    outcome.recording = rec.summary
+    return outcome
+
+
+def _summary(outcome: RunOutcome) -> dict[str, str]:
+    t = outcome.result.timing
+    out = {
+        "steps": str(outcome.result.steps), "stopped": outcome.result.stopped or "",
+        "overruns": str(t.overruns), "jitter_p99_s": repr(t.jitter_p99),
+        "busy_mean_s": repr(t.busy_mean), "busy_max_s": repr(t.busy_max),
+    }  # fmt: skip
+    if outcome.metrics is not None:
+        out.update({k: repr(v) for k, v in outcome.metrics.to_dict().items()})
+    return out
+
+
+def _spawn_specimen(scn: Scenario, run_id: str, endpoint: str, clock: str, log: Path) -> subprocess.Popen[bytes]:
+    args = [
+        sys.executable, "-m", "rths", "specimen", scn.source, "--run-id", run_id,
+        "--connect", endpoint, "--clock", clock,
+    ]  # fmt: skip
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    return subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=log.open("wb"), env=env)
+
+
+def _run_over_zenoh(scn, opts, clock, run_id, rec, make_loop, on_progress, outcome) -> LoopResult:  # noqa: ANN001, PLR0913
+    from rths.transport import (
+        LockstepClient,
+        LogBridge,
+        LogPublisher,
+        Presence,
+        RealtimeClient,
+        RunKeys,
+        ZenohEndpoints,
+        loopback_endpoint,
+        open_session,
+    )
+
+    keys = RunKeys(run_id)
+    listen = opts.listen or (() if opts.connect else (loopback_endpoint(),))
+    endpoints = ZenohEndpoints(listen=tuple(listen), connect=tuple(opts.connect))
+    stderr_log = outcome.path.with_suffix(".specimen.log")
+    process = None
+    with open_session(endpoints) as session, LogBridge(session, keys, rec), LogPublisher(
+        session, keys, "loop"
+    ) as loop_log:
+        client = (
+            LockstepClient(session, keys, opts.step_timeout) if clock == "lockstep"
+            else RealtimeClient(session, keys)
+        )  # fmt: skip
+        with client, Presence(session, keys, "coordinator", endpoints.describe()) as presence:
+            if not opts.external_specimen:
+                if not listen:
+                    raise TransportError("starting the specimen here needs a --listen endpoint")
+                process = _spawn_specimen(scn, run_id, listen[0], clock, stderr_log)
+            try:
+                presence.wait_for_peer(opts.ready_timeout, [client.publisher])
+                link = _LockstepLink(client, opts.step_timeout) if clock == "lockstep" else (
+                    _RealtimeLink(client))  # fmt: skip
+                loop = make_loop(link, lambda r: loop_log.put(round(r["t"] * 1e9), r))
+                watcher = threading.Thread(target=_stop_on_peer_loss, args=(presence, loop),
+                                           daemon=True)  # fmt: skip
+                watcher.start()
+                result = loop.run(on_progress)
+                presence.request_stop("run complete")
+                return result
+            except RTHSError as exc:
+                last = _last_words(process, stderr_log)
+                rec.event(0, "error", f"{exc}{'; specimen said: ' + last if last else ''}")
+                presence.request_stop(f"coordinator failed: {exc}")
+                if last:
+                    raise TransportError(f"{exc} (specimen process: {last})") from None
+                raise
+            finally:
+                _reap(process, rec)
+
+
+def _stop_on_peer_loss(presence: Any, loop: Loop) -> None:
+    presence.stop.wait()
+    loop.stop(presence.stop_reason or "specimen stopped")
+
+
+def _last_words(process: subprocess.Popen[bytes] | None, log: Path) -> str:
+    if process is None:
+        return ""
+    try:
+        process.wait(timeout=2.0)
+    except subprocess.TimeoutExpired:
+        return ""
+    try:
+        lines = [ln for ln in log.read_text(errors="replace").splitlines() if ln.strip()]
+    except OSError:
+        return ""
+    return lines[-1][:300] if lines else f"exited with code {process.returncode}"
+
+
+def _reap(process: subprocess.Popen[bytes] | None, rec: Recorder) -> None:
+    if process is None:
+        return
+    try:
+        code = process.wait(timeout=10.0)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        code = process.wait()
+    if code not in (0, None):
+        rec.event(0, "specimen", f"specimen process exited with code {code}")
