@@ -20,6 +20,11 @@ mode of the gap ``g = θ_S - θ_G ∈ [-ε2, ε1]``:
 In contact ``T = k_S(θ_P - θ_G - δ) + c_S(θ̇_P - ω_G)`` with ``δ = ε1`` or ``-ε2`` and
 ``J_B ω̇_G + c_B ω_G = T``; the rack feels ``F_B = f_y tanh(v_T / v_eps) + T / r_P``.
 
+Between ``u_T`` and the ground the secondary DOF may also carry a rigid inertance ``b`` [kg] (the
+ideal inerter of :class:`plants.tmdi.TMDIStructure`, or the nominal device of
+:class:`plants.tmdi.TMDISubstructure`) and a viscous ``c_G`` [N s/m] (nominal device only); both
+join the implicit system, adding ``b ü_T + c_G u̇_T`` to ``F_B``.
+
 Scheme
 ------
 Trapezoidal rule (Newmark average acceleration, ``γ = 1/2, β = 1/4``) on every DOF with full
@@ -53,7 +58,8 @@ P_B = 10  # rigid inertance between u_T and the ground (ideal inerter) [kg]
 P_RACK = 11  # 1.0 when the rack-and-pinion inerter is present
 P_R, P_J, P_KS, P_CS, P_CB = 12, 13, 14, 15, 16
 P_EPS1, P_EPS2, P_FY, P_VEPS = 17, 18, 19, 20
-N_PARAM = 21
+P_C_G = 21  # viscous coefficient between u_T and the ground (nominal device) [N s/m]
+N_PARAM = 22
 
 # ---- state vector layout -------------------------------------------------------------------------
 S_U_I, S_V_I, S_U_T, S_V_T, S_TH_S, S_TH_G, S_OM_G, S_MODE = 0, 1, 2, 3, 4, 5, 6, 7
@@ -87,12 +93,15 @@ def pack_parameters(
     structure: TMDIParameters | None = None,
     inertance: float = 0.0,
     device: RackPinionParameters | None = None,
+    grounded_damping: float = 0.0,
 ) -> np.ndarray:
     """The kernel's parameter vector from validated parameter objects.
 
     ``structure`` is a :class:`plants.tmdi.TMDIParameters` (None for the inerter alone, which
-    gets a placeholder primary mass), ``inertance`` the ideal inerter's ``b`` [kg] and
-    ``device`` a :class:`plants.inerter.RackPinionParameters` or None.
+    gets a placeholder primary mass), ``inertance`` the ideal inerter's ``b`` [kg],
+    ``device`` a :class:`plants.inerter.RackPinionParameters` or None and
+    ``grounded_damping`` a viscous coefficient [N s/m] between ``u_T`` and the ground (the
+    nominal interface device of :class:`plants.tmdi.TMDISubstructure`).
     """
     p = np.zeros(N_PARAM)
     p[P_M_I] = 1.0
@@ -103,6 +112,7 @@ def pack_parameters(
             iso = structure.secondary_isolator
             p[P_M_T : P_C_T + 1] = (structure.secondary_mass, iso.k1, iso.k2, iso.k3, iso.c)
     p[P_B] = inertance
+    p[P_C_G] = grounded_damping
     if device is not None:
         p[P_RACK] = 1.0
         p[P_R : P_VEPS + 1] = (
@@ -183,6 +193,7 @@ def accelerations(s: np.ndarray, ag: float, f_ext: float, p: np.ndarray) -> tupl
         f_rack = 0.0
         if p[P_RACK] != 0.0:
             f_rack = friction(s[S_V_T], p) + tq / p[P_R]
+        f_rack += p[P_C_G] * s[S_V_T]
         a_t = (-p[P_M_T] * ag - f_t - f_rack - f_ext) / m_t
     alpha = 0.0
     if p[P_RACK] != 0.0:
@@ -262,9 +273,10 @@ def _advance(
             f_rack = p[P_FY] * th + tq / r
         res[0] = p[P_M_I] * (a[0] + ag1) + f_i - f_t
         res[1] = p[P_M_T] * (a[1] + ag1) + p[P_B] * a[1] + f_t + f_rack + f_ext
+        res[1] += p[P_C_G] * v[1]
         jac[0, 0] = p[P_M_I] * mi + (p[P_C_I] + p[P_C_T]) * ci + k_i + k_t
         jac[0, 1] = jac[1, 0] = -p[P_C_T] * ci - k_t
-        jac[1, 1] = (p[P_M_T] + p[P_B]) * mi + p[P_C_T] * ci + k_t + dfric * ci
+        jac[1, 1] = (p[P_M_T] + p[P_B]) * mi + (p[P_C_T] + p[P_C_G]) * ci + k_t + dfric * ci
         jac[0, 2] = jac[2, 0] = 0.0
         if rack:
             res[2] = p[P_J] * a[2] + p[P_CB] * v[2] - tq
@@ -412,7 +424,7 @@ def outputs(s: np.ndarray, ag: float, f_ext: float, p: np.ndarray, out: np.ndarr
     out[O_U_T] = s[S_U_T]
     out[O_A_T] = a_t
     tq = torque(s, mode, p)
-    f_b = p[P_B] * a_t + f_ext
+    f_b = p[P_B] * a_t + p[P_C_G] * s[S_V_T] + f_ext
     if p[P_RACK] != 0.0:
         f_b += friction(s[S_V_T], p) + tq / p[P_R]
     out[O_F_B] = f_b

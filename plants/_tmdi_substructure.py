@@ -1,10 +1,11 @@
-"""The TMDI structure as an RTHS numerical substructure (private; re-exported by
-:mod:`plants.tmdi`, which documents the model)."""
+"""The TMDI structure as an RTHS numerical substructure with an optional nominal interface device
+(private; re-exported by :mod:`plants.tmdi`, which documents the model)."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Final
 
 import numpy as np
@@ -13,13 +14,55 @@ from numpy.typing import ArrayLike, NDArray
 from plants import _tmdi_kernel as kern
 from plants._tmdi_kernel import IntegrationError
 from plants._tmdi_linear import EQ7_QUANTITIES
-from plants.base import Kinematics, Substructure
-from rths.errors import ParameterError, check_positive
+from plants.base import Kinematics, Specimen, Substructure
+from plants.inerter import IdealInerter, RackPinionInerter
+from rths.errors import ParameterError, check_nonnegative, check_positive
 
 if TYPE_CHECKING:
     from plants.tmdi import TMDIParameters
 
-__all__ = ["TMDISubstructure"]
+__all__ = ["NominalInerter", "TMDISubstructure"]
+
+
+@dataclass(frozen=True, slots=True)
+class NominalInerter:
+    """Nominal model of a grounded inerter specimen, carried implicitly by the substructure.
+
+    Restoring force (sign convention of :mod:`plants.base`)
+    ``F_n = b_n ü_T + c_n u̇_T``: an ideal inerter (S1 Fig.1a) with an optional parallel
+    dashpot, between the interface DOF ``u_T`` and the ground.
+
+    Parameters
+    ----------
+    inertance
+        ``b_n`` [kg], >= 0.
+    damping
+        ``c_n`` [N s/m], >= 0.
+    """
+
+    inertance: float
+    damping: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_nonnegative(self.inertance, "nominal inertance b_n")
+        check_nonnegative(self.damping, "nominal damping c_n")
+
+    @classmethod
+    def matching(cls, specimen: Specimen) -> NominalInerter:
+        """The rigid-limit model of an inerter specimen.
+
+        :class:`~plants.inerter.IdealInerter`: ``b_n = b``, ``c_n = 0``;
+        :class:`~plants.inerter.RackPinionInerter` (S1 Eq.9-10 with ``k_S → ∞``, no play, no
+        friction): ``b_n = J_B / r_P²`` and ``c_n = c_B / r_P²``.
+        """
+        if isinstance(specimen, IdealInerter):
+            return cls(specimen.inertance)
+        if isinstance(specimen, RackPinionInerter):
+            p = specimen.parameters
+            return cls(p.nominal_inertance, p.flywheel_damping / p.pinion_radius**2)
+        raise ParameterError(
+            f"no nominal inerter for a {type(specimen).__name__}; give NominalInerter(b_n, c_n)"
+        )
 
 
 class TMDISubstructure(Substructure):
@@ -28,6 +71,15 @@ class TMDISubstructure(Substructure):
     The interface DOF is ``u_T`` (relative to the ground, where the inerter is fixed); the loop
     supplies the inerter's restoring force ``F_B``, held constant over each step (it enters
     both ends of the trapezoidal rule).  The substructure owns the base excitation.
+
+    Nominal device.  An inerter of ``b/m_T = 4.8`` (S1 IM-IF) fed back one step late turns
+    into a negative mass that destabilises the secondary DOF, whatever the step.  With
+    ``device`` the substructure carries a :class:`NominalInerter` ``F_n = b_n ü_T + c_n u̇_T``
+    in its implicit system (``b_n`` joins ``m_T`` in the mass matrix, ``c_n`` the damping), so
+    the step is as stable as the structure alone; :attr:`device_force` is ``F_n`` now, and the
+    force passed to :meth:`step` is the *correction* ``F_B - F_n`` (the loop's
+    ``force_scale * F - device_force``, :mod:`rths.loop`).  A specimen equal to the nominal
+    device then gives a zero correction and the partitioned run is the monolithic one.
 
     Parameters
     ----------
@@ -40,6 +92,9 @@ class TMDISubstructure(Substructure):
         Loop step [s].
     excitation_dt
         Spacing [s] of sampled ``ground_acceleration``; defaults to ``dt``.
+    device
+        Nominal interface device integrated with the structure, or None (plain RTHS: the
+        step's force is the whole ``F_B``).
     """
 
     def __init__(
@@ -48,14 +103,21 @@ class TMDISubstructure(Substructure):
         ground_acceleration: Callable[[float], float] | ArrayLike,
         dt: float,
         excitation_dt: float | None = None,
+        device: NominalInerter | None = None,
     ) -> None:
         super().__init__(dt)
         if not parameters.has_tmd:
             raise ParameterError("the TMDI substructure needs a secondary mass; got 0.0 kg")
+        if device is not None and not isinstance(device, NominalInerter):
+            raise ParameterError(f"device must be a NominalInerter or None; got {device!r}")
         self.parameters: Final[TMDIParameters] = parameters
+        self.device: Final[NominalInerter | None] = device
         spacing = self.dt if excitation_dt is None else excitation_dt
         self._ground = _ground_motion(ground_acceleration, spacing)
-        self._p = kern.pack_parameters(parameters)
+        nominal = device or NominalInerter(0.0)
+        self._p = kern.pack_parameters(
+            parameters, inertance=nominal.inertance, grounded_damping=nominal.damping
+        )
         self._state = np.zeros(kern.N_STATE)
         self._input = np.zeros(kern.N_INPUT)
         self._out = np.zeros(kern.N_OUTPUT)
@@ -77,6 +139,15 @@ class TMDISubstructure(Substructure):
     def interface(self) -> Kinematics:
         """``u_T``, ``u̇_T``, ``ü_T`` (relative to the ground) now, with the last force."""
         return self._kinematics(self._state, self._ag_now, self._force)
+
+    @property
+    def device_force(self) -> float:
+        """Restoring force [N] of the nominal device now, ``b_n ü_T + c_n u̇_T`` (0 without one);
+        ``ü_T`` is the equilibrium acceleration with the last correction."""
+        if self.device is None:
+            return 0.0
+        kin = self.interface
+        return self.device.inertance * kin.acceleration + self.device.damping * kin.velocity
 
     def _kinematics(self, s: NDArray[np.float64], ag: float, force: float) -> Kinematics:
         a_t = kern.accelerations(s, ag, force, self._p)[1]
@@ -108,7 +179,8 @@ class TMDISubstructure(Substructure):
         return self._kinematics(trial, ag1, float(restoring_force))
 
     def outputs(self) -> dict[str, float]:
-        """S1 Eq.7 quantities now (``F_B`` is the last interface force), plus ``a_G``."""
+        """S1 Eq.7 quantities now, plus ``a_G``; ``F_B`` is the last interface force (with a
+        nominal device: :attr:`device_force` plus the last correction)."""
         kern.outputs(self._state, self._ag_now, self._force, self._p, self._out)
         result = {name: float(self._out[kern.OUTPUT_FIELDS[name]]) for name in EQ7_QUANTITIES}
         result["a_G"] = float(self._ag_now)

@@ -12,7 +12,8 @@ isolators (S1 Eq.8, :mod:`plants.hdrb`); ``F_B`` is the restoring force of the g
 * :class:`TMDIStructure` integrates the whole system, inerter included, monolithically: the
   shaking-table emulation.
 * :class:`TMDISubstructure` is the numerical part of an RTHS whose physical specimen is the
-  inerter: interface DOF ``u_T``, the loop supplies ``F_B``.
+  inerter: interface DOF ``u_T``, the loop supplies ``F_B``, or with a :class:`NominalInerter`
+  carried implicitly (needed for a stable RTHS of the S1 inerter) the correction on top of it.
 
 Scheme: trapezoidal rule (Newmark average acceleration) with Newton iterations on the nonlinear
 springs; it is unconditionally stable and conserves the energy of the linear undamped system, and
@@ -38,7 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 from plants import _tmdi_kernel as kern
 from plants._tmdi_kernel import IntegrationError
 from plants._tmdi_linear import EQ7_QUANTITIES, linear_frf, linearised_frequencies
-from plants._tmdi_substructure import TMDISubstructure
+from plants._tmdi_substructure import NominalInerter, TMDISubstructure
 from plants.base import Specimen
 from plants.hdrb import (
     HDRB,
@@ -64,6 +65,7 @@ from rths.errors import (
 __all__ = [
     "EQ7_QUANTITIES",
     "IntegrationError",
+    "NominalInerter",
     "PRIMARY_MASS",
     "SECONDARY_MASSES",
     "TMDIParameters",

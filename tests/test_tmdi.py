@@ -17,9 +17,11 @@ from plants.inerter import (
     RackPinionInerter,
     rack_pinion_preset,
 )
+from controllers.baselines import NoCompensation
 from plants.tmdi import (
     EQ7_QUANTITIES,
     IntegrationError,
+    NominalInerter,
     TMDIParameters,
     TMDIStructure,
     TMDISubstructure,
@@ -28,6 +30,7 @@ from plants.tmdi import (
     s1_configuration,
 )
 from rths.errors import ParameterError
+from rths.loop import LinkSample, Loop, Scaling
 
 G = 9.81
 J_B, R_P = S1_RACK_PINION.flywheel_inertia, S1_RACK_PINION.pinion_radius
@@ -307,6 +310,125 @@ def test_callable_and_sampled_excitation_agree() -> None:
     assert seen == pytest.approx([0.0, 1.0, 2.0, 3.0, 4.0, 0.0], abs=1e-12)
 
 
+# --- nominal interface device (RTHS with the inerter as the specimen) ---------------------------
+class ExactKinematicsLink:
+    """In-process link with a perfect actuator: the specimen follows the target's u, v, a."""
+
+    def __init__(self, sub: TMDISubstructure, specimen: Specimen) -> None:
+        self.sub, self.specimen = sub, specimen
+
+    def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
+        kin = self.sub.interface  # the target r_{k+1} the loop has just obtained
+        force = self.specimen.step(kin.displacement, kin.velocity, kin.acceleration, self.sub.dt)
+        return LinkSample(kin.displacement, force, 0, seq)
+
+
+def partitioned_run(specimen: Specimen, device: NominalInerter | None, ag: np.ndarray,
+                    dt: float) -> dict[str, np.ndarray]:
+    """RTHS through rths.loop.Loop: TMDISubstructure + specimen, correction fed one step late."""
+    par, _ = s1_configuration("IM", "IF")
+    sub = TMDISubstructure(par, ag, dt, device=device)
+    specimen.reset()
+    records: list[dict[str, float]] = []
+    loop = Loop(sub, NoCompensation(dt), ExactKinematicsLink(sub, specimen), Scaling(),
+                ag.size - 1, sink=records.append, command_limit=0.5)
+    result = loop.run()
+    assert result.stopped is None, result.stopped
+    return {name: np.array([0.0] + [r["sub_" + name] for r in records])
+            for name in ("u_I", "u_T", "F_B")}
+
+
+def test_nominal_inerter_matching_a_specimen() -> None:
+    assert NominalInerter.matching(IdealInerter(48.7)) == NominalInerter(48.7, 0.0)
+    nominal = NominalInerter.matching(RackPinionInerter(S1_RACK_PINION))
+    # rigid limit of S1 Eq.9-10: b = J_B / r_P² = 47.84 kg, c = c_B / r_P² = 92.6 N s/m
+    assert nominal.inertance == pytest.approx(J_B / R_P**2, rel=1e-15)
+    assert nominal.damping == pytest.approx(S1_RACK_PINION.flywheel_damping / R_P**2, rel=1e-15)
+
+
+def test_device_force_is_the_nominal_inerter_force() -> None:
+    device = NominalInerter(40.0, 90.0)
+    par, _ = s1_configuration("IM", "IF")
+    sub = TMDISubstructure(par, lambda t: 0.1 * G * math.sin(2 * math.pi * 2.25 * t), 1e-3,
+                           device=device)
+    assert sub.device_force == 0.0  # at rest
+    for k in range(200):
+        sub.step(3.0 * math.sin(0.05 * k))
+    kin, out = sub.interface, sub.outputs()
+    expected = 40.0 * kin.acceleration + 90.0 * kin.velocity
+    assert sub.device_force == pytest.approx(expected, rel=1e-14)
+    # S1 Eq.12 second row: F_B (= nominal + last correction) balances m_T ü_T^(tot) + F_T
+    assert out["F_B"] == pytest.approx(sub.device_force + 3.0 * math.sin(0.05 * 199), rel=1e-12)
+    m_t = par.secondary_mass
+    assert -m_t * out["a_T_tot"] - out["F_T"] == pytest.approx(out["F_B"], rel=1e-9, abs=1e-9)
+    assert make_substructure().device_force == 0.0  # no device, no nominal force
+
+
+def test_nominal_device_alone_is_the_linear_closed_form_with_a_grounded_dashpot() -> None:
+    """Zero correction: the substructure is S1 Fig.1a plus c_n between u_T and the ground."""
+    par, _ = s1_configuration("IM", "IF")
+    lin, b, c, freq, dt = par.linear(), 47.84, 300.0, 2.5, 1.0 / 2000.0
+    t, ag = harmonic(dt, 16.0, freq, 0.05)
+    sub = TMDISubstructure(lin, ag, dt, device=NominalInerter(b, c))
+    u_t = np.array([0.0] + [sub.step(0.0).displacement for _ in range(t.size - 1)])
+    w = 2.0 * math.pi * freq
+    z_i = lin.primary_isolator.k1 + 1j * w * lin.primary_isolator.c
+    z_t = lin.secondary_isolator.k1 + 1j * w * lin.secondary_isolator.c
+    dyn = np.array([[-(w**2) * 125.0 + z_i + z_t, -z_t],
+                    [-z_t, -(w**2) * (10.0 + b) + z_t + 1j * w * c]])
+    expected = np.linalg.solve(dyn, -np.array([125.0, 10.0], dtype=complex))[1]
+    last = t >= 12.0  # 10 whole periods; slowest decay ≥ 1.7 1/s → transient e^-20 by 12 s
+    last[-1] = False
+    measured = phasor(u_t[last], t[last], freq) / phasor(ag[last], t[last], freq)
+    # trapezoidal warping (ω dt)²/12 = 5e-5, amplified by the resonance ≤ 1/(2ζ)
+    assert abs(measured - expected) < 1e-3 * abs(expected)
+
+
+def test_partitioned_ideal_inerter_with_nominal_device_is_the_monolithic_run() -> None:
+    dt = 1e-3
+    t, ag = harmonic(dt, 4.0, 2.25, 0.1, ramp=0.5)
+    b = S1_RACK_PINION.nominal_inertance
+    mono = TMDIStructure(s1_configuration("IM", "IF")[0], IdealInerter(b), dt).run(ag)
+    part = partitioned_run(IdealInerter(b), NominalInerter(b), ag, dt)
+    for name in ("u_I", "u_T", "F_B"):
+        # zero correction every step: the same kernel does the same arithmetic (measured: 0.0)
+        np.testing.assert_allclose(part[name], getattr(mono, name), rtol=0.0,
+                                   atol=1e-12 * np.max(np.abs(getattr(mono, name))))
+
+
+def test_partitioned_ideal_inerter_without_nominal_device_diverges() -> None:
+    """Why the nominal device exists: b/m_T = 4.8 fed back one step late is unstable."""
+    dt = 1e-3
+    t, ag = harmonic(dt, 1.0, 2.25, 0.1)
+    par, _ = s1_configuration("IM", "IF")
+    sub = TMDISubstructure(par, ag, dt)
+    specimen, force, peak = IdealInerter(S1_RACK_PINION.nominal_inertance), 0.0, 0.0
+    for _ in range(t.size - 1):
+        kin = sub.step(force)
+        force = specimen.step(kin.displacement, kin.velocity, kin.acceleration, dt)
+        peak = max(peak, abs(kin.displacement))
+        if peak > 1.0:  # metres: the monolithic response is ~10 mm
+            break
+    assert peak > 1.0
+
+
+@pytest.mark.parametrize("dt, tolerance", [(1e-3, 1e-2), (1.0 / 4096.0, 3e-3)])
+def test_partitioned_rack_and_pinion_is_stable_and_close_to_monolithic(
+    dt: float, tolerance: float
+) -> None:
+    par, rack = s1_configuration("IM", "IF")
+    t, ag = harmonic(dt, 6.0, 2.25, 0.1, ramp=0.5)
+    mono = TMDIStructure(par, rack, dt).run(ag)
+    part = partitioned_run(RackPinionInerter(rack.parameters),
+                           NominalInerter.matching(rack), ag, dt)
+    for name in ("u_I", "u_T"):
+        ref = getattr(mono, name)
+        # the correction (backlash, friction, series compliance) lags one step: O(dt) error;
+        # measured (u_I, u_T) (3.6e-3, 6.6e-3) of the peak at 1 ms, (1.1e-3, 2.1e-3) at 1/4096 s
+        np.testing.assert_allclose(part[name], ref, rtol=0.0,
+                                   atol=tolerance * np.max(np.abs(ref)))
+
+
 # --- validation --------------------------------------------------------------------------------
 def test_bad_parameters_are_rejected() -> None:
     with pytest.raises(ParameterError, match="primary mass m_I must be positive; got 0.0"):
@@ -379,3 +501,11 @@ def test_bad_substructure_inputs_are_rejected() -> None:
         sub.step(0.0)
     with pytest.raises(ParameterError, match="restoring force must be finite; got nan"):
         make_substructure().step(math.nan)
+    with pytest.raises(ParameterError, match="device must be a NominalInerter or None; got 48.7"):
+        TMDISubstructure(par, np.zeros(3), 1e-3, device=48.7)  # type: ignore[arg-type]
+    with pytest.raises(ParameterError, match="nominal inertance b_n must be non-negative; got -1"):
+        NominalInerter(-1.0)
+    with pytest.raises(ParameterError, match="nominal damping c_n must be non-negative; got -2"):
+        NominalInerter(48.7, -2.0)
+    with pytest.raises(ParameterError, match="no nominal inerter for a _OtherSpecimen"):
+        NominalInerter.matching(_OtherSpecimen())
