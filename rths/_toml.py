@@ -71,7 +71,10 @@ class Table:
         lo: float | None = None,
         hi: float | None = None,
     ) -> float:
-        """A finite float (ints accepted) with optional range checks."""
+        """A finite float (ints accepted) with optional range checks (the default is not checked)."""
+        if key not in self._data and default is not _MISSING:
+            self._seen.add(key)
+            return default
         value = self._get(key, default)
         if value is None:
             return value

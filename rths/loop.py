@@ -48,7 +48,7 @@ from typing import Protocol
 from controllers.base import Compensator
 from plants.base import Substructure
 from rths.clocks import FreeRunning, Pacer, TimingStats
-from rths.errors import RTHSError, check_positive, check_positive_int
+from rths.errors import ParameterError, RTHSError, check_positive, check_positive_int
 
 __all__ = [
     "InProcessLink",
@@ -191,7 +191,9 @@ class Loop:
         self.dt = substructure.dt
         self.pacer = pacer or FreeRunning(self.dt, self.n_steps)
         self.sink = sink or (lambda record: None)
-        self.command_limit = check_positive(command_limit, "command limit")
+        if not (isinstance(command_limit, int | float) and command_limit > 0):
+            raise ParameterError(f"command limit must be positive (inf: none); got {command_limit!r}")
+        self.command_limit = float(command_limit)
         self.force_filter = force_filter
         self._stop = threading.Event()
         self._stop_reason = "stopped by request"

@@ -1,0 +1,92 @@
+"""Scenario files: the shipped ones parse; every bad key, type or value is one ConfigError that
+names the file, the table and the key; builders name the table a plant rejected."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from _scenarios import SEED, seed_text
+
+from rths import build
+from rths.errors import ConfigError
+from rths.scenario import load_scenario, parse_scenario
+
+SCENARIOS = sorted(
+    p for p in (Path(__file__).resolve().parent.parent / "scenarios").glob("*.toml")
+    if "[substructure]" in p.read_text()  # RTHS scenarios (rths sweep files have their own schema)
+)
+
+
+@pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.name)
+def test_shipped_scenarios_parse(path):
+    scn = load_scenario(path)
+    assert scn.run.steps >= 1 and scn.run.dt > 0
+
+
+def test_seed_scenario_realises_the_seed_normalised_inertance():
+    """S0 §5.3: realised m_e = 0.529 (S0 Eq.23; for a string m_e = m̄_e/(mL))."""
+    scn = load_scenario(SEED)
+    s = scn.substructure
+    m_bar = scn.scaling.impedance * scn.model.inertance
+    assert m_bar / (s.mass_per_length * s.length) == pytest.approx(0.529, abs=0.001)
+    assert s.damper_position == 0.02 and s.load_mode == 3
+
+
+@pytest.mark.parametrize(
+    "pattern, replacement, match",
+    [
+        (r"^rate = 2048.0.*$", 'rate = "fast"', r"\[run\] rate: must be a number"),
+        (r'^clock = "lockstep".*$', 'clock = "sometimes"', r"\[run\] clock: must be one of"),
+        (r"^duration = 20.0.*$", "duration = -1.0", r"\[run\] duration: must be positive"),
+        (r"^tension = 5.0e6.*$", "tension = 5.0e6\ntensoin = 1.0", r"tensoin: unknown key"),
+        (r"^damper_position = 0.02.*$", "damper_position = 1.5", r"damper_position: must lie in"),
+        (r'^elements = "auto".*$', "elements = 1", r'elements: must be an integer >= 2 or "auto"'),
+        (r"^mode = 3.*$", "mode = 0", r"\[substructure.load\] mode: must be >= 1"),
+        (r'^kind = "imd".*$', 'kind = "sponge"', r"\[specimen\] kind: must be one of"),
+        (r'^preset = "mts_identified".*$', "num = [1.0]",
+         r"\[actuator\] num: give both num and den"),  # fmt: skip
+        (r"^damping_ratio = 0.038.*$", "damping_ratio = 0.038\ndamping = 1.0",
+         r"\[model\] damping_ratio: give damping or damping_ratio"),  # fmt: skip
+        (r"^correction_filter = 60.0.*$", "correction_filter = 5000.0",
+         r"\[loop\] correction_filter: must lie below the Nyquist frequency 1024 Hz"),  # fmt: skip
+        (r"^\[loop\]", "[lop]", r"\[top level\] lop: unknown key"),
+    ],
+)
+def test_bad_values_name_file_table_and_key(pattern, replacement, match):
+    with pytest.raises(ConfigError, match=r"^bad\.toml: .*" + match):
+        parse_scenario(seed_text(**{pattern: replacement}), "bad.toml")
+
+
+def test_missing_section_and_missing_file(tmp_path):
+    with pytest.raises(ConfigError, match=r"\[top level\] specimen: missing \(required\)"):
+        parse_scenario("[run]\nname='x'\nduration=1.0\nrate=100.0\n[substructure]\nkind='cable'\n"
+                       "length=1.0\ntension=1.0\nmass_per_length=1.0\ndamper_position=0.5\n",
+                       "x.toml")  # fmt: skip
+    with pytest.raises(ConfigError, match="no such file"):
+        load_scenario(tmp_path / "none.toml")
+
+
+@pytest.mark.parametrize(
+    "pattern, replacement, match",
+    [
+        (r'^preset = "type_ii".*$', 'preset = "type_iii"', r"\[specimen\] unknown IMD preset"),
+        (r'^preset = "mts_identified".*$', 'preset = "moog"',
+         r"\[actuator\] unknown transfer_function preset 'moog'"),  # fmt: skip
+        (r'^kind = "ff_lqg".*$', 'kind = "magic"', r"\[compensator\] unknown compensator"),
+    ],
+)
+def test_builders_name_the_table_a_plant_rejected(pattern, replacement, match):
+    scn = parse_scenario(seed_text(**{pattern: replacement}), "bad.toml")
+    with pytest.raises(ConfigError, match=r"^bad\.toml: " + match):
+        build.lab(scn)
+        build.compensator(scn)
+
+
+def test_auto_mesh_resolves_the_internal_stiffness():
+    """elements = "auto": the damper node radiates at the device's local frequency, element
+    size below 4 T / k_s (prototype series stiffness = impedance factor x 1.2e7 N/m)."""
+    scn = load_scenario(SEED)
+    cable = build.cable(scn)
+    h = cable.positions[cable.damper_index] - cable.positions[cable.damper_index - 1]
+    assert h < 4 * scn.substructure.tension / (scn.scaling.impedance * 1.2e7)
