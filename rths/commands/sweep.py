@@ -1,0 +1,98 @@
+"""``rths sweep``: stepped-sine shake-table emulation of the S1 TMDI specimens, FRFs per S1 Eq.7.
+
+Examples::
+
+    rths sweep scenarios/tmdi_shake_table.toml
+    rths sweep scenarios/tmdi_shake_table.toml --pga 0.1 --out out/ --json
+
+Runs every model of the scenario up and down at each PGA in process (:mod:`rths.sweep`) and writes
+into ``--out`` (default ``<scenario name>_sweep``):
+
+``frf.csv``       the normalised FRFs of every run (:func:`rths.tmdi_report.frf_table`);
+``summary.json``  resonance frequencies, peak-displacement changes, ideal-vs-rack NRMSE and the
+                  wall time (:func:`rths.tmdi_report.summarise`);
+``*.png``         the figures of :mod:`rths.tmdi_report` (unless ``--no-figures``).
+
+It prints a short table, or with ``--json`` the summary as JSON on stdout.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``rths sweep``."""
+    p = subparsers.add_parser(
+        "sweep",
+        help="stepped-sine shake-table emulation of the S1 TMDI specimens (FRFs, figures)",
+        description=__doc__.split("\n\n", 1)[0],
+    )
+    p.add_argument("scenario", metavar="SCENARIO", help="shake-table scenario TOML")
+    p.add_argument("--pga", type=float, nargs="+", metavar="G",
+                   help="peak table accelerations [g] (overrides the scenario's)")
+    p.add_argument("--out", metavar="DIR", help="output directory (default <name>_sweep)")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    return p
+
+
+def _percent(x: float | None) -> str:
+    return "-" if x is None else f"{100.0 * x:+.1f} %"
+
+
+def _hz(x: float | None) -> str:
+    return "-" if x is None else f"{x:.2f}"
+
+
+def _print_table(summary: dict[str, Any]) -> None:
+    print(f"{summary['scenario']}: wall time {summary['wall_time_s']:.2f} s, "
+          f"{len(summary['grid_hz'])} frequency steps")
+    print(f"{'PGA':>6} {'model':<14}{'dir':<6}{'f0/f1 [Hz]':>11}{'f2 [Hz]':>9}"
+          f"{'max H_uI [s2]':>15}{'vs PS':>10}")
+    for pga, entry in summary["pga"].items():
+        for model, by_dir in entry["resonances"].items():
+            for d, r in by_dir.items():
+                change = entry["ps_peak_change"].get(model, {}).get(d)
+                first = r.get("f0", r.get("f1"))
+                print(f"{pga:>6} {model:<14}{d:<6}{_hz(first):>11}{_hz(r.get('f2')):>9}"
+                      f"{r['peak_H_u_I']:>15.5f}{_percent(change):>10}")
+        for d, channels in entry["nrmse_ideal_vs_rack_pinion"].items():
+            cells = ", ".join(f"{ch} {100 * v['full']:.0f}/{100 * v['near_f1']:.0f}"
+                              for ch, v in channels.items())
+            print(f"{pga:>6} NRMSE ideal vs rack, {d} (full/near f1, %): {cells}")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the sweep, write the outputs, print the summary; returns 0."""
+    from rths.sweep import load_sweep, run_sweep
+    from rths.tmdi_report import frf_table, summarise, write_figures
+
+    config = load_sweep(args.scenario)
+    result = run_sweep(config, pga=args.pga, progress=not args.quiet and sys.stderr.isatty())
+    out = Path(args.out if args.out else f"{config.name}_sweep")
+    out.mkdir(parents=True, exist_ok=True)
+    header, rows = frf_table(result)
+    with open(out / "frf.csv", "w", newline="", encoding="utf-8") as f:
+        writer = csv.writer(f)
+        writer.writerow(header)
+        writer.writerows(rows)
+    summary = summarise(result)
+    (out / "summary.json").write_text(json.dumps(summary, indent=2), encoding="utf-8")
+    if not args.no_figures:
+        write_figures(result, out)
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        _print_table(summary)
+        print(f"wrote {out / 'frf.csv'}, {out / 'summary.json'}"
+              + ("" if args.no_figures else " and figures"))
+    return 0
