@@ -2,8 +2,10 @@
 
 Everything here is a symmetric tridiagonal matrix over the free nodes (the two fixed ends are
 removed), stored as its diagonal and first off-diagonal so that assembly, products and the
-banded Cholesky factorisation stay O(N).  Units: positions [m], tension [N], mass per length
-[kg/m], stiffness [N/m], mass [kg], damping [N s/m].
+banded Cholesky factorisation stay O(N).  The rigid part of an interface device (a grounded
+inertance and dashpot at the damper node) is a diagonal entry; its series branch lives in
+:mod:`plants._cable_device`.  Units: positions [m], tension [N], mass per length [kg/m],
+stiffness [N/m], mass [kg], damping [N s/m].
 """
 
 from __future__ import annotations
@@ -16,9 +18,14 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+from plants._cable_params import CableProperties, InterfaceDevice, RayleighDamping
+from rths.errors import ParameterError, check_finite, check_positive_int
+
 __all__ = [
     "MassKind",
     "Tridiagonal",
+    "assemble",
+    "check_mesh",
     "mesh_nodes",
     "rayleigh_coefficients",
     "sine_load_shape",
@@ -84,6 +91,17 @@ class Tridiagonal:
     def to_dense(self) -> NDArray[np.float64]:
         """The matrix as a dense array of shape ``(n, n)``."""
         return np.diag(self.diag) + np.diag(self.off, 1) + np.diag(self.off, -1)
+
+
+def check_mesh(damper_position: float, elements: int) -> tuple[float, int]:
+    """Validated ``(x_d, N)``: damper position in (0, 1) and at least two elements."""
+    x_d = check_finite(damper_position, "damper position x_d")
+    if not 0.0 < x_d < 1.0:
+        raise ParameterError(f"damper position x_d must lie in (0, 1); got {damper_position!r}")
+    n = check_positive_int(elements, "number of elements")
+    if n < 2:
+        raise ParameterError(f"number of elements must be at least 2; got {elements!r}")
+    return x_d, n
 
 
 def mesh_nodes(
@@ -163,3 +181,31 @@ def rayleigh_coefficients(ratio: float, omega_i: float, omega_j: float) -> tuple
 def string_modal_frequency(mode: int, wave_speed: float, length: float) -> float:
     """Natural circular frequency ``n pi c / L`` [rad/s] of mode ``n`` of the continuous string."""
     return mode * math.pi * wave_speed / length
+
+
+def assemble(
+    properties: CableProperties,
+    nodes: NDArray[np.float64],
+    damper_index: int,
+    intrinsic: RayleighDamping | None,
+    device: InterfaceDevice | None,
+    mass_kind: MassKind,
+) -> tuple[Tridiagonal, Tridiagonal, Tridiagonal]:
+    """``(K, M, C)`` over the free nodes: string stiffness plus the device's grounded spring;
+    string mass plus its rigid inertance; Rayleigh damping (of the string alone) plus its rigid
+    dashpot.  The series branch is not included."""
+    p = properties
+    stiffness = string_stiffness(nodes, p.tension)
+    string_m = string_mass(nodes, p.mass_per_length, mass_kind)
+    zero = np.zeros(nodes.size - 2)
+    damping = Tridiagonal(zero, zero[:-1].copy())
+    if intrinsic is not None and intrinsic.ratio > 0.0:
+        w_i, w_j = (n * p.omega0 for n in intrinsic.modes)
+        a0, a1 = rayleigh_coefficients(intrinsic.ratio, w_i, w_j)
+        damping = string_m.scaled(a0) + stiffness.scaled(a1)
+    mass = string_m
+    if device is not None:
+        stiffness = stiffness.with_point(damper_index, device.stiffness)
+        mass = mass.with_point(damper_index, device.inertance)
+        damping = damping.with_point(damper_index, device.damping)
+    return stiffness, mass, damping

@@ -9,8 +9,9 @@ With ``gamma = 1/2``, ``beta = 1/4`` and a fixed step ``h`` [s] the update from 
 
 The effective matrix is factorised once (banded Cholesky, ``L L^T`` with ``L`` lower
 bidiagonal), so a step costs O(N).  :func:`step_reference` is the readable NumPy/SciPy version;
-:func:`step_kernel` is the same arithmetic fused into one compiled pass for the real-time loop.
-Both are tested against each other.
+:func:`step_kernel` is the same arithmetic fused into one compiled pass for the real-time loop,
+including the condensed flywheel of a series device branch (whose reference arithmetic is
+:class:`plants._cable_device.SeriesCondensation`).  Both are tested against each other.
 """
 
 from __future__ import annotations
@@ -83,18 +84,29 @@ def step_kernel(
     load_scale: float,
     index: int,
     point_force: float,
+    series: NDArray[np.float64],
+    flywheel: NDArray[np.float64],
     u1: NDArray[np.float64],
     v1: NDArray[np.float64],
     a1: NDArray[np.float64],
+    flywheel1: NDArray[np.float64],
 ) -> None:  # pragma: no cover - compiled; covered through the cross-check with step_reference
     """:func:`step_reference` with force ``load_scale*load_shape + point_force*e_index``.
 
-    Writes the new state into ``u1, v1, a1`` (which must not alias ``u, v, a``).
+    ``series = (k_s, m_s, c_s, D)`` describes a series branch condensed at ``index`` (its
+    ``k_s (1 - k_s/D)`` must already be in the factor); ``k_s = 0`` means none.  ``flywheel``
+    is its state ``(x, x', x'')`` at ``t_k``.  Writes the new state into ``u1, v1, a1`` and
+    ``flywheel1`` (which must not alias the inputs).
     """
     n = u.size
     c1 = 4.0 / (h * h)
     c2 = 4.0 / h
     c3 = 2.0 / h
+    k_s = series[0]
+    r_x = 0.0  # the flywheel row's right-hand side
+    if k_s > 0.0:
+        r_x = series[1] * (c1 * flywheel[0] + c2 * flywheel[1] + flywheel[2])
+        r_x += series[2] * (c3 * flywheel[0] + flywheel[1])
     for i in range(n):  # u1 <- w = c1 u + c2 v + a, v1 <- z = c3 u + v
         u1[i] = c1 * u[i] + c2 * v[i] + a[i]
         v1[i] = c3 * u[i] + v[i]
@@ -106,6 +118,8 @@ def step_kernel(
             r += m_off[i] * u1[i + 1] + c_off[i] * v1[i + 1]
         a1[i] = r
     a1[index] += point_force
+    if k_s > 0.0:
+        a1[index] += k_s * r_x / series[3]
     a1[0] = a1[0] / l_diag[0]  # forward substitution L y = rhs (in a1)
     for i in range(1, n):
         a1[i] = (a1[i] - l_sub[i - 1] * a1[i - 1]) / l_diag[i]
@@ -116,3 +130,9 @@ def step_kernel(
         du = u1[i] - u[i]
         v1[i] = c3 * du - v[i]
         a1[i] = c1 * du - c2 * v[i] - a[i]
+    if k_s > 0.0:
+        x1 = (r_x + k_s * u1[index]) / series[3]
+        dx = x1 - flywheel[0]
+        flywheel1[0] = x1
+        flywheel1[1] = c3 * dx - flywheel[1]
+        flywheel1[2] = c1 * dx - c2 * flywheel[1] - flywheel[2]

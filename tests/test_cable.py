@@ -7,16 +7,22 @@ import pytest
 import scipy.integrate as si
 import scipy.linalg as sla
 
-from plants._cable_fe import mesh_nodes, sine_load_shape
+from plants._cable_device import SeriesCondensation, augmented_matrices
+from plants._cable_fe import Tridiagonal, mesh_nodes, sine_load_shape
 from plants.cable import (
     Cable,
     CableProperties,
     DistributedLoad,
+    InterfaceDevice,
     PointDamper,
     RayleighDamping,
+    elements_for,
     fe_matrices,
+    max_element_size,
     normalised_damper,
+    normalised_stiffness,
     physical_damper,
+    physical_stiffness,
 )
 from rths.errors import ParameterError
 
@@ -149,22 +155,41 @@ def test_static_point_force_gives_the_string_deflection_with_the_cable_receiving
     assert cable.displacement_at(0.0) == 0.0 and cable.displacement_at(1.0) == 0.0
 
 
+def test_grounded_device_spring_in_a_static_step():
+    # one static step (huge dt, as above): the string's point stiffness T/(x(1-x)L) in parallel with k_r
+    x_d, k_r, force = 0.3, 4e4, 2e4
+    cable = Cable(PROPS, x_d, dt=1.0e6, elements=10, intrinsic_damping=None, damper=InterfaceDevice(stiffness=k_r))
+    state = cable.step(force)
+    k_string = PROPS.tension / (x_d * (1 - x_d) * PROPS.length)
+    assert state.displacement == pytest.approx(-force / (k_string + k_r), rel=1e-9)  # 1/(omega1 dt)^2
+    assert cable.device_force == pytest.approx(k_r * state.displacement, rel=1e-15)  # F = k_r u_d
+    assert cable.strain_energy == pytest.approx(0.5 * (k_string + k_r) * state.displacement**2, rel=1e-9)
+
+
 # ---------------------------------------------------------------------------- integrator
-def test_compiled_kernel_matches_the_reference_path():
+@pytest.mark.parametrize(
+    "damper",
+    [
+        PointDamper(inertance=2650.0, damping=900.0),
+        InterfaceDevice(300.0, 500.0, series_stiffness=2e6, series_inertance=2650.0, series_damping=900.0),
+    ],
+)
+def test_compiled_kernel_matches_the_reference_path(damper):
     runs = []
     for use_numba in (True, False):
         cable = Cable(
             PROPS, 0.02, 2e-3, elements=60, load=DistributedLoad(200.0, mode=3),
-            damper=PointDamper(inertance=2650.0, damping=900.0), use_numba=use_numba,
+            damper=damper, use_numba=use_numba,
         )  # fmt: skip
         history = [cable.step(5e3 * math.sin(7.0 * k * 2e-3)) for k in range(400)]
-        runs.append((history, cable.displacement, cable.velocity, cable.acceleration))
-    (h1, *s1), (h2, *s2) = runs
+        runs.append((history, cable.displacement, cable.velocity, cable.acceleration, cable.device_force))
+    (h1, *s1, f1), (h2, *s2, f2) = runs
     # same arithmetic in another order: u agrees to round-off; v = 2/h du - v and a = 4/h^2 du - ...
     # amplify the round-off of u by 1/(omega h) and 1/(omega h)^2 for the fast FE modes
     for x, y, tol in zip(s1, s2, (1e-12, 1e-11, 1e-9), strict=True):
         np.testing.assert_allclose(x, y, rtol=0, atol=tol * np.max(np.abs(y)))
     assert h1[-1].displacement == pytest.approx(h2[-1].displacement, rel=1e-10)
+    assert f1 == pytest.approx(f2, rel=1e-9)  # m_r a carries the 1/(omega h)^2 amplification too
 
 
 def test_predict_equals_step_and_leaves_the_state_alone():
@@ -331,3 +356,270 @@ def test_configuration_values_are_stored_as_floats():
     assert all(type(v) is float for v in (props.length, props.tension, props.mass_per_length))
     assert type(DistributedLoad(1, mode=2, frequency=3).frequency) is float
     assert RayleighDamping(0, [2, 5]).modes == (2, 5)
+
+
+# ---------------------------------------------------------------------------- nominal interface device
+SERIES = InterfaceDevice(300.0, 500.0, series_stiffness=2e6, series_inertance=2650.0, series_damping=3e3, stiffness=4e4)
+MAXWELL = InterfaceDevice(series_stiffness=5e5, series_damping=4e4)  # spring + dashpot, no flywheel mass
+
+
+def augmented_newmark(device: InterfaceDevice, elements: int, h: float):
+    """Dense (N-1)+1 DOF matrices with the flywheel appended by hand, and the factor of the effective matrix."""
+    rigid = InterfaceDevice(device.inertance, device.damping, stiffness=device.stiffness)
+    fe = fe_matrices(PROPS, 0.02, elements, intrinsic_damping=RayleighDamping(), damper=rigid)
+    n, j, k_s = fe.stiffness.shape[0], fe.damper_index, device.series_stiffness
+    k, m, c = (np.zeros((n + 1, n + 1)) for _ in range(3))
+    k[:n, :n], m[:n, :n], c[:n, :n] = fe.stiffness.toarray(), fe.mass.toarray(), fe.damping.toarray()
+    k[j, j] += k_s
+    k[j, n] = k[n, j] = -k_s
+    k[n, n] = k_s
+    m[n, n], c[n, n] = device.series_inertance, device.series_damping
+    return k, m, c, sla.lu_factor(k + 2.0 / h * c + 4.0 / h**2 * m), j
+
+
+@pytest.mark.parametrize("device", [SERIES, MAXWELL], ids=["flywheel", "maxwell"])
+@pytest.mark.parametrize("use_numba", [True, False])
+def test_condensed_step_equals_the_augmented_system(device, use_numba):
+    h, n_el = 2e-3, 60
+    cable = Cable(PROPS, 0.02, h, elements=n_el, load=DistributedLoad(200.0, mode=3), damper=device, use_numba=use_numba)
+    k, m, c, lu, j = augmented_newmark(device, n_el, h)
+    n = k.shape[0] - 1
+    u, v, a = np.zeros(n + 1), np.zeros(n + 1), np.zeros(n + 1)
+    for step in range(1500):
+        force = 5e3 * math.sin(7.0 * step * h)
+        cable.step(force)
+        f = np.zeros(n + 1)
+        f[:n] = cable.nodal_load((step + 1) * h)
+        f[j] -= force
+        u1 = sla.lu_solve(lu, f + m @ (4.0 / h**2 * u + 4.0 / h * v + a) + c @ (2.0 / h * u + v))
+        u, v, a = u1, 2.0 / h * (u1 - u) - v, 4.0 / h**2 * (u1 - u) - 4.0 / h * v - a
+        fly = cable.flywheel
+        got = np.append(cable.displacement, fly.displacement)
+        assert np.max(np.abs(got - u)) < 1e-10 * np.max(np.abs(u))  # brief: 1e-10 (round-off ~1e-12)
+        assert fly.velocity == pytest.approx(v[n], rel=1e-9, abs=1e-9 * np.max(np.abs(v)))  # 2/h du amplifies
+    expected = device.inertance * a[j] + device.damping * v[j] + device.stiffness * u[j]
+    expected += device.series_stiffness * (u[j] - u[n])
+    assert cable.device_force == pytest.approx(expected, rel=1e-8)  # m_r a: 4/h^2 du amplifies round-off
+
+
+def test_very_stiff_series_spring_reproduces_the_rigid_device():
+    # K(omega) = k_s Z0/(k_s + Z0) -> Z0 as k_s -> inf: the departure is O(m_s omega^2/k_s)
+    h = 2e-3
+    rigid = Cable(PROPS, 0.02, h, elements=60, load=DistributedLoad(200.0, mode=3), damper=PointDamper(2650.0, 900.0))
+    gaps = []
+    for k_s in (1e10, 1e11):
+        stiff = InterfaceDevice(series_stiffness=k_s, series_inertance=2650.0, series_damping=900.0)
+        cable = Cable(PROPS, 0.02, h, elements=60, load=DistributedLoad(200.0, mode=3), damper=stiff)
+        rigid.reset()
+        gap = scale = force_gap = force_scale = 0.0
+        for step in range(1500):
+            force = 5e3 * math.sin(7.0 * step * h)
+            a, b = rigid.step(force), cable.step(force)
+            gap, scale = max(gap, abs(a.displacement - b.displacement)), max(scale, abs(a.displacement))
+            force_gap = max(force_gap, abs(rigid.device_force - cable.device_force))
+            force_scale = max(force_scale, abs(rigid.device_force))
+        gaps.append(gap / scale)
+        # O(m_s w^2/k_s) with w = 30 rad/s above the 7 and 13 rad/s forcing; factor 2 margin
+        assert force_gap < 2.0 * 2650.0 * 30.0**2 / k_s * force_scale
+    assert gaps[1] < 1e-4  # m_s w^2/k_s ~ 2e-5 at k_s = 1e11
+    assert gaps[1] / gaps[0] == pytest.approx(0.1, rel=0.05)  # first order in 1/k_s
+
+
+def test_discrete_energy_balance_with_the_series_device():
+    # E = v'Mv/2 + u'Ku/2 (with k_r u_d^2/2) + m_s x'^2/2 + k_s (u_d - x)^2/2; Newmark-AA on the augmented linear system:
+    # E_{k+1} - E_k = du'(f_k + f_{k+1})/2 - h c_r vbar_d^2 - h c_s xbar'^2 exactly.
+    h = 2e-3
+    device = InterfaceDevice(800.0, 2e4, series_stiffness=3e6, series_inertance=2650.0, series_damping=5e3, stiffness=1e5)
+    cable = Cable(PROPS, 0.02, h, elements=80, intrinsic_damping=None, load=DistributedLoad(300.0, mode=3), damper=device)
+    d = cable.damper_index
+    f_prev = cable.nodal_load(0.0)
+    e_prev, u_prev, v_prev, xd_prev = energy(cable), cable.displacement, cable.velocity, 0.0
+    dissipated = 0.0
+    for k in range(3000):
+        force = 2e3 * math.sin(11.0 * k * h)
+        cable.step(force)
+        f = cable.nodal_load(cable.time)
+        f[d] -= force
+        u, v, xd = cable.displacement, cable.velocity, cable.flywheel.velocity
+        work = (u - u_prev) @ (f + f_prev) / 2.0
+        loss = h * (device.damping * ((v[d] + v_prev[d]) / 2.0) ** 2 + device.series_damping * ((xd + xd_prev) / 2.0) ** 2)
+        e = energy(cable)
+        assert e - e_prev == pytest.approx(work - loss, abs=1e-9 * max(e, 1.0))  # round-off
+        dissipated += loss
+        e_prev, u_prev, v_prev, xd_prev, f_prev = e, u, v, xd, f
+    assert dissipated > 0.1 * e > 0.0  # the balance is not vacuous
+    # the energies are the augmented system's quadratic forms (flywheel DOF appended by fe_matrices)
+    fe = fe_matrices(PROPS, 0.02, 80, damper=device)
+    q, qd = np.append(u, cable.flywheel.displacement), np.append(v, xd)
+    assert cable.kinetic_energy == pytest.approx(0.5 * qd @ fe.mass @ qd, rel=1e-12)  # summation order
+    assert cable.strain_energy == pytest.approx(0.5 * q @ fe.stiffness @ q, rel=1e-9)  # k_s (u_d - x) cancels
+
+
+def test_flywheel_rings_at_its_own_frequency_when_the_node_is_held():
+    # A string of tension 1e14 N holds the damper node (compliance h/(2T) = 5e-16 m/N against k_s = 1e6 N/m);
+    # the flywheel then obeys m_s x'' + c_s x' + k_s x = 0 and Newmark-AA maps each eigenvalue lam to
+    # z = (1 + lam h/2)/(1 - lam h/2) exactly: x_k = Re sum(A z^k).
+    k_s, m_s, c_s, h = 1e6, 1e3, 2e3, 1e-3
+    held = CableProperties(1.0, 1e14, 1.0)
+    device = InterfaceDevice(series_stiffness=k_s, series_inertance=m_s, series_damping=c_s)
+    cable = Cable(held, 0.5, h, elements=10, intrinsic_damping=None, damper=device)
+    x0 = 1e-2
+    cable.set_state(np.zeros(9), np.zeros(9), flywheel=(x0, 0.0))
+    assert cable.flywheel.acceleration == pytest.approx(-k_s * x0 / m_s, rel=1e-15)  # equilibrium
+    lam = np.roots([m_s, c_s, k_s])
+    amp = np.linalg.solve(np.array([[1.0, 1.0], lam]), [x0, 0.0])
+    z = (1 + lam * h / 2) / (1 - lam * h / 2)
+    for step in range(1, 2001):
+        cable.step(0.0)
+        expected = float(np.real(np.sum(amp * z**step)))
+        # the node's compliance perturbs the flywheel by ~k_s h/(2T) ~ 1e-9 relative per cycle
+        assert cable.flywheel.displacement == pytest.approx(expected, abs=1e-7 * x0)
+    assert cable.device_force == pytest.approx(-k_s * cable.flywheel.displacement, rel=1e-6)  # F = k_s (u_d - x)
+    assert np.abs(z[0]) < 1.0 and np.angle(z[0]) != 0.0  # a damped ringing, not a trivial decay
+
+
+def test_modal_frequencies_of_a_two_dof_cable_with_the_flywheel():
+    # N = 2 elements: one free node (mass 5/12 m h * 2, stiffness 2T/h) and the flywheel: a closed-form 2-DOF system.
+    k_s, m_s = 3e5, 400.0
+    cable = Cable(PROPS, 0.5, 1e-3, elements=2, damper=InterfaceDevice(series_stiffness=k_s, series_inertance=m_s))
+    h = PROPS.length / 2
+    m_n, k_n = 5.0 / 6.0 * PROPS.mass_per_length * h, 2.0 * PROPS.tension / h
+    # det [[k_n + k_s - w2 m_n, -k_s], [-k_s, k_s - w2 m_s]] = 0
+    w2 = np.roots([m_n * m_s, -((k_n + k_s) * m_s + k_s * m_n), k_n * k_s])
+    np.testing.assert_allclose(cable.modal_frequencies(), np.sqrt(np.sort(w2)), rtol=1e-12)  # eigh round-off
+    with pytest.raises(ParameterError, match=r"count must not exceed the 2 DOFs \(free nodes and the flywheel\); got 3"):
+        cable.modal_frequencies(3)
+    # without flywheel inertance the undamped branch carries no force
+    maxwell = Cable(PROPS, 0.02, 1e-3, elements=20, damper=MAXWELL)
+    plain = Cable(PROPS, 0.02, 1e-3, elements=20)
+    np.testing.assert_array_equal(maxwell.modal_frequencies(5), plain.modal_frequencies(5))
+
+
+def test_device_state_predict_reset_and_outputs():
+    cable = Cable(PROPS, 0.02, 1e-3, elements=40, load=DistributedLoad(100.0, mode=3), damper=SERIES)
+    rng = np.random.default_rng(4)
+    u, v = rng.normal(size=39) * 1e-3, rng.normal(size=39) * 1e-2
+    cable.set_state(u, v)  # default: spring unstretched, flywheel moving with the node
+    d = cable.damper_index
+    fly = cable.flywheel
+    assert (fly.displacement, fly.velocity) == (u[d], v[d])
+    assert fly.acceleration == pytest.approx(-SERIES.series_damping * v[d] / SERIES.series_inertance, rel=1e-15)
+    a = cable.acceleration
+    expected = SERIES.inertance * a[d] + SERIES.damping * v[d] + SERIES.stiffness * u[d]
+    assert cable.device_force == pytest.approx(expected, rel=1e-14)  # summation order
+    for k in range(30):
+        cable.step(50.0 * k)
+    before = (cable.flywheel, cable.device_force)
+    predicted = cable.predict(123.0)
+    assert (cable.flywheel, cable.device_force) == before
+    assert cable.step(123.0) == predicted  # identical arithmetic
+    out = cable.outputs()
+    assert out["device_force"] == cable.device_force
+    assert (out["flywheel_displacement"], out["flywheel_velocity"]) == (cable.flywheel.displacement, cable.flywheel.velocity)
+    cable.reset()
+    assert cable.flywheel == cable.interface == type(cable.interface)(0.0, 0.0, 0.0) and cable.device_force == 0.0
+    # Maxwell element: the flywheel velocity follows from c_s x' = k_s (u_d - x), whatever is given
+    maxwell = Cable(PROPS, 0.02, 1e-3, elements=40, damper=MAXWELL)
+    maxwell.set_state(u, v, flywheel=(0.0, 99.0))
+    assert maxwell.flywheel.velocity == pytest.approx(MAXWELL.series_stiffness * u[d] / MAXWELL.series_damping, rel=1e-15)
+    # no device: no force, no flywheel, no extra outputs
+    plain = Cable(PROPS, 0.02, 1e-3, elements=40)
+    assert plain.device_force == 0.0 and plain.flywheel is None
+    assert set(plain.outputs()) == {"midspan_displacement", "kinetic_energy", "strain_energy"}
+    rigid = Cable(PROPS, 0.02, 1e-3, elements=40, damper=PointDamper(10.0, 20.0))
+    assert set(rigid.outputs()) == {"midspan_displacement", "kinetic_energy", "strain_energy", "device_force"}
+
+
+def test_dynamic_stiffness_closed_forms():
+    k_s, m_s, c_s = 4e6, 1000.0, 300.0
+    device = InterfaceDevice(50.0, 70.0, series_stiffness=k_s, series_inertance=m_s, series_damping=c_s, stiffness=9e3)
+    w = np.array([0.3, 17.0, 250.0])
+    flywheel = -m_s * w**2 + 1j * c_s * w
+    expected = 9e3 - 50.0 * w**2 + 70j * w + 1.0 / (1.0 / k_s + 1.0 / flywheel)  # springs in series
+    np.testing.assert_allclose(device.dynamic_stiffness(w), expected, rtol=1e-13)  # rounding
+    branch = InterfaceDevice(series_stiffness=k_s, series_inertance=m_s)
+    assert branch.series_frequency == pytest.approx(math.sqrt(k_s / m_s), rel=1e-15)
+    assert abs(branch.dynamic_stiffness(branch.series_frequency * (1 + 1e-9))) > 1e8 * k_s  # pole
+    assert branch.dynamic_stiffness(1e6 * branch.series_frequency) == pytest.approx(k_s, rel=1e-11)  # flywheel still
+    assert MAXWELL.series_frequency == math.inf and math.isnan(InterfaceDevice(1.0).series_frequency)
+    assert not InterfaceDevice(1.0).has_series and SERIES.has_series
+
+
+def test_series_stiffness_normalisation_round_trip():
+    k_e = normalised_stiffness(PROPS, 6.4e7)
+    assert k_e == pytest.approx(6.4e7 * PROPS.length / (math.pi**2 * PROPS.tension), rel=1e-15)
+    assert physical_stiffness(PROPS, k_e) == pytest.approx(6.4e7, rel=1e-15)
+    # a device (m_e, k_e) has its own frequency sqrt(k_e/m_e) omega0
+    m_e, _ = normalised_damper(PROPS, 2650.0, 0.0)
+    assert math.sqrt(k_e / m_e) * PROPS.omega0 == pytest.approx(math.sqrt(6.4e7 / 2650.0), rel=1e-14)
+
+
+# ---------------------------------------------------------------------------- mesh rule
+SEED_CABLE = CableProperties(length=200.0, tension=5.0e6, mass_per_length=80.0)  # brief's prototype cable
+TYPE_II_STIFFNESS = 6.4e7  # S0 Table 4 k0 = 1.2e7 N/m scaled with the inertance 1589 -> 8480 kg
+
+
+def test_mesh_rule_for_the_seed_type_ii_device():
+    assert max_element_size(TYPE_II_STIFFNESS, SEED_CABLE) == pytest.approx(0.3125, rel=1e-15)  # 4 T/k_s
+    n = elements_for(SEED_CABLE, 0.02, TYPE_II_STIFFNESS)
+    assert n == 641  # 200 m/0.3125 m = 640 elements is exactly at the limit, which is strict
+    for elements, meets in ((n, True), (n - 1, False)):
+        nodes, _ = mesh_nodes(SEED_CABLE.length, 0.02, elements)
+        h = np.max(np.diff(nodes))
+        local = math.sqrt(TYPE_II_STIFFNESS / (SEED_CABLE.mass_per_length * h))
+        assert bool(local < 2.0 * SEED_CABLE.wave_speed / h) is meets  # the rule's physical form
+    assert elements_for(SEED_CABLE, 0.02, None) == 100 and elements_for(SEED_CABLE, 0.02, None, minimum=7) == 7
+    assert elements_for(SEED_CABLE, 0.02, 1e3, minimum=250) == 250  # soft spring: the minimum decides
+
+
+def test_device_validation_branches():
+    with pytest.raises(ParameterError, match="series stiffness must be positive; got 0.0"):
+        InterfaceDevice(series_stiffness=0.0, series_inertance=1.0)
+    with pytest.raises(ParameterError, match="series inertance must be non-negative; got -1.0"):
+        InterfaceDevice(series_stiffness=1e6, series_inertance=-1.0)
+    with pytest.raises(ParameterError, match="series damping coefficient must be non-negative; got -2.0"):
+        InterfaceDevice(series_stiffness=1e6, series_damping=-2.0)
+    with pytest.raises(ParameterError, match="series inertance/damping need a series stiffness; got series_stiffness=None"):
+        InterfaceDevice(series_inertance=5.0)
+    with pytest.raises(ParameterError, match="a series branch needs series_inertance or series_damping > 0; got both 0.0"):
+        InterfaceDevice(series_stiffness=1e6)
+    with pytest.raises(ParameterError, match="damper stiffness must be non-negative; got -3.0"):
+        InterfaceDevice(stiffness=-3.0)
+    with pytest.raises(ParameterError, match="series stiffness must be positive; got -1.0"):
+        normalised_stiffness(PROPS, -1.0)
+    with pytest.raises(ParameterError, match="normalised series stiffness k_e must be positive; got 0.0"):
+        physical_stiffness(PROPS, 0.0)
+    with pytest.raises(ParameterError, match="series stiffness must be positive; got 0"):
+        max_element_size(0, PROPS)
+    with pytest.raises(ParameterError, match="minimum elements must be a positive integer; got 0"):
+        elements_for(PROPS, 0.02, 1e6, minimum=0)
+    with pytest.raises(ParameterError, match=r"damper position x_d must lie in \(0, 1\); got 1.5"):
+        elements_for(PROPS, 1.5, 1e6)
+    rigid = InterfaceDevice(1.0, 2.0)
+    with pytest.raises(ParameterError, match="the device has no series branch"):
+        SeriesCondensation.of(rigid, 1e-3)
+    t = Tridiagonal(np.ones(3), np.zeros(2))
+    with pytest.raises(ParameterError, match="the device has no series branch"):
+        augmented_matrices(t, t, t, 1, rigid)
+
+
+def test_set_state_rejects_bad_flywheel_states():
+    plain = Cable(PROPS, 0.02, 1e-3, elements=10, damper=InterfaceDevice(1.0))
+    with pytest.raises(ParameterError, match=r"a flywheel state needs a device with a series branch; got flywheel=\(0.0, 0.0\)"):
+        plain.set_state(np.zeros(9), np.zeros(9), flywheel=(0.0, 0.0))
+    cable = Cable(PROPS, 0.02, 1e-3, elements=10, damper=SERIES)
+    with pytest.raises(ParameterError, match=r"flywheel must be \(displacement, velocity\); got \(1.0,\)"):
+        cable.set_state(np.zeros(9), np.zeros(9), flywheel=(1.0,))
+    with pytest.raises(ParameterError, match="flywheel displacement must be finite; got nan"):
+        cable.set_state(np.zeros(9), np.zeros(9), flywheel=(math.nan, 0.0))
+    with pytest.raises(ParameterError, match="flywheel velocity must be finite; got inf"):
+        cable.set_state(np.zeros(9), np.zeros(9), flywheel=(0.0, math.inf))
+
+
+def test_fe_matrices_append_the_flywheel_dof():
+    fe = fe_matrices(PROPS, 0.02, 30, damper=SERIES)
+    assert fe.flywheel_index == 29 and fe.stiffness.shape == fe.mass.shape == fe.damping.shape == (30, 30)
+    k = fe.stiffness.toarray()
+    assert k[fe.damper_index, 29] == k[29, fe.damper_index] == -SERIES.series_stiffness
+    assert (fe.mass[29, 29], fe.damping[29, 29]) == (SERIES.series_inertance, SERIES.series_damping)
+    assert fe_matrices(PROPS, 0.02, 30, damper=PointDamper(1.0)).flywheel_index is None
