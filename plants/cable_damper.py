@@ -12,6 +12,28 @@ ratio ``zeta = Im beta/|beta|`` and frequency ratio ``|beta|/(n pi)`` for mode `
 inertial mass damper (IMD, simplified S0 Eq.1) adds a local mode; near its optimum (S0 §5.3,
 ``m_e = 0.53``, ``c_d x_d = 0.015``, mode 3) two roots share the neighbourhood of mode ``n``.
 
+Any device enters through its normalised impedance ``Z(beta) = K(omega) L/(T beta)``,
+``omega = beta c/L``, with ``K`` its complex dynamic stiffness [N/m]
+(:meth:`plants.cable.InterfaceDevice.dynamic_stiffness`, :func:`device_impedance`); the rigid
+IMD's ``K = -mbar_e omega^2 + i cbar_d omega`` gives the ``Z`` above.  With the internal series
+stiffness of S0 Eq.12 (normalised ``k_e = kbar_e L/(pi^2 T)``, the IMD's ``(m_e, c_d)`` behind the
+spring) ``Z = pi^2 k_e Z_0/(pi^2 k_e + beta Z_0)``, ``Z_0 = -m_e beta + i pi c_d``, which tends to
+``Z_0`` as ``k_e -> inf``.  ``Z`` then has a pole at the device's own resonance, so the frequency
+function is multiplied by ``1 + beta Z_0/(pi^2 k_e)``: entire, same roots, and the argument
+principle still counts roots only.
+
+The series branch adds one root (one more DOF).  With a soft spring it is the device's own,
+strongly damped mode near ``beta ~ pi sqrt(k_e/m_e)`` (its frequency with the node held), e.g.
+``m_e = 0.01``, ``c_d = 0.1``, ``k_e = 2``, ``x = 0.02``: ``36.68 + 12.60i`` beside the string root
+``37.88 + 0.26i`` in the window of mode 12.  The window of mode ``n`` (below) reports it only
+when it falls there.  A stiff spring does not hold still the node it hangs on: for the S0 Type
+II IMD on the seed cable (``k_e = 259``, ``pi sqrt(k_e/m_e) = 22.1 pi``) every window up to mode
+44 holds as many roots as with the rigid IMD, the flywheel follows the node like a rigid IMD
+below its own frequency, and the extra eigenvalue of the FE model is the mode trapped at the
+damper node at the top of its spectrum (mesh rule of :func:`plants.cable.max_element_size`).
+Near mode 3 the IMD pair is detuned: ``zeta = 0.113`` and ``0.068`` instead of ``0.091`` and
+``0.088``.
+
 Three independent ways to the same numbers are provided:
 
 * :func:`exact_roots` -- every root of the frequency equation in the window of mode ``n``
@@ -25,7 +47,7 @@ Three independent ways to the same numbers are provided:
 * :func:`asymptotic_damping` -- the small-damper formula
   ``zeta/x ~ kappa/((1 + alpha)^2 + kappa^2)``, ``kappa = n pi^2 c_d x``,
   ``alpha = -n^2 pi^2 m_e x`` (Krenk 2000 for viscous dampers; Lu et al. 2017 with inertance),
-  which fails near the IMD optimum.
+  i.e. ``alpha + i kappa = n pi x Z(n pi)``, which fails near the IMD optimum.
 
 References
 ----------
@@ -48,10 +70,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from plants.cable import (
     CableProperties,
-    PointDamper,
+    InterfaceDevice,
     RayleighDamping,
     fe_matrices,
     physical_damper,
+    physical_stiffness,
 )
 from rths.errors import (
     NumericalError,
@@ -65,9 +88,11 @@ from rths.errors import (
 __all__ = [
     "DamperRoot",
     "asymptotic_damping",
+    "device_impedance",
     "exact_roots",
     "fe_roots",
     "frequency_function",
+    "normalised_impedance",
 ]
 
 _LOWER_IMAG = -0.25  # lower edge of the window in Im beta (passive dampers have Im beta >= 0)
@@ -106,19 +131,69 @@ class DamperRoot:
         return abs(self.beta) / (self.mode * math.pi)
 
 
-def _check_system(mode: int, x_d: float, m_e: float, c_d: float) -> tuple[int, float, float, float]:
+def _check_system(
+    mode: int, x_d: float, m_e: float, c_d: float, k_e: float | None
+) -> tuple[int, float, float, float, float | None]:
     n = check_positive_int(mode, "mode number n")
     x = check_finite(x_d, "damper position x_d")
     if not 0.0 < x < 1.0:
         raise ParameterError(f"damper position x_d must lie in (0, 1); got {x_d!r}")
     m_e = check_nonnegative(m_e, "normalised inertance m_e")
-    return n, x, m_e, check_nonnegative(c_d, "normalised damping c_d")
+    c_d = check_nonnegative(c_d, "normalised damping c_d")
+    if k_e is not None:
+        k_e = check_positive(k_e, "normalised series stiffness k_e")
+        if m_e == 0.0 and c_d == 0.0:
+            raise ParameterError(
+                f"a series stiffness needs m_e or c_d > 0 behind it; got k_e={k_e!r} with both 0"
+            )
+    return n, x, m_e, c_d, k_e
+
+
+def normalised_impedance(
+    beta: ArrayLike, m_e: float, c_d: float, *, k_e: float | None = None
+) -> NDArray[np.complex128]:
+    """The IMD's normalised impedance ``Z(beta)`` (module docstring), any shape of ``beta``.
+
+    ``Z_0 = -m_e beta + i pi c_d`` (simplified S0 Eq.1) without ``k_e``; with the normalised
+    series stiffness ``k_e`` (S0 Eq.12) ``Z = pi^2 k_e Z_0/(pi^2 k_e + beta Z_0)``.
+    """
+    b = np.asarray(beta, dtype=complex)
+    z0 = -m_e * b + 1j * math.pi * c_d
+    if k_e is None:
+        return z0
+    spring = math.pi**2 * k_e
+    return spring * z0 / (spring + b * z0)
+
+
+def device_impedance(
+    beta: ArrayLike, properties: CableProperties, device: InterfaceDevice
+) -> NDArray[np.complex128]:
+    """Normalised impedance ``Z = K(omega) L/(T beta)``, ``omega = beta c/L``, of any physical
+    device on a physical cable (``K``: :meth:`plants.cable.InterfaceDevice.dynamic_stiffness`)."""
+    b = np.asarray(beta, dtype=complex)
+    p = properties
+    return device.dynamic_stiffness(b * p.wave_speed / p.length) * p.length / (p.tension * b)
+
+
+def _function(
+    b: NDArray[np.complex128], x: float, m_e: float, c_d: float, k_e: float | None
+) -> NDArray[np.complex128]:
+    """The (entire) frequency function; see :func:`frequency_function`."""
+    z0 = -m_e * b + 1j * math.pi * c_d
+    s12 = np.sin(b * x) * np.sin(b * (1.0 - x))
+    if k_e is None:
+        return np.sin(b) + z0 * s12
+    return (1.0 + b * z0 / (math.pi**2 * k_e)) * np.sin(b) + z0 * s12
 
 
 def frequency_function(
-    beta: ArrayLike, x_d: float, m_e: float, c_d: float
+    beta: ArrayLike, x_d: float, m_e: float, c_d: float, *, k_e: float | None = None
 ) -> NDArray[np.complex128]:
     """The left side ``sin b + Z(b) sin(b x) sin(b (1-x))``, ``Z = -m_e b + i pi c_d``.
+
+    With the normalised series stiffness ``k_e`` (S0 Eq.12) ``Z`` is that of
+    :func:`normalised_impedance` and the whole left side is multiplied by
+    ``1 + b Z_0/(pi^2 k_e)`` so that it stays entire (module docstring).
 
     Parameters
     ----------
@@ -126,23 +201,30 @@ def frequency_function(
         Complex normalised wavenumber(s) ``omega L/c``, any shape.
     x_d, m_e, c_d
         Normalised damper position, inertance and viscous coefficient (S0 Eq.23).
+    k_e
+        Normalised series stiffness ``kbar_e L/(pi^2 T)``; ``None`` for a rigid device.
     """
-    b = np.asarray(beta, dtype=complex)
-    z = -m_e * b + 1j * math.pi * c_d
-    return np.sin(b) + z * np.sin(b * x_d) * np.sin(b * (1.0 - x_d))
+    return _function(np.asarray(beta, dtype=complex), x_d, m_e, c_d, k_e)
 
 
 def _derivative(
-    b: NDArray[np.complex128], x: float, m_e: float, c_d: float
+    b: NDArray[np.complex128], x: float, m_e: float, c_d: float, k_e: float | None
 ) -> NDArray[np.complex128]:
     """d/d(beta) of :func:`frequency_function`."""
-    z = -m_e * b + 1j * math.pi * c_d
+    z0 = -m_e * b + 1j * math.pi * c_d
     s1, s2 = np.sin(b * x), np.sin(b * (1.0 - x))
     ds = x * np.cos(b * x) * s2 + (1.0 - x) * s1 * np.cos(b * (1.0 - x))
-    return np.cos(b) - m_e * s1 * s2 + z * ds
+    if k_e is None:
+        return np.cos(b) - m_e * s1 * s2 + z0 * ds
+    spring = math.pi**2 * k_e
+    p, dp = 1.0 + b * z0 / spring, (z0 - m_e * b) / spring
+    return dp * np.sin(b) + p * np.cos(b) - m_e * s1 * s2 + z0 * ds
 
 
-def _winding(corners: list[complex], x: float, m_e: float, c_d: float) -> int:
+_System = tuple[float, float, float, float | None]  # x_d, m_e, c_d, k_e
+
+
+def _winding(corners: list[complex], system: _System) -> int:
     """Zeros of the frequency function inside the closed polygon ``corners`` (argument principle).
 
     The boundary is sampled until the phase changes by less than pi/4 between samples, which is
@@ -153,7 +235,7 @@ def _winding(corners: list[complex], x: float, m_e: float, c_d: float) -> int:
         path = np.concatenate(
             [a + (b - a) * t for a, b in zip(corners, corners[1:] + corners[:1], strict=True)]
         )
-        f = frequency_function(np.append(path, path[0]), x, m_e, c_d)
+        f = _function(np.append(path, path[0]), *system)
         if np.min(np.abs(f)) == 0.0:
             break
         jumps = np.angle(f[1:] / f[:-1])
@@ -164,7 +246,13 @@ def _winding(corners: list[complex], x: float, m_e: float, c_d: float) -> int:
 
 
 def exact_roots(
-    mode: int, x_d: float, m_e: float, c_d: float, *, max_imag: float | None = None
+    mode: int,
+    x_d: float,
+    m_e: float,
+    c_d: float,
+    *,
+    k_e: float | None = None,
+    max_imag: float | None = None,
 ) -> tuple[DamperRoot, ...]:
     """All roots of the exact frequency equation near string mode ``mode`` (ascending ``Re beta``).
 
@@ -176,6 +264,10 @@ def exact_roots(
         Normalised damper position in (0, 1).
     m_e, c_d
         Normalised inertance and viscous coefficient (S0 Eq.23), >= 0.
+    k_e
+        Normalised series stiffness (S0 Eq.12, ``kbar_e L/(pi^2 T)``) with ``(m_e, c_d)`` behind
+        it; ``None`` for the rigid device.  A root of the device's own is reported only when it
+        falls in the window (module docstring).
     max_imag
         Upper edge of the window in ``Im beta``; default ``(n + 1/2) pi`` (damping ratios up to
         about 0.7).
@@ -186,29 +278,31 @@ def exact_roots(
         If Newton iterations from ever finer grids of starts cannot find as many roots as the
         argument principle counts (not seen in practice).
     """
-    n, x, m_e, c_d = _check_system(mode, x_d, m_e, c_d)
+    n, x, m_e, c_d, k_e = _check_system(mode, x_d, m_e, c_d, k_e)
+    system: _System = (x, m_e, c_d, k_e)
     top = (n + 0.5) * math.pi if max_imag is None else check_positive(max_imag, "max_imag")
     lo, hi = (n - 0.5) * math.pi, (n + 0.5) * math.pi
     bottom = _LOWER_IMAG
-    count = _winding([complex(lo, bottom), complex(hi, bottom), complex(hi, top), complex(lo, top)],
-                     x, m_e, c_d)
+    count = _winding(
+        [complex(lo, bottom), complex(hi, bottom), complex(hi, top), complex(lo, top)], system
+    )
     found: list[complex] = []
     for spacing in (math.pi / 8, math.pi / 32, math.pi / 128):
         re = np.arange(lo + spacing / 2, hi, spacing)
         im = np.arange(0.0, top + spacing / 2, spacing)
         starts = (re[:, None] + 1j * im[None, :]).ravel()
         roots, converged, _ = so.newton(
-            frequency_function, starts, fprime=_derivative, args=(x, m_e, c_d),
+            _function, starts, fprime=_derivative, args=system,
             tol=1e-13, maxiter=100, full_output=True,
         )  # fmt: skip
         inside = (roots.real >= lo) & (roots.real < hi)
         inside &= (roots.imag >= _LOWER_IMAG) & (roots.imag <= top)
         for z in roots[converged & inside]:
-            if abs(frequency_function(z, x, m_e, c_d)) > 1e-9 * (1.0 + abs(z)):
+            if abs(_function(z, *system)) > 1e-9 * (1.0 + abs(z)):
                 continue  # a stalled iteration, not a root
             if all(abs(z - w) > 1e-8 * abs(z) for w in found):
                 found.append(complex(z))
-        multiplicity = [_local_multiplicity(z, found, x, m_e, c_d) for z in found]
+        multiplicity = [_local_multiplicity(z, found, system) for z in found]
         if sum(multiplicity) == count:
             order = np.argsort([z.real for z in found])
             return tuple(DamperRoot(found[i], n, "exact", multiplicity[i]) for i in order)
@@ -217,14 +311,12 @@ def exact_roots(
     )
 
 
-def _local_multiplicity(
-    z: complex, others: list[complex], x: float, m_e: float, c_d: float
-) -> int:
+def _local_multiplicity(z: complex, others: list[complex], system: _System) -> int:
     """How many roots lie in a small square around the root ``z`` (argument principle)."""
     gap = min((abs(z - w) for w in others if w != z), default=1.0)
     r = min(1e-3, 0.3 * gap)
     square = [z + r * complex(a, b) for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
-    return _winding(square, x, m_e, c_d)
+    return _winding(square, system)
 
 
 def fe_roots(
@@ -233,6 +325,7 @@ def fe_roots(
     m_e: float,
     c_d: float,
     *,
+    k_e: float | None = None,
     elements: int = 400,
     intrinsic_damping: RayleighDamping | None = None,
     max_imag: float | None = None,
@@ -242,13 +335,22 @@ def fe_roots(
     Same window and arguments as :func:`exact_roots`; ``elements`` is the FE mesh size ``N`` and
     ``intrinsic_damping`` optionally adds the cable's Rayleigh damping (none by default, for
     comparison with the frequency equation).  The model is the normalised cable ``L = T = m = 1``
-    (so ``c = 1``, ``omega0 = pi``) with the physical damper of S0 Eq.23.
+    (so ``c = 1``, ``omega0 = pi``) with the physical damper of S0 Eq.23; with ``k_e`` the
+    flywheel is an extra DOF of the eigenproblem (S0 Eq.12) and the mesh rule of
+    :func:`plants.cable.elements_for` (``N >= 4/(pi^2 k_e)`` here) decides whether the damper
+    node radiates at the device's local frequency; roots near mode ``n`` converge either way.
     """
-    n, x, m_e, c_d = _check_system(mode, x_d, m_e, c_d)
+    n, x, m_e, c_d, k_e = _check_system(mode, x_d, m_e, c_d, k_e)
     top = (n + 0.5) * math.pi if max_imag is None else check_positive(max_imag, "max_imag")
     unit = CableProperties(1.0, 1.0, 1.0)
     inertance, damping = physical_damper(unit, m_e, c_d)
-    damper = PointDamper(inertance, damping)
+    if k_e is None:
+        damper = InterfaceDevice(inertance, damping)
+    else:
+        stiffness = physical_stiffness(unit, k_e)
+        damper = InterfaceDevice(
+            series_stiffness=stiffness, series_inertance=inertance, series_damping=damping
+        )
     fe = fe_matrices(unit, x, elements, intrinsic_damping=intrinsic_damping, damper=damper)
     lo, hi = (n - 0.5) * math.pi, (n + 0.5) * math.pi
     centre = complex(n * math.pi, 0.5 * (top + _LOWER_IMAG))
@@ -284,13 +386,16 @@ def _state_space_eigenvalues(
     return s[np.abs(s - shift) <= radius]
 
 
-def asymptotic_damping(mode: int, x_d: float, m_e: float, c_d: float) -> float:
+def asymptotic_damping(
+    mode: int, x_d: float, m_e: float, c_d: float, *, k_e: float | None = None
+) -> float:
     """Small-damper estimate ``zeta = x kappa/((1 + alpha)^2 + kappa^2)`` [-] of mode ``mode``.
 
-    ``kappa = n pi^2 c_d x`` and ``alpha = -n^2 pi^2 m_e x`` (design.md §6).  Accurate for small
-    ``x`` away from the IMD optimum ``alpha -> -1``, where the exact equation has two roots.
+    ``kappa = n pi^2 c_d x`` and ``alpha = -n^2 pi^2 m_e x`` (design.md §6); generally
+    ``alpha + i kappa = n pi x Z(n pi)`` with the impedance of :func:`normalised_impedance`
+    (so ``k_e`` is accounted for at the string's frequency).  Accurate for small ``x`` away
+    from the IMD optimum ``alpha -> -1``, where the exact equation has two roots.
     """
-    n, x, m_e, c_d = _check_system(mode, x_d, m_e, c_d)
-    kappa = n * math.pi**2 * c_d * x
-    alpha = -(n**2) * math.pi**2 * m_e * x
-    return x * kappa / ((1.0 + alpha) ** 2 + kappa**2)
+    n, x, m_e, c_d, k_e = _check_system(mode, x_d, m_e, c_d, k_e)
+    eta = n * math.pi * x * complex(normalised_impedance(n * math.pi, m_e, c_d, k_e=k_e))
+    return x * eta.imag / abs(1.0 + eta) ** 2

@@ -6,7 +6,8 @@ import re
 
 import pytest
 
-from plants.cable import CableProperties, physical_damper
+from plants.cable import CableProperties, normalised_stiffness, physical_damper
+from plants.cable_damper import exact_roots
 from rths.cli import main
 
 SEED_ARGS = ["damping", "--mode", "3", "--xd", "0.02", "--me", "0.53", "--cd", "0.75", "--elements", "200"]
@@ -72,6 +73,12 @@ def test_physical_input_is_normalised_with_eq23(capsys):
         (["--xd", "0.02", "--length", "3", "--tension", "1", "--mass-per-length", "1", "--inertance", "-4"],
          "damper inertance must be non-negative; got -4.0"),
         (["--xd", "0.02", "--cd", "1", "--elements", "1"], "number of elements must be at least 2; got 1"),
+        (["--xd", "0.02", "--me", "0.5", "--stiffness", "1e7"], "either normalised .* not both"),
+        (["--xd", "0.02", "--ke", "10", "--length", "3"], "either normalised .* not both"),
+        (["--xd", "0.02", "--me", "0.5", "--ke", "-1"], "normalised series stiffness k_e must be positive; got -1.0"),
+        (["--xd", "0.02", "--ke", "10"], "a series stiffness needs m_e or c_d > 0 behind it; got k_e=10.0"),
+        (["--xd", "0.02", "--length", "3", "--tension", "1", "--mass-per-length", "1", "--inertance", "4",
+          "--stiffness", "-5"], "series stiffness must be positive; got -5.0"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_code_2(capsys, extra, message):
@@ -87,3 +94,40 @@ def test_bad_input_is_one_line_and_exit_code_2(capsys, extra, message):
 def test_bad_mode_is_rejected(capsys):
     assert main(["damping", "--mode", "0", "--xd", "0.02", "--cd", "1"]) == 2
     assert "mode number n must be a positive integer; got 0" in capsys.readouterr().err
+
+
+SEED_PHYSICAL = [
+    "damping", "--mode", "3", "--xd", "0.02", "--length", "200", "--tension", "5e6", "--mass-per-length", "80",
+    "--inertance", "8480", "--damping", repr(0.75 * math.pi * math.sqrt(5e6 * 80)), "--stiffness", "6.4e7",
+]  # fmt: skip  # brief's seed point: m_e = 0.53, c_d x_d = 0.015, Type II stiffness at prototype scale
+
+
+def test_physical_series_stiffness_is_normalised_and_solved(capsys):
+    doc = run_json(capsys, SEED_PHYSICAL)
+    k_e = normalised_stiffness(CableProperties(200.0, 5e6, 80.0), 6.4e7)
+    assert (doc["me"], doc["cd"], doc["ke"]) == pytest.approx((0.53, 0.75, k_e), rel=1e-12)  # Eq.23 round-off
+    assert doc["device_beta"] == pytest.approx(math.pi * math.sqrt(k_e / 0.53), rel=1e-12)
+    exact = [r for r in doc["roots"] if r["method"] == "exact"]
+    fe = [r for r in doc["roots"] if r["method"] == "fe"]
+    expected = exact_roots(3, 0.02, 0.53, 0.75, k_e=k_e)
+    assert [complex(*r["beta"]) for r in exact] == pytest.approx([r.beta for r in expected], rel=1e-10)  # Newton
+    assert [r["zeta"] for r in fe] == pytest.approx([r.zeta for r in expected], rel=2e-2)  # brief: 2 % at 400
+    normalised = run_json(capsys, ["damping", "--mode", "3", "--xd", "0.02", "--me", "0.53", "--cd", "0.75",
+                                   "--ke", repr(k_e)])  # fmt: skip
+    flat = lambda d: [x for r in d["roots"] for x in r["beta"]]  # noqa: E731
+    assert flat(normalised) == pytest.approx(flat(doc), rel=1e-9)  # Eq.23 round-off through Newton / ARPACK
+
+
+def test_table_reports_the_series_stiffness_and_the_device_mode(capsys):
+    assert main(SEED_PHYSICAL) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].endswith("series k_e = 259.382 (S0 Eq.12)")
+    assert any(line.startswith("device's own mode (node held): beta = 69.4996 (~ mode 22.12), outside") for line in lines)
+    argv = ["damping", "--mode", "22", "--xd", "0.02", "--me", "0.53", "--cd", "0.75", "--ke", "259.382", "--elements", "200"]
+    assert main(argv) == 0
+    assert "inside this window" in capsys.readouterr().out
+    assert main(["damping", "--mode", "1", "--xd", "0.02", "--cd", "5", "--ke", "3", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["device_beta"] is None and doc["ke"] == 3.0  # no inertance behind the spring: no device mode
+    assert main(["damping", "--mode", "1", "--xd", "0.02", "--cd", "5", "--ke", "3"]) == 0
+    assert "the device has no oscillating mode of its own" in capsys.readouterr().out

@@ -6,18 +6,26 @@ Examples::
     rths damping --mode 3 --xd 0.02 --me 0.53 --cd 0.75 --json
     rths damping --mode 3 --xd 0.02 --length 100 --tension 1e6 --mass-per-length 50 \\
         --inertance 2650 --damping 1000
+    rths damping --mode 3 --xd 0.02 --length 200 --tension 5e6 --mass-per-length 80 \\
+        --inertance 8480 --damping 47124 --stiffness 6.4e7
 
 The damper is given either normalised (``--me``, ``--cd``; S0 Eq.23) or physically (cable
 length [m], tension [N], mass per length [kg/m], inertance [kg], damping [N s/m]); a missing
-``--me``/``--cd`` or ``--inertance``/``--damping`` means zero.  The command prints, for every root
-of the exact frequency equation near mode N, its complex wavenumber ``beta``, damping ratio and
-frequency ratio, paired with the nearest FE eigenvalue (:mod:`plants.cable_damper`).
+``--me``/``--cd`` or ``--inertance``/``--damping`` means zero.  ``--stiffness`` [N/m] (physical)
+or ``--ke`` (normalised, ``k_e = K L/(pi^2 T)``) puts the damper's inertance and damping behind
+an internal series spring (S0 Eq.12); without it the damper is rigid (simplified S0 Eq.1).  The
+command prints, for every root of the exact frequency equation near mode N, its complex
+wavenumber ``beta``, damping ratio and frequency ratio, paired with the nearest FE eigenvalue
+(:mod:`plants.cable_damper`).  With a series spring it also says where the device's own mode
+(node held, ``beta = pi sqrt(k_e/m_e)``) lies: a root of the device (a soft spring gives one) is
+listed only when it falls in the window of mode N.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 from typing import Any
 
 from rths.errors import ParameterError
@@ -39,34 +47,43 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     norm = p.add_argument_group("normalised damper (S0 Eq.23)")
     norm.add_argument("--me", type=float, metavar="M", help="normalised inertance m_e")
     norm.add_argument("--cd", type=float, metavar="C", help="normalised damping c_d")
+    norm.add_argument(
+        "--ke", type=float, metavar="KE", help="normalised series stiffness k_e = K L/(pi^2 T)"
+    )
     phys = p.add_argument_group("physical cable and damper (SI)")
     phys.add_argument("--length", type=float, metavar="L", help="cable length [m]")
     phys.add_argument("--tension", type=float, metavar="T", help="cable tension [N]")
     phys.add_argument("--mass-per-length", type=float, metavar="m", help="mass per length [kg/m]")
     phys.add_argument("--inertance", type=float, metavar="MBAR", help="damper inertance [kg]")
     phys.add_argument("--damping", type=float, metavar="CBAR", help="damper damping [N s/m]")
+    phys.add_argument(
+        "--stiffness", type=float, metavar="K", help="internal series stiffness [N/m] (S0 Eq.12)"
+    )
     p.add_argument("--elements", type=int, default=400, metavar="N", help="FE elements (400)")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     return p
 
 
-def _normalised_parameters(args: argparse.Namespace) -> tuple[float, float]:
-    """``(m_e, c_d)`` from exactly one of the two parameter sets."""
-    from plants.cable import CableProperties, normalised_damper
+def _normalised_parameters(args: argparse.Namespace) -> tuple[float, float, float | None]:
+    """``(m_e, c_d, k_e)`` from exactly one of the two parameter sets (``k_e`` None: rigid)."""
+    from plants.cable import CableProperties, normalised_damper, normalised_stiffness
 
-    normalised = [v for v in (args.me, args.cd) if v is not None]
+    normalised = [v for v in (args.me, args.cd, args.ke) if v is not None]
     physical = [
         v
-        for v in (args.length, args.tension, args.mass_per_length, args.inertance, args.damping)
+        for v in (
+            args.length, args.tension, args.mass_per_length, args.inertance, args.damping,
+            args.stiffness,
+        )
         if v is not None
-    ]
+    ]  # fmt: skip
     if normalised and physical:
         raise ParameterError(
-            "give the damper either normalised (--me/--cd) or physically (--length, --tension, "
-            "--mass-per-length, --inertance/--damping), not both"
+            "give the damper either normalised (--me/--cd/--ke) or physically (--length, "
+            "--tension, --mass-per-length, --inertance/--damping/--stiffness), not both"
         )
     if normalised:
-        return (args.me or 0.0), (args.cd or 0.0)
+        return (args.me or 0.0), (args.cd or 0.0), args.ke
     if not physical:
         raise ParameterError(
             "no damper given: use --me/--cd, or --length, --tension, --mass-per-length with "
@@ -76,7 +93,26 @@ def _normalised_parameters(args: argparse.Namespace) -> tuple[float, float]:
     if missing:
         raise ParameterError(f"a physical damper also needs {', '.join(missing)}")
     cable = CableProperties(args.length, args.tension, args.mass_per_length)
-    return normalised_damper(cable, args.inertance or 0.0, args.damping or 0.0)
+    m_e, c_d = normalised_damper(cable, args.inertance or 0.0, args.damping or 0.0)
+    k_e = None if args.stiffness is None else normalised_stiffness(cable, args.stiffness)
+    return m_e, c_d, k_e
+
+
+def _device_mode(mode: int, m_e: float, k_e: float | None) -> tuple[float | None, str]:
+    """The device's own wavenumber (node held, undamped) and a sentence on where it lies."""
+    if k_e is None:
+        return None, ""
+    if m_e == 0.0:
+        return None, "no inertance behind the spring: the device has no oscillating mode of its own"
+    beta = math.pi * math.sqrt(k_e / m_e)
+    inside = (mode - 0.5) * math.pi <= beta < (mode + 0.5) * math.pi
+    where = (
+        "inside this window: a root of the device may be among those listed"
+        if inside
+        else "outside this window"
+    )
+    note = f"device's own mode (node held): beta = {beta:.6g} (~ mode {beta / math.pi:.4g}), "
+    return beta, note + where
 
 
 def _pairs(exact: tuple[Any, ...], fe: tuple[Any, ...]) -> list[tuple[Any | None, Any | None]]:
@@ -97,17 +133,20 @@ def run(args: argparse.Namespace) -> int:
     """Compute and print the roots; returns 0."""
     from plants.cable_damper import asymptotic_damping, exact_roots, fe_roots
 
-    m_e, c_d = _normalised_parameters(args)
-    exact = exact_roots(args.mode, args.xd, m_e, c_d)
-    fe = fe_roots(args.mode, args.xd, m_e, c_d, elements=args.elements)
+    m_e, c_d, k_e = _normalised_parameters(args)
+    exact = exact_roots(args.mode, args.xd, m_e, c_d, k_e=k_e)
+    fe = fe_roots(args.mode, args.xd, m_e, c_d, k_e=k_e, elements=args.elements)
     rows = [r for pair in _pairs(exact, fe) for r in pair if r is not None]
-    asymptotic = asymptotic_damping(args.mode, args.xd, m_e, c_d)
+    asymptotic = asymptotic_damping(args.mode, args.xd, m_e, c_d, k_e=k_e)
+    device_beta, device_note = _device_mode(args.mode, m_e, k_e)
     if args.json:
         doc = {
             "mode": args.mode,
             "xd": args.xd,
             "me": m_e,
             "cd": c_d,
+            "ke": k_e,
+            "device_beta": device_beta,
             "elements": args.elements,
             "asymptotic_zeta": asymptotic,
             "roots": [
@@ -126,11 +165,14 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"cable-damper modes near mode {args.mode}: x_d = {args.xd:g}, m_e = {m_e:.6g}, "
         f"c_d = {c_d:.6g} (c_d x_d = {c_d * args.xd:.6g})"
+        + ("" if k_e is None else f", series k_e = {k_e:.6g} (S0 Eq.12)")
     )
     print(f"{'method':<8}{'beta':>26}{'zeta':>12}{'freq ratio':>12}")
     for r in rows:
         label = r.method if r.method == "exact" else f"fe/{args.elements}"
         beta = f"{r.beta.real:.6f} {'+' if r.beta.imag >= 0 else '-'} {abs(r.beta.imag):.6f}i"
         print(f"{label:<8}{beta:>26}{r.zeta:>12.6f}{r.frequency_ratio:>12.6f}")
+    if device_note:
+        print(device_note)
     print(f"asymptotic small-damper zeta: {asymptotic:.6f}")
     return 0
