@@ -2,14 +2,16 @@
 
 Usage::
 
-    python tools/bench_cable.py                 # µs per step for N = 100 and 400 elements
+    python tools/bench_cable.py                 # µs per step for N = 100, 400 and 1000 elements
     python tools/bench_cable.py --elements 50 100 200 400 800 --steps 5000 --repeats 9
     python tools/bench_cable.py --mass-study    # damped-eigenvalue error per element mass matrix
 
-The cable is the seed RTHS configuration (damper at x_d = 0.02, mode-3 distributed load, 0.1 %
-Rayleigh damping); each repetition times ``steps`` calls of ``step(F)`` with a varying force using
-``time.perf_counter`` and the median over repetitions is reported, for the compiled kernel and
-for the NumPy/SciPy reference path.
+The cable is the seed RTHS configuration (200 m, 5e6 N, 80 kg/m, damper at x_d = 0.02, mode-3
+distributed load, 0.1 % Rayleigh damping, 4096 Hz); each repetition times ``steps`` calls of
+``step(F)`` with a varying force using ``time.perf_counter`` and the median over repetitions is
+reported, for the compiled kernel and for the NumPy/SciPy reference path, without a nominal
+device ("bare") and with the S0 Type II IMD with its series stiffness ("series": 8480 kg behind
+6.4e7 N/m, c = 47 kN s/m, the flywheel condensed into the tridiagonal solve).
 """
 
 from __future__ import annotations
@@ -23,19 +25,25 @@ from plants.cable import (
     Cable,
     CableProperties,
     DistributedLoad,
+    InterfaceDevice,
     PointDamper,
     fe_matrices,
     physical_damper,
 )
 
-PROPS = CableProperties(length=100.0, tension=1.0e6, mass_per_length=50.0)
+PROPS = CableProperties(length=200.0, tension=5.0e6, mass_per_length=80.0)
+TYPE_II = InterfaceDevice(
+    series_stiffness=6.4e7, series_inertance=8480.0, series_damping=0.75 * math.pi * 2e4
+)  # m_e = 0.53, c_d x_d = 0.015 (S0 §5.3) behind the Type II stiffness at prototype scale
 
 
-def time_per_step(elements: int, use_numba: bool, steps: int, repeats: int) -> float:
+def time_per_step(
+    elements: int, use_numba: bool, steps: int, repeats: int, device: InterfaceDevice | None
+) -> float:
     """Median wall time of one ``Cable.step`` [µs]."""
     cable = Cable(
         PROPS, 0.02, 1.0 / 4096, elements=elements, load=DistributedLoad(100.0, mode=3),
-        use_numba=use_numba,
+        damper=device, use_numba=use_numba,
     )  # fmt: skip
     forces = [1e3 * math.sin(0.01 * k) for k in range(steps)]
     cable.step(0.0)  # compile / warm up
@@ -76,7 +84,7 @@ def mass_study() -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n", 1)[0])
-    parser.add_argument("--elements", type=int, nargs="+", default=[100, 400])
+    parser.add_argument("--elements", type=int, nargs="+", default=[100, 400, 1000])
     parser.add_argument("--steps", type=int, default=4096)
     parser.add_argument("--repeats", type=int, default=15)
     parser.add_argument("--mass-study", action="store_true")
@@ -85,11 +93,13 @@ def main() -> None:
         mass_study()
         return
     print(f"Cable.step, median of {args.repeats} x {args.steps} steps [µs/step]")
-    print(f"{'elements':>8} {'numba':>10} {'reference':>10}")
+    print(f"{'elements':>8} {'numba':>10} {'+series':>10} {'reference':>10} {'+series':>10}")
     for n in args.elements:
-        fast = time_per_step(n, True, args.steps, args.repeats)
-        ref = time_per_step(n, False, args.steps, max(3, args.repeats // 3))
-        print(f"{n:>8} {fast:>10.2f} {ref:>10.2f}")
+        row = []
+        for use_numba, repeats in ((True, args.repeats), (False, max(3, args.repeats // 3))):
+            for device in (None, TYPE_II):
+                row.append(time_per_step(n, use_numba, args.steps, repeats, device))
+        print(f"{n:>8} " + " ".join(f"{t:>10.2f}" for t in row))
 
 
 if __name__ == "__main__":
