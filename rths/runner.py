@@ -81,6 +81,10 @@ class RunOptions:
         Called from a display thread with (steps done, total).
     seed
         Noise seed overriding the scenario's.
+    run_id
+        The run id (keys ``rths/<run_id>/``); default ``<name>-<timestamp>-<random>``.
+    on_waiting
+        Called with the ``rths specimen`` command line when waiting for an external specimen.
     """
 
     clock: str | None = None
@@ -93,6 +97,8 @@ class RunOptions:
     step_timeout: float = 5.0
     progress: Callable[[int, int], None] | None = None
     seed: int | None = None
+    run_id: str | None = None
+    on_waiting: Callable[[str], None] | None = None
 
 
 @dataclass
@@ -229,7 +235,11 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
     opts = options or RunOptions()
     clock = opts.clock or scn.run.clock
     comp_kind = opts.compensator or scn.compensator_kind
-    run_id = _new_run_id(scn.run.name)
+    run_id = _new_run_id(scn.run.name) if opts.run_id is None else opts.run_id
+    if clock != "fast":
+        from rths.transport import RunKeys
+
+        RunKeys(run_id)  # refuse a bad id before building anything
     path = opts.out or Path("runs") / f"{run_id}.mcap"
     path.parent.mkdir(parents=True, exist_ok=True)
     n, dt = scn.run.steps, scn.run.dt
@@ -269,12 +279,14 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
                 )
                 outcome.result = loop.run(on_progress)
             else:
-                outcome.result = _run_over_zenoh(scn, opts, clock, run_id, rec, make_loop,
-                                                 on_progress, outcome)  # fmt: skip
+                outcome.result = _run_over_zenoh(
+                    scn, opts, clock, run_id, rec, make_loop, on_progress, outcome,
+                    lambda: round(collector.count * dt * 1e9),
+                )  # fmt: skip
         finally:
             if progress is not None:
                 progress.finish()
-        t_end = round(outcome.result.steps * dt * 1e9)
+        t_end = round(max(outcome.result.steps, collector.count) * dt * 1e9)
         if outcome.result.stopped:
             rec.event(t_end, "stopped", outcome.result.stopped)
         k = collector.count
@@ -310,7 +322,7 @@ def _spawn_specimen(scn: Scenario, run_id: str, endpoint: str, clock: str, log: 
     return subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=log.open("wb"), env=env)
 
 
-def _run_over_zenoh(scn, opts, clock, run_id, rec, make_loop, on_progress, outcome) -> LoopResult:  # noqa: ANN001, PLR0913
+def _run_over_zenoh(scn, opts, clock, run_id, rec, make_loop, on_progress, outcome, now_ns) -> LoopResult:  # noqa: ANN001, PLR0913
     from rths.transport import (
         LockstepClient,
         LogBridge,
@@ -340,6 +352,10 @@ def _run_over_zenoh(scn, opts, clock, run_id, rec, make_loop, on_progress, outco
                 if not listen:
                     raise TransportError("starting the specimen here needs a --listen endpoint")
                 process = _spawn_specimen(scn, run_id, listen[0], clock, stderr_log)
+            elif opts.on_waiting is not None:
+                where = f"--connect {listen[0]}" if listen else "--listen <endpoint>"
+                opts.on_waiting(f"rths specimen {scn.source} --run-id {run_id} {where} "
+                                f"--clock {clock}")  # fmt: skip
             try:
                 presence.wait_for_peer(opts.ready_timeout, [client.publisher])
                 link = _LockstepLink(client, opts.step_timeout) if clock == "lockstep" else (
@@ -353,11 +369,15 @@ def _run_over_zenoh(scn, opts, clock, run_id, rec, make_loop, on_progress, outco
                 return result
             except RTHSError as exc:
                 last = _last_words(process, stderr_log)
-                rec.event(0, "error", f"{exc}{'; specimen said: ' + last if last else ''}")
+                why = presence.stop_reason or (
+                    "the specimen process stopped answering (crashed or stuck?)"
+                    if isinstance(exc, TransportError) else ""
+                )  # fmt: skip
+                message = str(exc) + (f"; {why}" if why else "") + (
+                    f"; specimen process said: {last}" if last else "")  # fmt: skip
+                rec.event(now_ns(), "error", message)
                 presence.request_stop(f"coordinator failed: {exc}")
-                if last:
-                    raise TransportError(f"{exc} (specimen process: {last})") from None
-                raise
+                raise TransportError(message) if isinstance(exc, TransportError) else exc from None
             finally:
                 _reap(process, rec)
 

@@ -33,6 +33,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    help="zenoh endpoint to connect to")  # fmt: skip
     p.add_argument("--external-specimen", action="store_true",
                    help="do not start 'rths specimen'; wait for one started elsewhere")  # fmt: skip
+    p.add_argument("--run-id", help="run id (zenoh keys rths/<run-id>/); default generated")
     p.add_argument("--ready-timeout", type=float, default=30.0, metavar="S",
                    help="how long to wait for the specimen process [s]")  # fmt: skip
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -63,6 +64,9 @@ def run(args: argparse.Namespace) -> int:
         clock=args.clock, out=args.out, compensator=args.compensator, listen=tuple(args.listen),
         connect=tuple(args.connect), external_specimen=args.external_specimen,
         ready_timeout=args.ready_timeout, progress=progress if bar else None, seed=args.seed,
+        run_id=args.run_id,
+        on_waiting=lambda cmd: print(f"waiting for the specimen; start it with:\n  {cmd}",
+                                     file=sys.stderr, flush=True),
     )  # fmt: skip
     try:
         outcome = run_scenario(scn, options)
