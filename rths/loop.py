@@ -209,7 +209,6 @@ class Loop:
             self.substructure, self.compensator, self.link, self.sink, self.pacer
         )
         lam_u, lam_f = self.scaling.displacement, self.scaling.force
-        dt_ns = round(self.dt * 1e9)
         measured, force, fed = 0.0, 0.0, 0.0
         stopped: str | None = None
         pacer.start()
@@ -227,7 +226,7 @@ class Loop:
                     f"±{self.command_limit:g} m at t = {(k + 1) * self.dt:.4f} s"
                 )
                 break
-            t_ns = (k + 1) * dt_ns
+            t_ns = round((k + 1) * self.dt * 1e9)  # exact to 1 ns, no accumulated rounding
             sample = link.exchange(k, t_ns, command)
             measured, force = sample.displacement, sample.force
             if not (math.isfinite(measured) and math.isfinite(force)):

@@ -30,7 +30,7 @@ import numpy as np
 from rths import __version__, build
 from rths.clocks import FreeRunning, Pacer, WallClock
 from rths.codec import Command
-from rths.errors import RTHSError, TransportError
+from rths.errors import DataError, RTHSError, TransportError
 from rths.loop import InProcessLink, LinkSample, Loop, LoopResult
 from rths.metrics import TrackingSummary, summarize
 from rths.recording import LOOP_SCHEMA, LOOP_TOPIC, Recorder, RecordingSummary, object_schema
@@ -124,6 +124,8 @@ class RunOutcome:
                 f"J3 {100 * m.j3:.3f} %",
                 f"sync RMSE {100 * m.sync_rmse:.3f} %",
             ]
+        else:
+            parts.append("metrics n/a")
         parts.append(f"overruns {t.overruns}/{t.steps}")
         if self.clock == "realtime":
             parts.append(f"p99 jitter {1e6 * t.jitter_p99:.0f} us")
@@ -290,11 +292,13 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
         if outcome.result.stopped:
             rec.event(t_end, "stopped", outcome.result.stopped)
         k = collector.count
-        if k >= 16 and float(np.sqrt(np.mean(collector.target[:k] ** 2))) > 0:
+        try:
             outcome.metrics = summarize(
                 collector.target[:k], collector.measured[:k], collector.force[:k], dt,
                 max_delay=min(0.1, 0.25 * k * dt),
             )  # fmt: skip
+        except DataError as exc:  # too short or too quiet a record for some metric
+            outcome.events.append(f"metrics not computed: {exc}")
         rec.add_metadata("rths.summary", _summary(outcome))
         rec.event(t_end, "end", f"{outcome.result.steps} steps")
     outcome.recording = rec.summary
@@ -310,6 +314,8 @@ def _summary(outcome: RunOutcome) -> dict[str, str]:
     }  # fmt: skip
     if outcome.metrics is not None:
         out.update({k: repr(v) for k, v in outcome.metrics.to_dict().items()})
+    if outcome.events:
+        out["notes"] = "; ".join(outcome.events)
     return out
 
 

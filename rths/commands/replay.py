@@ -7,6 +7,9 @@ from pathlib import Path
 
 __all__ = ["add_parser", "run"]
 
+#: zenoh's conventional port, so a monitor with zenoh's default settings can connect.
+DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
+
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
@@ -21,7 +24,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("--topic", action="append", default=None, metavar="TOPIC",
                    help="topics to replay (default rths/loop and rths/specimen if present)")  # fmt: skip
     p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
-                   help="zenoh endpoint to listen on for subscribers")  # fmt: skip
+                   help="zenoh endpoint to listen on for subscribers (default "
+                   f"{DEFAULT_LISTEN} when no --connect is given)")  # fmt: skip
     p.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
                    help="zenoh endpoint of a subscriber/router to connect to")  # fmt: skip
     p.add_argument("--wait", type=float, default=0.0, metavar="S",
@@ -36,7 +40,8 @@ def run(args: argparse.Namespace) -> int:
 
     if not args.speed > 0:
         raise DataError(f"--speed must be positive; got {args.speed!r}")
-    endpoints = ZenohEndpoints(listen=tuple(args.listen), connect=tuple(args.connect))
+    listen = tuple(args.listen) or (() if args.connect else (DEFAULT_LISTEN,))
+    endpoints = ZenohEndpoints(listen=listen, connect=tuple(args.connect))
     count = replay(args.log, endpoints, speed=args.speed, run_id=args.run_id, topics=args.topic,
                    wait=args.wait)  # fmt: skip
     print(f"replayed {count} records from {args.log}")
