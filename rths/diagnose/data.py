@@ -1,0 +1,234 @@
+"""Records for the diagnosis: CSV files of the section-7 contract and ``rths run`` MCAP logs.
+
+CSV contract (design.md section 7): a header line naming at least the columns ``time``,
+``command``, ``measured`` and ``force`` (any order; other columns are ignored), then one row per
+sample, SI units, uniform sampling.  Row ``i`` holds the measured displacement [m] and force [N]
+at ``time[i]`` [s] and the command [m] that was held over the interval ending at ``time[i]`` --
+the convention of the MCAP topic ``rths/loop`` (``t`` is the end of the step), so both formats
+mean the same thing.  A lab record sampled simultaneously differs from this by at most half a
+sample, which the diagnosis sees as part of the actuator delay.
+
+MCAP logs written by ``rths run`` are read through :func:`rths.mcap_io.read_topic` (topic
+``rths/loop``: ``t``, ``target``, ``command``, ``measured``, ``force``); the scenario text in the
+log's metadata is kept for the structure channel.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rths.errors import DataError
+
+__all__ = [
+    "COLUMNS",
+    "MIN_DURATION",
+    "SAMPLING_TOLERANCE",
+    "Record",
+    "load_record",
+    "read_csv",
+    "read_mcap",
+    "write_csv",
+]
+
+#: Columns every CSV record must have (design.md section 7).
+COLUMNS: tuple[str, ...] = ("time", "command", "measured", "force")
+#: Largest departure of a time step from the median step, as a fraction of it.  CSV writers
+#: print times with 7-9 significant digits, i.e. <= 1e-4 dt jitter at 60 s and 2 kHz; a
+#: dropped sample is a 100 % departure.
+SAMPLING_TOLERANCE: float = 0.01
+#: Shortest usable record [s]: a few cycles of the slowest structural mode of interest.
+MIN_DURATION: float = 2.0
+
+_LOOP_TOPIC = "rths/loop"
+
+
+@dataclass(frozen=True)
+class Record:
+    """One uniformly sampled test record at the specimen interface (SI units).
+
+    Attributes
+    ----------
+    name
+        File name (for messages and reports).
+    dt
+        Sample period [s].
+    time
+        Sample times [s], shape ``(n,)``.
+    command
+        Actuator command [m] held over the interval ending at each sample, shape ``(n,)``.
+    measured
+        Measured displacement of the specimen end [m], shape ``(n,)``.
+    force
+        Measured specimen restoring force [N], shape ``(n,)``.
+    target
+        Target displacement [m] from the numerical substructure (MCAP logs only), else None.
+    scenario_text
+        The scenario TOML the run was made from (MCAP logs with metadata only), else None.
+    """
+
+    name: str
+    dt: float
+    time: NDArray[np.float64]
+    command: NDArray[np.float64]
+    measured: NDArray[np.float64]
+    force: NDArray[np.float64]
+    target: NDArray[np.float64] | None = None
+    scenario_text: str | None = field(default=None, repr=False)
+
+    @property
+    def n(self) -> int:
+        """Number of samples."""
+        return int(self.time.size)
+
+    @property
+    def rate(self) -> float:
+        """Sampling rate [Hz]."""
+        return 1.0 / self.dt
+
+    @property
+    def duration(self) -> float:
+        """``n * dt`` [s]."""
+        return self.n * self.dt
+
+
+def _check_arrays(name: str, time: NDArray, columns: dict[str, NDArray]) -> float:
+    """Validate finiteness, length and uniform sampling; return the sample period [s]."""
+    for column, values in {"time": time, **columns}.items():
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            raise DataError(
+                f"{name}: column '{column}' must be finite; got {values[bad[0]]!r} at sample "
+                f"{bad[0]} ({bad.size} non-finite values)"
+            )
+    if time.size < 3:
+        raise DataError(f"{name}: needs at least 3 samples; got {time.size}")
+    steps = np.diff(time)
+    dt = float(np.median(steps))
+    if not dt > 0.0:
+        raise DataError(f"{name}: column 'time' must increase; median step is {dt!r} s")
+    worst = int(np.argmax(np.abs(steps - dt)))
+    if abs(steps[worst] - dt) > SAMPLING_TOLERANCE * dt:
+        raise DataError(
+            f"{name}: non-uniform sampling: time step {steps[worst]!r} s between samples "
+            f"{worst} and {worst + 1} (t = {time[worst]!r} s) departs from the median step "
+            f"{dt!r} s by more than {SAMPLING_TOLERANCE:.0%}"
+        )
+    if time.size * dt < MIN_DURATION:
+        raise DataError(
+            f"{name}: record too short for a diagnosis: {time.size * dt:.3g} s; need at least "
+            f"{MIN_DURATION} s"
+        )
+    return dt
+
+
+def _bad_cell(path: Path, index: dict[str, int]) -> DataError:
+    """Find the first non-numeric cell of a CSV (slow path, only on error)."""
+    with open(path, newline="", encoding="utf-8") as f:
+        reader = csv.reader(f)
+        next(reader)
+        for line, row in enumerate(reader, start=2):
+            for column, j in index.items():
+                if j >= len(row):
+                    return DataError(f"{path}: line {line}: missing column '{column}'")
+                try:
+                    float(row[j])
+                except ValueError:
+                    return DataError(
+                        f"{path}: line {line}: column '{column}' is not a number: {row[j]!r}"
+                    )
+    return DataError(f"{path}: cannot read the numeric rows")
+
+
+def read_csv(path: str | os.PathLike[str]) -> Record:
+    """Read a CSV record of the section-7 contract (module docstring).
+
+    Raises
+    ------
+    DataError
+        Missing file or column, a non-numeric or non-finite value (naming line and column),
+        non-uniform sampling, or a record shorter than :data:`MIN_DURATION`.
+    """
+    p = Path(path)
+    try:
+        with open(p, newline="", encoding="utf-8") as f:
+            header = next(csv.reader(f), None)
+    except OSError as exc:
+        raise DataError(f"cannot open CSV record '{p}': {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise DataError(f"{p}: not a text CSV file") from None
+    if not header:
+        raise DataError(f"{p}: empty file; expected the header {','.join(COLUMNS)}")
+    names = [h.strip() for h in header]
+    missing = [c for c in COLUMNS if c not in names]
+    if missing:
+        raise DataError(
+            f"{p}: missing column '{missing[0]}' in the header {','.join(names)!r}; expected "
+            f"{','.join(COLUMNS)}"
+        )
+    index = {c: names.index(c) for c in COLUMNS}
+    try:
+        table = np.loadtxt(p, delimiter=",", skiprows=1, usecols=list(index.values()), ndmin=2)
+    except (ValueError, IndexError):
+        raise _bad_cell(p, index) from None
+    cols = {c: np.ascontiguousarray(table[:, k]) for k, c in enumerate(COLUMNS)}
+    dt = _check_arrays(str(p), cols["time"], {c: cols[c] for c in COLUMNS[1:]})
+    return Record(p.name, dt, cols["time"], cols["command"], cols["measured"], cols["force"])
+
+
+def read_mcap(path: str | os.PathLike[str]) -> Record:
+    """Read topic ``rths/loop`` (and the scenario metadata) of an ``rths run`` MCAP log.
+
+    Raises
+    ------
+    DataError
+        Unreadable log, no ``rths/loop`` topic, a missing field, or bad sampling.
+    """
+    from rths.mcap_io import read_metadata, read_topic
+
+    p = Path(path)
+    loop = read_topic(p, _LOOP_TOPIC)
+    for column in ("t", "command", "measured", "force"):
+        if column not in loop:
+            raise DataError(f"{p}: topic '{_LOOP_TOPIC}' has no field '{column}'")
+    cols = {c: np.asarray(loop[c], dtype=float) for c in ("t", "command", "measured", "force")}
+    dt = _check_arrays(str(p), cols["t"], {c: cols[c] for c in ("command", "measured", "force")})
+    target = np.asarray(loop["target"], dtype=float) if "target" in loop else None
+    scenario = read_metadata(p).get("scenario", {}).get("text")
+    return Record(
+        p.name, dt, cols["t"], cols["command"], cols["measured"], cols["force"], target, scenario
+    )
+
+
+def load_record(path: str | os.PathLike[str]) -> Record:
+    """A CSV or MCAP record, chosen by content (MCAP magic bytes) rather than by suffix."""
+    p = Path(path)
+    try:
+        with open(p, "rb") as f:
+            magic = f.read(8)
+    except OSError as exc:
+        raise DataError(f"cannot open data file '{p}': {exc.strerror}") from None
+    if magic.startswith(b"\x89MCAP"):
+        return read_mcap(p)
+    return read_csv(p)
+
+
+def write_csv(
+    path: str | os.PathLike[str],
+    time: NDArray[np.float64],
+    command: NDArray[np.float64],
+    measured: NDArray[np.float64],
+    force: NDArray[np.float64],
+) -> None:
+    """Write a record in the CSV contract (17 significant digits: lossless for float64)."""
+    table = np.column_stack([time, command, measured, force])
+    if table.ndim != 2 or table.shape[1] != 4:
+        raise DataError(f"write_csv needs four equal 1-D columns; got shape {table.shape}")
+    if not np.all(np.isfinite(table)):
+        raise DataError(f"write_csv: non-finite values in the record for '{path}'")
+    np.savetxt(path, table, delimiter=",", header=",".join(COLUMNS), comments="", fmt="%.17g")

@@ -1,0 +1,167 @@
+"""Synthetic lab records with one hidden effect, made by the project's own emulated lab.
+
+Used by the blind suite (``tools/blind_suite.py``), the tests and the benchmark.  A record is the
+loop ``command -> DAC -> TransferFunctionActuator (+ delay, rate limit) -> IMD specimen -> ADCs``
+of :class:`plants.lab.EmulatedLab`; the specimen is :class:`plants.imd.SimplifiedIMD` (S0 Eq.1),
+or :class:`plants.imd.InternalStiffnessIMD` (S0 Eq.12) when a series element is switched on.
+Nothing here is visible to the diagnosis, which sees only the CSV columns and the nominal file.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import signal
+
+from plants.actuator import MTS_IDENTIFIED, TransferFunctionActuator
+from plants.imd import IMDParameters, imd_from_parameters
+from plants.lab import Converter, EmulatedLab, LabConverters
+from rths.diagnose.data import Record
+from rths.diagnose.nominal import ActuatorNominal, NominalModel, SpecimenNominal
+from rths.errors import ParameterError, check_positive, format_choices
+
+__all__ = ["CLASSES", "LabCase", "band_limited_command", "lab_record", "seed_converters"]
+
+#: The six labels of the blind suite (design.md section 7 verdicts).
+CLASSES: tuple[str, ...] = (
+    "internal_stiffness",
+    "backlash",
+    "coulomb_friction",
+    "actuator_delay",
+    "rate_limit",
+    "none",
+)
+
+
+def seed_converters(displacement_noise: float = 5e-4, force_noise: float = 1e-3,
+                    force_per_volt: float = 1000.0) -> LabConverters:  # fmt: skip
+    """16-bit +/-10 V converters of the seed RTHS (S0 section 5.2, dSPACE DS1103).
+
+    LVDT 0.0076 m/V (+/-76 mm), load cell ``force_per_volt`` [N/V]; noise in V RMS (defaults:
+    3.8 um and 1 N).
+    """
+    return LabConverters(
+        command=Converter(0.0076, bits=16, full_scale=10.0),
+        displacement=Converter(0.0076, bits=16, full_scale=10.0, noise_rms=displacement_noise),
+        force=Converter(force_per_volt, bits=16, full_scale=10.0, noise_rms=force_noise),
+    )
+
+
+@dataclass(frozen=True)
+class LabCase:
+    """One emulated specimen + transfer system with at most one hidden effect.
+
+    Attributes
+    ----------
+    effect
+        One of :data:`CLASSES`.
+    value
+        The hidden parameter in the units of the verdict's ``params`` (design.md section 7):
+        series ``stiffness`` [N/m], ``gap`` [m], ``friction`` [N], ``delay`` [s],
+        ``velocity_limit`` [m/s]; ignored for ``none``.
+    inertance, damping
+        True specimen ``m_e`` [kg] and ``c_d`` [N s/m] (on the flywheel with a series element).
+    gain
+        True actuator gain on top of the TF ``num/den`` [-].
+    num, den
+        Actuator TF (default :data:`plants.actuator.MTS_IDENTIFIED`).
+    contact_frequency
+        Backlash contact ``sqrt(k_c/m)/2pi`` [Hz].
+    converters
+        Lab converters (default :func:`seed_converters`).
+    """
+
+    effect: str
+    value: float = 0.0
+    inertance: float = 1589.0
+    damping: float = 4000.0
+    gain: float = 1.0
+    num: tuple[float, ...] = MTS_IDENTIFIED.num
+    den: tuple[float, ...] = MTS_IDENTIFIED.den
+    contact_frequency: float = 100.0
+    converters: LabConverters | None = None
+
+    def __post_init__(self) -> None:
+        if self.effect not in CLASSES:
+            raise ParameterError(
+                f"effect must be one of {format_choices(CLASSES)}; got {self.effect!r}"
+            )
+        if self.effect != "none":
+            check_positive(self.value, f"{self.effect} value")
+        check_positive(self.gain, "actuator gain")
+
+    def specimen_parameters(self) -> IMDParameters:
+        """The true IMD (S0 Eq.1 or Eq.12) with the hidden specimen effect switched on."""
+        p = IMDParameters(inertance=self.inertance, damping=self.damping)
+        if self.effect == "internal_stiffness":
+            return replace(p, stiffness=self.value)
+        if self.effect == "backlash":
+            k_c = self.inertance * (2.0 * math.pi * self.contact_frequency) ** 2
+            return replace(p, clearance=self.value, contact_stiffness=k_c)
+        if self.effect == "coulomb_friction":
+            return replace(p, friction=self.value)
+        return p
+
+    def nominal(self, inertance: float, damping: float, gain: float) -> NominalModel:
+        """What a user would believe: the rigid IMD and the TF, with given calibrations."""
+        num = tuple(gain * c for c in self.num)
+        return NominalModel(
+            ActuatorNominal(num, self.den, 0.0), SpecimenNominal(inertance, damping, 0.0, 0.0)
+        )
+
+
+def band_limited_command(
+    rng: np.random.Generator, duration: float, dt: float, band: tuple[float, float], rms: float,
+    ramp: float = 1.0,
+) -> NDArray[np.float64]:  # fmt: skip
+    """Gaussian noise band-passed to ``band`` [Hz] (4th-order Butterworth, zero phase), scaled
+    to ``rms`` [m] and tapered in and out over ``ramp`` [s] (the test starts and ends at rest).
+    """
+    n = int(round(duration / dt))
+    sos = signal.butter(4, band, btype="bandpass", fs=1.0 / dt, output="sos")
+    x = signal.sosfiltfilt(sos, rng.standard_normal(n + 4096))[2048:-2048]
+    x *= rms / np.std(x)
+    m = int(round(ramp / dt))
+    taper = np.ones(n)
+    taper[:m] = 0.5 - 0.5 * np.cos(np.linspace(0.0, math.pi, m))
+    taper[n - m :] = taper[:m][::-1]
+    return x * taper
+
+
+def _run(case: LabCase, command: NDArray, dt: float, seed: int, converters: LabConverters):
+    specimen = imd_from_parameters(case.specimen_parameters())
+    delay = case.value if case.effect == "actuator_delay" else 0.0
+    v_max = case.value if case.effect == "rate_limit" else None
+    num = tuple(case.gain * c for c in case.num)
+    actuator = TransferFunctionActuator(
+        num, case.den, specimen, dt, delay=delay, velocity_limit=v_max
+    )
+    lab = EmulatedLab(actuator, converters, seed=seed)
+    n = command.size
+    measured, force, peak = np.empty(n), np.empty(n), 0.0
+    for k in range(n):
+        measured[k], force[k] = lab.step(float(command[k]))
+        peak = max(peak, abs(lab.force))
+    return measured, force, peak, lab.saturation_counts
+
+
+def lab_record(
+    case: LabCase, command: NDArray[np.float64], dt: float, seed: int, name: str = "lab"
+) -> Record:
+    """Run the emulated lab on a command history; return the record the CSV would hold.
+
+    Without explicit ``case.converters`` the load cell is ranged as a lab engineer would: the
+    seed converters (:func:`seed_converters`), and if the force saturates, the run is repeated
+    with the force range set to 1.25 times the peak true force.
+    """
+    converters = case.converters or seed_converters()
+    measured, force, peak, saturated = _run(case, command, dt, seed, converters)
+    if case.converters is None and saturated["force"]:
+        converters = replace(converters, force=replace(
+            converters.force, units_per_volt=1.25 * peak / converters.force.full_scale))
+        measured, force, _, _ = _run(case, command, dt, seed, converters)
+    t = dt * np.arange(1, command.size + 1)
+    return Record(name, dt, t, np.asarray(command, float).copy(), measured, force)
