@@ -64,11 +64,22 @@ class IdealTable:
     """A table whose motion is its command exactly (analytic derivatives)."""
 
     def acceleration_gain(self, frequency: ArrayLike, dt: float) -> NDArray[np.float64]:
-        """``ω²`` [1/s²] (``dt`` [s] is unused)."""
+        """``ω²`` [1/s²] at ``frequency`` [Hz] (``dt`` [s] is unused)."""
         return (2.0 * np.pi * np.asarray(frequency, dtype=float)) ** 2
 
     def run(self, sine: SteppedSine, amplitudes: ArrayLike, dt: float) -> TableMotion:
-        """Command ``d = -A_k sin(ω_k τ)``, ``ḋ = -A_k ω_k cos``, ``d̈ = A_k ω_k² sin``."""
+        """Command and motion ``d = -A_k sin(ω_k τ)``, ``ḋ = -A_k ω_k cos(ω_k τ)``,
+        ``d̈ = A_k ω_k² sin(ω_k τ)`` with ``τ = t - t_k``.
+
+        Parameters
+        ----------
+        sine
+            The stepped sine.
+        amplitudes
+            Command amplitude ``A_k`` [m] per step (or a scalar).
+        dt
+            Sampling step [s].
+        """
         t = sine.sample_times(dt)
         amp = np.broadcast_to(np.asarray(amplitudes, dtype=float), sine.frequencies.shape)
         w = 2.0 * np.pi * sine.frequencies
@@ -121,9 +132,19 @@ class TransferFunctionTable:
             for i in range(3)
         ]
 
-    def acceleration_gain(self, frequency: ArrayLike, dt: float | None = None) -> NDArray[np.float64]:
+    def acceleration_gain(
+        self, frequency: ArrayLike, dt: float | None = None
+    ) -> NDArray[np.float64]:
         """``|H_a(e^{iωΔt})|`` [1/s²]: steady acceleration amplitude of the sampled table per unit
-        amplitude of a sampled sine command (ZOH included); ``dt`` must be the table's."""
+        amplitude of a sampled sine command (ZOH included).
+
+        Parameters
+        ----------
+        frequency
+            Frequencies [Hz].
+        dt
+            Sampling step [s]; if given it must be the table's.
+        """
         if dt is not None and not np.isclose(dt, self.dt, rtol=1e-12, atol=0.0):
             raise ParameterError(f"dt must be the table's {self.dt!r} s; got {dt!r}")
         b, a = self._filters[2]
@@ -132,8 +153,18 @@ class TransferFunctionTable:
         return np.abs(h)
 
     def run(self, sine: SteppedSine, amplitudes: ArrayLike, dt: float | None = None) -> TableMotion:
-        """Sample the command ``-A_k sin(...)`` at ``t_n`` (held to ``t_{n+1}``) and filter it;
-        the motion at ``t_n`` results from the commands up to ``t_{n-1}``."""
+        """Sample the command ``-A_k sin(ω_k τ)`` at ``t_n`` (held to ``t_{n+1}``) and filter it;
+        the motion at ``t_n`` results from the commands up to ``t_{n-1}``.
+
+        Parameters
+        ----------
+        sine
+            The stepped sine.
+        amplitudes
+            Command amplitude ``A_k`` [m] per step (or a scalar).
+        dt
+            Sampling step [s]; if given it must be the table's.
+        """
         if dt is not None and not np.isclose(dt, self.dt, rtol=1e-12, atol=0.0):
             raise ParameterError(f"dt must be the table's {self.dt!r} s; got {dt!r}")
         t = sine.sample_times(self.dt)

@@ -104,7 +104,17 @@ class SteppedSine:
 
     @classmethod
     def sweep(cls, grid: ArrayLike, direction: str, cycles: int = 20) -> SteppedSine:
-        """The grid played ``"up"`` (ascending) or ``"down"`` (descending)."""
+        """A sweep over a frequency grid.
+
+        Parameters
+        ----------
+        grid
+            Step frequencies [Hz], any order.
+        direction
+            ``"up"`` (ascending) or ``"down"`` (descending).
+        cycles
+            Whole cycles per step.
+        """
         f = np.sort(np.asarray(grid, dtype=float))
         if direction == "up":
             return cls(f, cycles)
@@ -123,7 +133,13 @@ class SteppedSine:
         return float(np.sum(self.cycles / self.frequencies))
 
     def sample_times(self, dt: float) -> NDArray[np.float64]:
-        """``t_n = n dt`` [s] from 0 to the first sample at or after the end."""
+        """Sample times ``t_n = n dt`` [s] from 0 to the first sample at or after the end.
+
+        Parameters
+        ----------
+        dt
+            Sampling step [s], > 0.
+        """
         dt = check_positive(dt, "time step dt")
         return np.arange(math.ceil(self.duration / dt - 1e-9) + 1) * dt
 
@@ -147,7 +163,13 @@ class SteppedSine:
         return np.where(inside, amp[kk] * np.sin(phase), 0.0)
 
     def function(self, amplitudes: ArrayLike) -> Callable[[float], float]:
-        """:meth:`signal` as a scalar function of time [s] (e.g. a substructure's ``ü_G(t)``)."""
+        """:meth:`signal` as a scalar function of time [s] (e.g. a substructure's ``ü_G(t)``).
+
+        Parameters
+        ----------
+        amplitudes
+            One amplitude per step, or a scalar for all.
+        """
         amp = np.broadcast_to(np.asarray(amplitudes, dtype=float), self.frequencies.shape)
         bounds = self.boundaries.tolist()
         freqs = self.frequencies.tolist()

@@ -105,9 +105,27 @@ def steady_state_windows(
 ) -> list[slice]:
     """Sample ranges of the last ``cycles`` cycles of each step.
 
-    Step ``k`` spans ``[boundaries[k], boundaries[k+1])`` [s] at ``frequencies[k]`` [Hz]; samples
-    are at ``t_n = n dt``.  The window holds the samples with
+    The window of step ``k`` holds the samples with
     ``boundaries[k+1] - cycles / f_k <= t_n < boundaries[k+1]``.
+
+    Parameters
+    ----------
+    boundaries
+        Step boundaries [s], shape ``(n + 1,)``: step ``k`` spans
+        ``[boundaries[k], boundaries[k+1])``.
+    frequencies
+        Step frequencies [Hz], shape ``(n,)``.
+    dt
+        Sampling step [s]; samples are at ``t_n = n dt``.
+    n_samples
+        Record length; windows are clipped to it.
+    cycles
+        Cycles per window, ``0 < cycles <=`` the cycles of every step.
+
+    Returns
+    -------
+    list of slice
+        One sample range per step, in playing order.
     """
     dt = check_positive(dt, "time step dt")
     cycles = check_positive(cycles, "steady cycles")
@@ -133,7 +151,22 @@ def steady_state_windows(
 def steady_state_amplitude(
     x: ArrayLike, window: slice, frequency: float, dt: float, method: str = "peak"
 ) -> float:
-    """Amplitude of ``x`` over ``window`` (samples at ``t_n = n dt`` [s]); see the module."""
+    """Amplitude of a record over a window of samples.
+
+    Parameters
+    ----------
+    x
+        Record sampled at ``t_n = n dt`` (any unit), shape ``(N,)``.
+    window
+        Sample range (from :func:`steady_state_windows`).
+    frequency
+        Excitation frequency [Hz] (used by ``"harmonic"``).
+    dt
+        Sampling step [s].
+    method
+        ``"peak"``: ``max |x|`` (S1 §3.1); ``"harmonic"``: first-harmonic amplitude of a
+        least-squares fit ``a sin ωt + b cos ωt + c``.
+    """
     if method not in AMPLITUDE_METHODS:
         raise ParameterError(
             f"amplitude method must be one of {format_choices(AMPLITUDE_METHODS)}; got {method!r}"
@@ -206,7 +239,17 @@ def _band_mask(frequency: NDArray[np.float64], band: tuple[float, float] | None)
 
 
 def resonance(frf: FRF, channel: str = "u_I", band: tuple[float, float] | None = None) -> Resonance:
-    """The highest ordinate of ``Ĥ_channel`` (inside ``band`` [Hz] if given)."""
+    """The highest ordinate of a normalised FRF.
+
+    Parameters
+    ----------
+    frf
+        The FRF.
+    channel
+        Quantity whose ``Ĥ`` (S1 Eq.7) is searched; ``"u_I"`` gives ``f0``/``f1`` (S1 §3.1).
+    band
+        ``(lo, hi)`` [Hz] to search in; the whole grid by default.
+    """
     h = frf.normalised(channel)
     mask = _band_mask(frf.frequency, band)
     i = np.flatnonzero(mask)[np.argmax(h[mask])]
@@ -219,6 +262,15 @@ def second_resonance(frf: FRF, above: float, channel: str = "a_I_tot") -> Resona
     With a TMDI the second resonance ``f2`` "is mostly evident in the acceleration response of
     the primary and secondary mass" (S1 §3.2); ``above`` is typically ``f1``.  Peaks are
     :func:`scipy.signal.find_peaks` maxima (end points excluded) ranked by prominence.
+
+    Parameters
+    ----------
+    frf
+        The FRF.
+    above
+        Only peaks above this frequency [Hz] count.
+    channel
+        Quantity whose ``Ĥ`` (S1 Eq.7) is searched.
     """
     h = frf.normalised(channel)
     peaks, props = scipy.signal.find_peaks(h, prominence=0.0)
@@ -234,9 +286,20 @@ def frf_nrmse(
 ) -> float:
     """``RMS(|Ĥ_other| - |Ĥ_ref|) / RMS(|Ĥ_ref|)`` over the common grid (inside ``band`` [Hz]).
 
-    The reference is the experiment-like model.  The definition is J2 of :mod:`rths.metrics`
-    with the FRF moduli in place of displacement histories (computed here: a band may hold
-    fewer points than the metrics' minimum record length).
+    The definition is J2 of :mod:`rths.metrics` with the FRF moduli in place of displacement
+    histories (computed here: a band may hold fewer points than the metrics' minimum record
+    length).
+
+    Parameters
+    ----------
+    reference
+        The experiment-like FRF (here the rack-and-pinion model).
+    other
+        The FRF compared with it, on the same grid.
+    channel
+        Quantity compared (S1 Eq.7 name).
+    band
+        ``(lo, hi)`` [Hz]; the whole grid by default.
     """
     if reference.frequency.shape != other.frequency.shape or not np.allclose(
         reference.frequency, other.frequency, rtol=0.0, atol=1e-9

@@ -89,10 +89,21 @@ def model_configuration(
 ) -> tuple[TMDIParameters, Specimen | None]:
     """Structure and inerter of a swept model (:data:`MODELS`).
 
-    ``"uncontrolled"`` is the PS with the primary isolator identified with the rack-and-pinion
-    model (S1 §4.2: ``c_I = 538.13 N s/m``; S1 identifies no separate PS model);
-    ``"rack_pinion"`` and ``"ideal"`` are :func:`plants.tmdi.s1_configuration` of ``mass``
-    and ``flywheel`` with the respective inerter.
+    Parameters
+    ----------
+    model
+        ``"uncontrolled"``: the PS with the primary isolator identified with the
+        rack-and-pinion model (S1 §4.2: ``c_I = 538.13 N s/m``; S1 identifies no separate PS
+        model); ``"rack_pinion"`` / ``"ideal"``: :func:`plants.tmdi.s1_configuration` with
+        that inerter (S1 Eq.9-11, or the ideal inerter and dampers of S1 §4.2).
+    mass, flywheel
+        S1 Table 1 secondary mass (``"SM"``, ``"IM"``, ``"LM"``) and flywheel (``"NF"``,
+        ``"IF"``, ``"LF"``) of the TMDI models.
+
+    Returns
+    -------
+    tuple
+        (:class:`plants.tmdi.TMDIParameters`, inerter specimen or None).
     """
     if model == "uncontrolled":
         return s1_configuration(None)
@@ -112,6 +123,11 @@ def step_frequencies(config: SweepConfig) -> NDArray[np.float64]:
     "Near resonance" is defined reproducibly as ``fine_band`` times each small-amplitude natural
     frequency (:func:`plants.tmdi.linearised_frequencies`, HDRB ``k1``, nominal inertance) of the
     models swept: ``f0`` of the PS, ``f1`` and ``f2`` of each TMDI.
+
+    Parameters
+    ----------
+    config
+        The scenario (its ``grid``, ``models``, ``mass`` and ``flywheel``).
     """
     centres: list[float] = []
     for model in config.models:
@@ -122,7 +138,16 @@ def step_frequencies(config: SweepConfig) -> NDArray[np.float64]:
 
 
 def build_table(spec: TableSpec, dt: float) -> ShakeTable:
-    """The table model of a ``[table]`` specification at the sampling step ``dt`` [s]."""
+    """The table model of a ``[table]`` specification.
+
+    Parameters
+    ----------
+    spec
+        ``kind`` ``"ideal"`` (:class:`IdealTable`) or ``"transfer_function"``
+        (:class:`TransferFunctionTable` of ``num``/``den``).
+    dt
+        Sampling step [s].
+    """
     if spec.kind == "ideal":
         return IdealTable()
     return TransferFunctionTable(spec.num, spec.den, dt)
@@ -133,8 +158,19 @@ def command_amplitudes(
 ) -> NDArray[np.float64]:
     """Displacement command amplitudes [m] for a target PGA [g] at each frequency [Hz].
 
-    ``A = PGA g / ω²`` (S1 §2.3, displacement control) or, with ``correction``, ``PGA g``
-    divided by the table's steady acceleration gain so the table's measured amplitude is the PGA.
+    Parameters
+    ----------
+    table
+        The table model.
+    frequencies
+        Step frequencies [Hz].
+    pga
+        Target peak table acceleration [g], > 0.
+    dt
+        Sampling step [s] of the table.
+    correction
+        False: ``A = PGA g / ω²`` (S1 §2.3, displacement control); True: ``PGA g`` divided by
+        the table's steady acceleration gain, so that the measured amplitude is the PGA.
     """
     target = check_positive(pga, "PGA") * STANDARD_GRAVITY
     f = np.asarray(frequencies, dtype=float)
@@ -192,7 +228,7 @@ class SweepRun:
     last_cycles: tuple[dict[str, NDArray[np.float64]], ...]
 
     def cycle_at(self, frequency: float) -> tuple[float, dict[str, NDArray[np.float64]]]:
-        """The step nearest ``frequency`` [Hz]: its frequency and last cycle."""
+        """The step nearest ``frequency`` [Hz]: its frequency [Hz] and its last cycle."""
         i = int(np.argmin(np.abs(self.frf.frequency - frequency)))
         return float(self.frf.frequency[i]), self.last_cycles[i]
 
@@ -212,7 +248,8 @@ class SweepResult:
         return tuple(dict.fromkeys(r.pga for r in self.runs))
 
     def get(self, model: str, direction: str, pga: float) -> SweepRun:
-        """The run of ``model`` in ``direction`` at ``pga`` [g]."""
+        """The run of ``model`` in ``direction`` at ``pga`` [g] (:class:`ParameterError` if
+        there is none)."""
         for r in self.runs:
             if r.model == model and r.direction == direction and abs(r.pga - pga) < 1e-12:
                 return r
@@ -230,9 +267,26 @@ def sweep_structure(
 ) -> tuple[FRF, tuple[dict[str, NDArray[np.float64]], ...]]:
     """Drive a structure (:class:`plants.tmdi.TMDIStructure`) with a table motion.
 
-    Returns the FRF of the S1 Eq.7 quantities (the PS ones only without a secondary mass) and,
-    for each FRF frequency (ascending), the last cycle of the step (those quantities and
-    ``"a_G"``).
+    Parameters
+    ----------
+    structure, inerter
+        The specimen (e.g. from :func:`model_configuration`).
+    motion
+        Table motion; its acceleration [m/s²] is the ground acceleration ``ü_G``.
+    sine
+        The stepped sine that produced ``motion``.
+    dt
+        Sampling step [s] of ``motion``.
+    steady_cycles, amplitude
+        Window and amplitude measure of :func:`rths.frf.estimate_frf`.
+
+    Returns
+    -------
+    frf : FRF
+        The S1 Eq.7 quantities (only ``u_I``, ``a_I_tot``, ``F_I`` without a secondary mass).
+    last_cycles : tuple of dict
+        For each FRF frequency (ascending), the last cycle of the step: those quantities and
+        ``"a_G"`` [SI].
     """
     response = TMDIStructure(structure, inerter, dt).run(motion.acceleration)
     names = EQ7_QUANTITIES if structure.has_tmd else PRIMARY_QUANTITIES
@@ -254,7 +308,19 @@ def run_model(
     pga: float,
     direction: str,
 ) -> SweepRun:
-    """Drive one of the scenario's specimens (:data:`MODELS`) with a table motion."""
+    """Drive one of the scenario's specimens with a table motion.
+
+    Parameters
+    ----------
+    model
+        One of :data:`MODELS`.
+    motion, sine
+        Table motion and the stepped sine that produced it.
+    config
+        The scenario (sampling step, amplitude measure, S1 configuration).
+    pga, direction
+        Labels of the run (``pga`` in g).
+    """
     structure, inerter = model_configuration(model, config.mass, config.flywheel)
     frf, cycles = sweep_structure(structure, inerter, motion, sine, config.dt,
                                   config.steady_cycles, config.amplitude)

@@ -1,4 +1,4 @@
-"""Report of an S1 shake-table sweep: the figures S1 quotes (numbers) and plots like S1 Fig.5/10/12/17/18.
+"""Report of an S1 shake-table sweep: the numbers S1 quotes and plots like S1 Fig.5/10/12/17/18.
 
 Numbers (:func:`summarise`), per PGA and sweep direction:
 
@@ -72,7 +72,7 @@ FRF_UNITS: Final[dict[str, str]] = {
 
 
 def frf_table(result: SweepResult) -> tuple[list[str], list[list[str]]]:
-    """The FRFs of every run as CSV rows: header and rows of text.
+    """The FRFs of every run of ``result`` as CSV rows: header and rows of text.
 
     Columns: ``pga [g]``, ``model``, ``direction``, ``frequency [Hz]``, ``a_G [m/s^2]`` (the
     measured table amplitude ``H_üG``) and the normalised FRF ``Ĥ_p`` of each S1 Eq.7 quantity
@@ -109,7 +109,7 @@ def _has(result: SweepResult, model: str, direction: str, pga: float) -> bool:
 
 
 def summarise(result: SweepResult) -> dict[str, Any]:
-    """The report's numbers as a JSON-ready dict (see the module docstring; SI, PGA in g).
+    """The report's numbers for ``result`` as a JSON-ready dict (module docstring; SI, PGA in g).
 
     Layout: ``{"scenario", "wall_time_s", "grid_hz", "pga": {"<pga>": {"resonances":
     {model: {direction: {...}}}, "ps_peak_change": {model: {direction: x}},
@@ -140,7 +140,8 @@ def summarise(result: SweepResult) -> dict[str, Any]:
             f1 = resonance(rack).frequency
             band = ((1.0 - NEAR_F1) * f1, (1.0 + NEAR_F1) * f1)
             entry["nrmse_ideal_vs_rack_pinion"][d] = {
-                ch: {"full": frf_nrmse(rack, ideal, ch), "near_f1": frf_nrmse(rack, ideal, ch, band)}
+                ch: {"full": frf_nrmse(rack, ideal, ch),
+                     "near_f1": frf_nrmse(rack, ideal, ch, band)}
                 for ch in rack.channels
             }
         per_pga[f"{pga:g}"] = entry
@@ -174,7 +175,8 @@ def _plot_frf(ax: Any, frf: FRF, channel: str, model: str, direction: str) -> No
 
 
 def frf_figure(result: SweepResult, pga: float) -> Any:
-    """The 3x3 S1 Eq.7 FRFs at ``pga`` [g] (S1 Fig.17/18 layout); returns the Figure."""
+    """The 3x3 S1 Eq.7 FRFs of ``result`` at ``pga`` [g] (S1 Fig.17/18 layout); returns the
+    matplotlib Figure."""
     plt = _pyplot()
     fig, axes = plt.subplots(3, 3, figsize=(13, 10), sharex=True, constrained_layout=True)
     for ax, (channel, title) in zip(axes.flat, _PANELS):
@@ -191,7 +193,7 @@ def frf_figure(result: SweepResult, pga: float) -> Any:
 
 
 def ps_displacement_figure(result: SweepResult) -> Any:
-    """``Ĥ_uI`` up vs down per PGA for the PS and the TMDI models (S1 Fig.5)."""
+    """``Ĥ_uI`` of ``result``, up vs down, per PGA and model (S1 Fig.5); returns the Figure."""
     plt = _pyplot()
     models = [m for m in result.config.models]
     pgas = result.pgas
@@ -225,7 +227,17 @@ _LOOPS: Final[tuple[tuple[str, str, str], ...]] = (
 
 
 def loops_figure(result: SweepResult, pga: float, direction: str = "down") -> Any:
-    """Last-cycle force-deformation loops at ``f1``, ``f0``, ``f2`` (S1 Fig.9/10/12)."""
+    """Last-cycle force-deformation loops at ``f1``, ``f0``, ``f2`` (S1 Fig.9/10/12).
+
+    Parameters
+    ----------
+    result
+        A sweep with at least one TMDI model (``f0`` needs the uncontrolled PS too).
+    pga
+        PGA [g] of the runs shown.
+    direction
+        Sweep direction of the runs shown (S1 Fig.8-10 use the down sweep).
+    """
     plt = _pyplot()
     models = [m for m in _TMDI_MODELS if m in result.config.models]
     if not models:
@@ -255,7 +267,8 @@ def loops_figure(result: SweepResult, pga: float, direction: str = "down") -> An
 
 
 def write_figures(result: SweepResult, out_dir: str | Path) -> list[Path]:
-    """Write every figure of the module docstring into ``out_dir``; returns their paths."""
+    """Write every figure of the module docstring for ``result`` into the directory ``out_dir``
+    (created if needed); returns their paths."""
     plt = _pyplot()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

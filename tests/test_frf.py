@@ -120,7 +120,8 @@ def test_bad_inputs_are_rejected() -> None:
         FRF(np.array([2.0, 1.0]), np.ones(2))
     with pytest.raises(ParameterError, match=r"FRF excitation must be positive with shape \(2,\)"):
         FRF(f, np.array([1.0, 0.0]))
-    with pytest.raises(ParameterError, match=r"FRF response 'u_I' must have shape \(2,\); got \(3,\)"):
+    with pytest.raises(ParameterError,
+                       match=r"FRF response 'u_I' must have shape \(2,\); got \(3,\)"):
         FRF(f, np.ones(2), {"u_I": np.ones(3)})
     with pytest.raises(ParameterError, match="FRF channel must be one of 'u_I'; got 'F_B'"):
         FRF(f, np.ones(2), {"u_I": np.ones(2)}).normalised("F_B")

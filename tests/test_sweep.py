@@ -1,4 +1,4 @@
-"""Stepped-sine shake-table emulation (rths.sweep): signal, table models, scenario file, runs, CLI."""
+"""Stepped-sine shake-table emulation (rths.sweep): signal, tables, scenario file, runs, CLI."""
 
 from __future__ import annotations
 
@@ -303,7 +303,8 @@ def test_model_and_table_validation() -> None:
         SteppedSine(np.array([1.0]), 0)
     with pytest.raises(ParameterError, match="f_stop must exceed f_start = 2.0 Hz; got 1.0"):
         frequency_grid(2.0, 1.0, 0.1, 0.05)
-    with pytest.raises(ParameterError, match=r"fine band must satisfy 0 < lo <= 1 <= hi; got \(1.2, 1.5\)"):
+    with pytest.raises(ParameterError,
+                       match=r"fine band must satisfy 0 < lo <= 1 <= hi; got \(1.2, 1.5\)"):
         frequency_grid(1.0, 2.0, 0.1, 0.05, [1.5], (1.2, 1.5))
     with pytest.raises(ParameterError, match="resonance centre must be positive; got -1.5"):
         frequency_grid(1.0, 2.0, 0.1, 0.05, [-1.5])

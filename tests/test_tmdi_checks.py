@@ -56,7 +56,8 @@ def harmonic_balance_peak(iso: HDRB, mass: float, a_g: float) -> tuple[float, fl
     c = iso.c
 
     def gap(a: float) -> float:
-        return a * c * math.sqrt(4.0 * mass * iso.equivalent_stiffness(a) - c * c) - 2 * mass**2 * a_g
+        stiffness = iso.equivalent_stiffness(a)
+        return a * c * math.sqrt(4.0 * mass * stiffness - c * c) - 2.0 * mass**2 * a_g
 
     amplitude = brentq(gap, 1e-6, iso.softening_limit(), xtol=1e-12)
     k = iso.equivalent_stiffness(amplitude)
