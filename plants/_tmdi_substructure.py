@@ -51,9 +51,13 @@ class NominalInerter:
     def matching(cls, specimen: Specimen) -> NominalInerter:
         """The rigid-limit model of an inerter specimen.
 
-        :class:`~plants.inerter.IdealInerter`: ``b_n = b``, ``c_n = 0``;
-        :class:`~plants.inerter.RackPinionInerter` (S1 Eq.9-10 with ``k_S → ∞``, no play, no
-        friction): ``b_n = J_B / r_P²`` and ``c_n = c_B / r_P²``.
+        Parameters
+        ----------
+        specimen
+            :class:`~plants.inerter.IdealInerter`: ``b_n = b``, ``c_n = 0``;
+            :class:`~plants.inerter.RackPinionInerter` (S1 Eq.9-10 with ``k_S → ∞``, no play,
+            no friction): ``b_n = J_B / r_P²`` and ``c_n = c_B / r_P²``.  Other specimens
+            raise :class:`~rths.errors.ParameterError`.
         """
         if isinstance(specimen, IdealInerter):
             return cls(specimen.inertance)

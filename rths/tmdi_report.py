@@ -35,6 +35,7 @@ __all__ = [
     "FRF_UNITS",
     "NEAR_F1",
     "frf_figure",
+    "frf_records",
     "frf_table",
     "loops_figure",
     "ps_displacement_figure",
@@ -89,6 +90,24 @@ def frf_table(result: SweepResult) -> tuple[list[str], list[list[str]]]:
             row += [f"{values[n][i]:.9g}" if n in values else "" for n in FRF_UNITS]
             rows.append(row)
     return header, rows
+
+
+def frf_records(result: SweepResult) -> dict[str, Any]:
+    """The FRFs of every run of ``result`` as a JSON-ready dict.
+
+    ``{"units": FRF_UNITS, "runs": [{"pga", "model", "direction", "frequency_hz", "a_G",
+    "frf": {quantity: [Ĥ_p ...]}}]}``: frequencies [Hz], measured table amplitude ``H_üG``
+    [m/s²] and the normalised FRFs (S1 Eq.7) in the units of :data:`FRF_UNITS`.
+    """
+    runs = []
+    for run in result.runs:
+        frf = run.frf
+        runs.append({
+            "pga": run.pga, "model": run.model, "direction": run.direction,
+            "frequency_hz": frf.frequency.tolist(), "a_G": frf.excitation.tolist(),
+            "frf": {n: frf.normalised(n).tolist() for n in FRF_UNITS if n in frf.response},
+        })
+    return {"units": dict(FRF_UNITS), "runs": runs}
 
 
 def _resonances(run: SweepRun) -> dict[str, float | None]:

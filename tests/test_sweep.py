@@ -262,6 +262,12 @@ def test_cli_writes_table_summary_and_figures(tmp_path: Path, capsys) -> None:
     lines = (out / "frf.csv").read_text().splitlines()
     assert lines[0].startswith("pga [g],model,direction,frequency [Hz],a_G [m/s^2],u_I [s^2]")
     assert len(lines) == 1 + 2 * 2 * 6
+    records = json.loads((out / "frf.json").read_text())
+    assert records["units"]["F_B"] == "kg" and len(records["runs"]) == 4
+    first = records["runs"][0]
+    assert first["model"] == "uncontrolled" and set(first["frf"]) == {"u_I", "a_I_tot", "F_I"}
+    # the JSON and the CSV carry the same numbers (CSV at 9 significant digits)
+    assert float(lines[1].split(",")[5]) == pytest.approx(first["frf"]["u_I"][0], rel=1e-8)
     assert sorted(p.name for p in out.glob("*.png")) == [
         "frf_0.05g.png", "loops_0.05g.png", "ps_displacement.png"]
     assert main(["sweep", str(scenario), "--out", str(tmp_path / "o2"), "--no-figures",

@@ -9,6 +9,7 @@ Runs every model of the scenario up and down at each PGA in process (:mod:`rths.
 into ``--out`` (default ``<scenario name>_sweep``):
 
 ``frf.csv``       the normalised FRFs of every run (:func:`rths.tmdi_report.frf_table`);
+``frf.json``      the same as JSON arrays per run (:func:`rths.tmdi_report.frf_records`);
 ``summary.json``  resonance frequencies, peak-displacement changes, ideal-vs-rack NRMSE and the
                   wall time (:func:`rths.tmdi_report.summarise`);
 ``*.png``         the figures of :mod:`rths.tmdi_report` (unless ``--no-figures``).
@@ -74,7 +75,7 @@ def _print_table(summary: dict[str, Any]) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the sweep, write the outputs, print the summary; returns 0."""
     from rths.sweep import load_sweep, run_sweep
-    from rths.tmdi_report import frf_table, summarise, write_figures
+    from rths.tmdi_report import frf_records, frf_table, summarise, write_figures
 
     config = load_sweep(args.scenario)
     result = run_sweep(config, pga=args.pga, progress=not args.quiet and sys.stderr.isatty())
@@ -85,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
         writer = csv.writer(f)
         writer.writerow(header)
         writer.writerows(rows)
+    (out / "frf.json").write_text(json.dumps(frf_records(result)), encoding="utf-8")
     summary = summarise(result)
     (out / "summary.json").write_text(json.dumps(summary, indent=2), encoding="utf-8")
     if not args.no_figures:
@@ -93,6 +95,6 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(summary, indent=2))
     else:
         _print_table(summary)
-        print(f"wrote {out / 'frf.csv'}, {out / 'summary.json'}"
+        print(f"wrote {out / 'frf.csv'}, {out / 'frf.json'}, {out / 'summary.json'}"
               + ("" if args.no_figures else " and figures"))
     return 0
