@@ -38,11 +38,13 @@ from plants.cable import (
     elements_for,
 )
 from plants.imd import IMDParameters, imd_from_parameters
+from plants.inerter import IdealInerter, RackPinionInerter, rack_pinion_preset
+from plants.tmdi import NominalInerter, TMDISubstructure, s1_configuration
 from plants.lab import Converter, EmulatedLab, LabConverters
 from plants.linear_specimen import BenchmarkSpecimenParameters, LinearSpecimen
 from rths.errors import ConfigError, ParameterError
 from rths.filters import LowPass
-from rths.scenario import Scenario
+from rths.scenario import CableSpec, Scenario, TMDISpec
 
 __all__ = [
     "cable",
@@ -74,16 +76,26 @@ def _table(scn: Scenario, name: str) -> Iterator[None]:
 def cable_properties(scn: Scenario) -> CableProperties:
     """Tension, mass per length and length of the scenario's cable."""
     s = scn.substructure
+    assert isinstance(s, CableSpec)
     with _table(scn, "substructure"):
         return CableProperties(length=s.length, tension=s.tension, mass_per_length=s.mass_per_length)
 
 
-def nominal_device(scn: Scenario) -> InterfaceDevice | None:
-    """The ``[model]`` device at prototype scale (impedances times ``scaling.impedance``)."""
+def nominal_device(scn: Scenario) -> InterfaceDevice | NominalInerter | None:
+    """The ``[model]`` device at prototype scale (impedances times ``scaling.impedance``):
+    an :class:`plants.cable.InterfaceDevice` for a cable, a :class:`plants.tmdi.NominalInerter`
+    for the TMDI structure."""
     m, lam = scn.model, scn.scaling.impedance
+    tmdi = isinstance(scn.substructure, TMDISpec)
     with _table(scn, "model"):
         if m.kind == "none":
             return None
+        if tmdi != (m.kind == "inerter"):
+            kinds = "'inerter'" if tmdi else "'imd' or 'linear'"
+            raise ParameterError(f"a {'tmdi' if tmdi else 'cable'} substructure takes a model of "
+                                 f"kind {kinds} (or 'none'); got {m.kind!r}")  # fmt: skip
+        if m.kind == "inerter":
+            return NominalInerter(lam * m.inertance, lam * m.damping)
         if m.kind == "linear":
             return InterfaceDevice(
                 inertance=lam * m.inertance, damping=lam * m.damping, stiffness=lam * m.stiffness
@@ -104,6 +116,7 @@ def cable(scn: Scenario, device: InterfaceDevice | None | str = "model") -> Cabl
     device's series stiffness needs for the damper node to radiate (``plants.cable.elements_for``).
     """
     s = scn.substructure
+    assert isinstance(s, CableSpec)
     props = cable_properties(scn)
     dev = nominal_device(scn) if device == "model" else device
     with _table(scn, "substructure"):
@@ -123,9 +136,24 @@ def cable(scn: Scenario, device: InterfaceDevice | None | str = "model") -> Cabl
         )
 
 
-def substructure(scn: Scenario) -> Cable:
-    """The scenario's numerical substructure with its nominal device."""
-    return cable(scn)
+def tmdi(scn: Scenario, device: NominalInerter | None | str = "model") -> TMDISubstructure:
+    """The S1 primary structure + TMD under the stepped-sine excitation, carrying ``device``."""
+    from rths.sweep import stepped_sine_acceleration
+
+    s = scn.substructure
+    assert isinstance(s, TMDISpec)
+    dev = nominal_device(scn) if device == "model" else device
+    with _table(scn, "substructure"):
+        params, _ = s1_configuration(s.mass, s.flywheel, s.isolators)
+        ground = stepped_sine_acceleration(s.frequencies, s.pga, s.cycles)
+        return TMDISubstructure(params, ground, scn.run.dt, device=dev)
+
+
+def substructure(scn: Scenario, device: Any = "model") -> Cable | TMDISubstructure:
+    """The scenario's numerical substructure carrying ``device`` (default: the ``[model]``)."""
+    if isinstance(scn.substructure, TMDISpec):
+        return tmdi(scn, device)
+    return cable(scn, device)
 
 
 # ---------------------------------------------------------------------------------- specimen
@@ -146,6 +174,10 @@ def specimen(scn: Scenario, rng: np.random.Generator | None = None) -> Specimen:
             if bad:
                 raise ParameterError(f"unknown key {sorted(bad)[0]!r}; expected one of {sorted(known)}")
             return LinearSpecimen(**sp.options)
+        if sp.kind == "rack_pinion":
+            return RackPinionInerter(replace(rack_pinion_preset(sp.preset or "IF"), **sp.options))
+        if sp.kind == "ideal_inerter":
+            return IdealInerter(**sp.options)
         base = BenchmarkSpecimenParameters(**sp.options)
         return (base.sample(rng) if rng is not None else base).specimen()
 
@@ -158,7 +190,7 @@ def model_stiffness(scn: Scenario) -> control.TransferFunction | float:
         return 0.0
     if m.kind == "linear":
         return m.inertance * s**2 + m.damping * s + m.stiffness
-    if m.series_stiffness is None:
+    if m.kind == "inerter" or m.series_stiffness is None:
         return m.inertance * s**2 + m.damping * s
     k, flywheel = m.series_stiffness, m.inertance * s**2 + m.damping * s
     return k * flywheel / (flywheel + k)
@@ -228,7 +260,7 @@ def nominal_plant(scn: Scenario) -> tuple[control.TransferFunction, float]:
         remainder: Any = None
         if m.kind == "linear":
             device = LinearSpecimen(m.inertance, m.damping, m.stiffness)
-        elif m.kind == "imd" and m.series_stiffness is None:
+        elif m.kind == "inerter" or (m.kind == "imd" and m.series_stiffness is None):
             device = LinearSpecimen(m.inertance, m.damping, 0.0)
         else:
             device = LinearSpecimen(0.0, 0.0, 0.0)

@@ -5,7 +5,9 @@ The substructure carries a numerical model of the device implicitly and no speci
 
 ``"model"``       the scenario's ``[model]`` device (for the seed: the S0 Eq.12 IMD with internal
                   stiffness and fixed damping -- the "proposed model");
-``"simplified"``  the same inertance and damping attached rigidly (S0 Eq.1, the "simplified model").
+``"simplified"``  the same inertance and damping attached rigidly (S0 Eq.1, the "simplified model");
+``"monolithic"``  (TMDI only) the S1 Eq.12 model with the ``[specimen]`` inerter inside -- what a
+                  perfect RTHS reproduces (:class:`plants.tmdi.TMDIStructure`).
 
 All returned signals use the same scales as an RTHS log: the interface displacement and the device
 force at specimen scale, structure responses at prototype scale.
@@ -19,16 +21,22 @@ from numpy.typing import NDArray
 from plants.cable import InterfaceDevice
 from rths import build
 from rths.errors import ConfigError
-from rths.scenario import Scenario
+from rths.scenario import Scenario, TMDISpec
 
 __all__ = ["VARIANTS", "numerical_run"]
 
-VARIANTS = ("model", "simplified")
+VARIANTS = ("model", "simplified", "monolithic")
 
 
-def _device(scn: Scenario, variant: str) -> InterfaceDevice | None:
-    if variant == "model":
-        return build.nominal_device(scn)
+def variants(scn: Scenario) -> tuple[str, ...]:
+    """The mock variants that make sense for the scenario's substructure."""
+    return ("model", "monolithic") if isinstance(scn.substructure, TMDISpec) else (
+        "model", "simplified")  # fmt: skip
+
+
+def _device(scn: Scenario, variant: str) -> object:
+    if variant == "model" or isinstance(scn.substructure, TMDISpec):
+        return build.nominal_device(scn)  # a TMDI's nominal inerter has no simplified form
     m, lam = scn.model, scn.scaling.impedance
     if m.kind == "none":
         return None
@@ -56,10 +64,12 @@ def numerical_run(
         displacement, specimen scale) [m], ``force`` (device restoring force, specimen scale) [N]
         and the substructure's ``outputs()`` (e.g. ``midspan_displacement`` [m], prototype).
     """
-    if variant not in VARIANTS:
-        raise ConfigError(f"mock variant must be one of {VARIANTS}; got {variant!r}")
+    if variant not in variants(scn):
+        raise ConfigError(f"mock variant must be one of {variants(scn)}; got {variant!r}")
     n = scn.run.steps if steps is None else steps
-    sub = build.cable(scn, device=_device(scn, variant))
+    if variant == "monolithic":
+        return _monolithic(scn, n)
+    sub = build.substructure(scn, device=_device(scn, variant))
     lam_u, lam_f = scn.scaling.displacement, scn.scaling.force
     out: dict[str, NDArray[np.float64]] = {
         "t": scn.run.dt * np.arange(1, n + 1),
@@ -72,4 +82,24 @@ def numerical_run(
         out["force"][k] = sub.device_force / lam_f
         for name, value in sub.outputs().items():
             out.setdefault(name, np.empty(n))[k] = value
+    return out
+
+
+def _monolithic(scn: Scenario, n: int) -> dict[str, NDArray[np.float64]]:
+    """The TMDI with the physical inerter model inside (S1 Eq.12), same excitation and step."""
+    from plants.tmdi import TMDIStructure, s1_configuration
+    from rths.sweep import stepped_sine_acceleration
+
+    s = scn.substructure
+    assert isinstance(s, TMDISpec)
+    dt = scn.run.dt
+    params, _ = s1_configuration(s.mass, s.flywheel, s.isolators)
+    ground = stepped_sine_acceleration(s.frequencies, s.pga, s.cycles)
+    response = TMDIStructure(params, build.specimen(scn), dt).run(
+        np.array([ground(k * dt) for k in range(n + 1)])
+    )
+    out = {"t": dt * np.arange(1, n + 1)}
+    out["target"] = scn.scaling.displacement * np.asarray(response.u_T)[1:]
+    out["force"] = np.asarray(response.F_B)[1:] / scn.scaling.force
+    out["u_I"] = np.asarray(response.u_I)[1:]
     return out

@@ -6,6 +6,7 @@ examples users copy)::
     [run]          name, duration [s], rate [Hz], clock, seed
     [scaling]      displacement (specimen/prototype), force (prototype/specimen)
     [substructure] kind = "cable" + geometry; [substructure.load] (S0 Eq.22)
+                   or kind = "tmdi" (S1 2-DOF + TMDI); [substructure.excitation] (stepped sine)
     [specimen]     the physical specimen in the emulated lab (the truth): kind, preset, effects
     [actuator]     kind = "transfer_function" | "servo_hydraulic", delay, velocity_limit, ...
     [lab]          converters: bits, range, calibrations, noise
@@ -35,6 +36,7 @@ __all__ = [
     "CLOCKS",
     "ActuatorSpec",
     "CableSpec",
+    "TMDISpec",
     "LabSpec",
     "LoopSpec",
     "ModelSpec",
@@ -46,9 +48,11 @@ __all__ = [
 ]
 
 CLOCKS = ("lockstep", "realtime", "fast")
-SPECIMEN_KINDS = ("imd", "imd_simplified", "imd_internal", "linear", "benchmark")
+SPECIMEN_KINDS = (
+    "imd", "imd_simplified", "imd_internal", "linear", "benchmark", "rack_pinion", "ideal_inerter",
+)
 ACTUATOR_KINDS = ("transfer_function", "servo_hydraulic")
-MODEL_KINDS = ("imd", "linear", "none")
+MODEL_KINDS = ("imd", "linear", "inerter", "none")
 
 
 @dataclass(frozen=True)
@@ -88,6 +92,24 @@ class CableSpec:
     load_amplitude: float
     load_mode: int
     load_frequency: float | None  # Hz; None: the undamped cable's mode-n frequency
+
+
+@dataclass(frozen=True)
+class TMDISpec:
+    """``[substructure]`` of kind ``tmdi``: the S1 primary structure + TMD (numerical) with the
+    grounded inerter as the physical specimen, under a stepped-sine base acceleration (S1 §2.3).
+
+    ``mass``: S1 Table 1 secondary mass (SM, IM, LM); ``flywheel`` (NF, IF, LF); ``isolators``:
+    which S1 §4.2 identification of the HDRBs ("rack_pinion" or "ideal"); excitation: ``pga``
+    [g], step ``frequencies`` [Hz] in playing order, ``cycles`` per step.
+    """
+
+    mass: str
+    flywheel: str
+    isolators: str
+    pga: float
+    frequencies: tuple[float, ...]
+    cycles: int = 20
 
 
 @dataclass(frozen=True)
@@ -166,7 +188,7 @@ class Scenario:
     text: str
     run: RunSpec
     scaling: Scaling
-    substructure: CableSpec
+    substructure: CableSpec | TMDISpec
     specimen: SpecimenSpec
     actuator: ActuatorSpec
     lab: LabSpec
@@ -195,7 +217,7 @@ def _parse(doc: Table, text: str) -> Scenario:
         t.number("displacement", 1.0, positive=True), t.number("force", 1.0, positive=True)
     )
     t.finish()
-    sub = _cable(doc.table("substructure"))
+    sub = _substructure(doc.table("substructure"))
     specimen = _specimen(doc.table("specimen"))
     actuator = _actuator(doc.table("actuator"))
     lab = _lab(doc.table("lab", {}))
@@ -237,8 +259,29 @@ def _run(t: Table) -> RunSpec:
     return spec
 
 
+def _substructure(t: Table) -> CableSpec | TMDISpec:
+    kind = t.choice("kind", ("cable", "tmdi"))
+    return _cable(t) if kind == "cable" else _tmdi(t)
+
+
+def _tmdi(t: Table) -> TMDISpec:
+    ex = t.table("excitation")
+    spec = TMDISpec(
+        mass=t.choice("mass", ("SM", "IM", "LM")),
+        flywheel=t.choice("flywheel", ("NF", "IF", "LF")),
+        isolators=t.choice("isolators", ("rack_pinion", "ideal"), default="rack_pinion"),
+        pga=ex.number("pga", positive=True),
+        frequencies=tuple(ex.numbers("frequencies")),
+        cycles=ex.integer("cycles", 20, minimum=1),
+    )
+    if any(f <= 0 for f in spec.frequencies):
+        raise ex.error("frequencies", f"must be positive; got {list(spec.frequencies)!r}")
+    ex.finish()
+    t.finish()
+    return spec
+
+
 def _cable(t: Table) -> CableSpec:
-    t.choice("kind", ("cable",))
     elements: Any = t.raw("elements", "auto")
     if elements != "auto" and (isinstance(elements, bool) or not isinstance(elements, int)
                                or elements < 2):  # fmt: skip
@@ -319,6 +362,14 @@ def _model(t: Table) -> ModelSpec:
     if kind == "none":
         t.finish()
         return ModelSpec("none")
+    if kind == "inerter":
+        spec = ModelSpec(
+            "inerter",
+            inertance=t.number("inertance", nonnegative=True),
+            damping=t.number("damping", 0.0, nonnegative=True),
+        )
+        t.finish()
+        return spec
     if kind == "linear":
         spec = ModelSpec(
             "linear",
