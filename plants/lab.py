@@ -178,6 +178,9 @@ class EmulatedLab:
         )
         self.reset()
 
+    #: Steps of noise drawn at once; the sequence equals per-step draws (tested), only faster.
+    NOISE_BLOCK = 4096
+
     @property
     def dt(self) -> float:
         """Loop step [s] (the actuator's)."""
@@ -207,6 +210,8 @@ class EmulatedLab:
         """Back to rest at ``t = 0``; the noise generator restarts from :attr:`seed`."""
         self.actuator.reset()
         self._rng = np.random.default_rng(self._seed_sequence)
+        self._noise_block: list[list[float]] = []
+        self._noise_next = 0
         self._saturations = dict.fromkeys(_CHANNELS, 0)
         self._steps = 0
         self._kinematics = Kinematics(0.0, 0.0, 0.0)
@@ -225,7 +230,11 @@ class EmulatedLab:
         """
         command = check_finite(command, "lab command")
         c = self.converters
-        noise = self._rng.standard_normal(3) * self._noise_rms
+        if self._noise_next == len(self._noise_block):
+            draws = self._rng.standard_normal((self.NOISE_BLOCK, 3)) * self._noise_rms
+            self._noise_block, self._noise_next = draws.tolist(), 0
+        noise = self._noise_block[self._noise_next]
+        self._noise_next += 1
         command_dac, sat_u = c.command.convert(command, noise[0])
         kinematics, force = self.actuator.step(command_dac)
         displacement, sat_x = c.displacement.convert(kinematics.displacement, noise[1])
