@@ -9,9 +9,11 @@
     through the same zero-phase low-pass (see :mod:`rths.diagnose._signals`).
 
 Split (design.md section 7): with several records the first ``ceil(k/2)`` identify and the rest
-are held out; a single record identifies on its first :data:`IDENT_FRACTION` and is scored on
-the rest (the replay always runs over the whole record from its start, only the scoring is
-split).  :data:`EDGE_SECONDS` (at least ``4/f_c``) at both ends of every record are left out of
+are held out; a single record is cut into :data:`TIME_BLOCKS` equal blocks in time, the even ones
+identify and the odd ones are held out -- alternating blocks rather than one cut, so that the
+held-out part of a sine sweep spans the same frequencies as the identification part instead of
+asking for an extrapolation.  The replay always runs over the whole record from its start; only
+the fitting and scoring are split.  :data:`EDGE_SECONDS` (at least ``4/f_c``) at both ends of every record are left out of
 fitting and scoring (filter edge transients).
 """
 
@@ -39,7 +41,7 @@ from rths.errors import DataError
 __all__ = [
     "DEFAULT_CUTOFF",
     "EDGE_SECONDS",
-    "IDENT_FRACTION",
+    "TIME_BLOCKS",
     "Channel",
     "Segment",
     "actuator_channel",
@@ -51,8 +53,8 @@ __all__ = [
 #: band of S0 section 3 (Type I/II self-vibration 12.3/13.8 Hz), low enough that displacement
 #: noise differentiated twice stays near the force noise for a 1.6 t inerter.
 DEFAULT_CUTOFF: float = 30.0
-#: Fraction of a single record used for identification (the rest is held out).
-IDENT_FRACTION: float = 2.0 / 3.0
+#: Number of alternating identification/held-out blocks of a single record.
+TIME_BLOCKS: int = 6
 #: Samples within this time [s] (or ``4/f_c`` if longer) of a record's ends are not scored.
 EDGE_SECONDS: float = 0.1
 
@@ -197,10 +199,8 @@ def split_roles(records: list[Record], cutoff: float) -> list[tuple[NDArray, NDA
         inner = np.zeros(r.n, dtype=bool)
         inner[edge : r.n - edge] = True
         if k == 1:
-            cut = int(IDENT_FRACTION * r.n)
-            ident, held = inner.copy(), inner.copy()
-            ident[cut:] = False
-            held[:cut] = False
+            block = (np.arange(r.n) * TIME_BLOCKS) // r.n
+            ident, held = inner & (block % 2 == 0), inner & (block % 2 == 1)
         elif i < n_ident:
             ident, held = inner, np.zeros(r.n, dtype=bool)
         else:

@@ -103,7 +103,7 @@ def _check_arrays(name: str, time: NDArray, columns: dict[str, NDArray]) -> floa
         bad = np.flatnonzero(~np.isfinite(values))
         if bad.size:
             raise DataError(
-                f"{name}: column '{column}' must be finite; got {values[bad[0]]!r} at sample "
+                f"{name}: column '{column}' must be finite; got {float(values[bad[0]])!r} at sample "
                 f"{bad[0]} ({bad.size} non-finite values)"
             )
     if time.size < 3:

@@ -92,9 +92,15 @@ class Model(ABC):
     ) -> tuple[dict[str, float], dict[str, float]]:
         """``(effect parameters, re-calibrated baseline)`` named in SI units."""
 
-    def physical(self, params: dict[str, float]) -> bool:
-        """False when the identified effect parameters are unphysical (e.g. negative)."""
+    def physical(self, channel: Channel, params: dict[str, float]) -> bool:
+        """False when the identified effect parameters are unphysical (e.g. negative) or
+        contradicted by the record."""
         return True
+
+    @abstractmethod
+    def prior(self, channel: Channel) -> NDArray[np.float64]:
+        """The nominal values of ``beta`` (what the re-calibration shrinks towards where the
+        data do not determine it, e.g. inertance against stiffness under a single sine)."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -119,6 +125,9 @@ class ActuatorBaseline(Model):
     def columns(self, channel: Channel, seg: Segment, theta: NDArray) -> Columns:
         y = _nominal_motion(channel, seg)
         return np.column_stack([y, np.ones_like(y)]), np.zeros_like(y)
+
+    def prior(self, channel: Channel) -> NDArray:
+        return np.array([1.0, 0.0])  # nominal gain, no offset
 
     def describe(self, channel: Channel, theta: NDArray, beta: NDArray):  # noqa: ANN201
         return {}, {"gain": float(beta[0]), "offset": float(beta[1])}
@@ -152,8 +161,15 @@ class ActuatorDelay(Model):
     def bounds(self, channel: Channel, base: dict[str, float]):  # noqa: ANN201
         return np.array([-channel.nominal.actuator.delay]), np.array([self.max_delay])
 
+    def prior(self, channel: Channel) -> NDArray:
+        return np.array([1.0, 0.0])  # nominal gain, no offset
+
     def describe(self, channel: Channel, theta: NDArray, beta: NDArray):  # noqa: ANN201
         return {"delay": float(theta[0])}, {"gain": float(beta[0]), "offset": float(beta[1])}
+
+
+#: Window [s] of the secant slope the rate-limit candidate is checked against.
+SECANT_WINDOW: float = 0.01
 
 
 class RateLimit(Model):
@@ -190,14 +206,33 @@ class RateLimit(Model):
         peak = self._peak_velocity(channel, 1.0)
         return np.array([0.5, 0.02 * peak]), np.array([1.5, 2.0 * peak])
 
+    def prior(self, channel: Channel) -> NDArray:
+        return np.zeros(1)  # no offset
+
     def describe(self, channel: Channel, theta: NDArray, beta: NDArray):  # noqa: ANN201
         return {"velocity_limit": float(theta[1])}, {
             "gain": float(theta[0]),
             "offset": float(beta[0]),
         }
 
-    def physical(self, params: dict[str, float]) -> bool:
-        return params["velocity_limit"] > 0.0
+    def physical(self, channel: Channel, params: dict[str, float]) -> bool:
+        """The measured displacement must never move faster than the limit.
+
+        The speed is the secant slope over :data:`SECANT_WINDOW` (by the mean-value theorem
+        it never exceeds the largest true slope, so it cannot overshoot as a filtered
+        derivative would at the limiter's kinks; noise RMS ``sqrt(2) s_x / window``); its
+        99.9th percentile may exceed ``v_max`` by 5 % plus four noise RMS.  A linear actuator
+        whose attenuation a limiter mimics in a sweep fails this test.
+        """
+        v_max = params["velocity_limit"]
+        if v_max <= 0.0:
+            return False
+        k = max(1, int(round(0.5 * SECANT_WINDOW / channel.dt)))
+        window = 2 * k * channel.dt
+        speed = np.concatenate([np.abs(s.observed[2 * k :] - s.observed[: -2 * k]) / window
+                                for s in channel.segments])  # fmt: skip
+        noise = math.sqrt(2.0) * channel.noise["measured"] / window
+        return float(np.percentile(speed, 99.9)) <= 1.05 * v_max + 4.0 * noise
 
 
 # --------------------------------------------------------------------------------------------
@@ -239,6 +274,10 @@ class SpecimenBaseline(Model):
         a, v, x = _rigid(seg)
         return np.column_stack([a, v, x, np.ones_like(x)]), _nominal_friction(channel, seg)
 
+    def prior(self, channel: Channel) -> NDArray:
+        s = channel.nominal.specimen
+        return np.array([s.inertance, s.damping, s.stiffness, 0.0])
+
     def describe(self, channel: Channel, theta: NDArray, beta: NDArray):  # noqa: ANN201
         m, c, k, b = (float(q) for q in beta)
         return {}, {"inertance": m, "damping": c, "stiffness": k, "offset": b}
@@ -260,11 +299,15 @@ class CoulombFriction(Model):
         s = _sign(channel, seg)
         return np.column_stack([a, v, x, s, np.ones_like(x)]), np.zeros_like(x)
 
+    def prior(self, channel: Channel) -> NDArray:
+        s = channel.nominal.specimen
+        return np.array([s.inertance, s.damping, s.stiffness, s.friction, 0.0])
+
     def describe(self, channel: Channel, theta: NDArray, beta: NDArray):  # noqa: ANN201
         m, c, k, fr, b = (float(q) for q in beta)
         return {"friction": fr}, {"inertance": m, "damping": c, "stiffness": k, "offset": b}
 
-    def physical(self, params: dict[str, float]) -> bool:
+    def physical(self, channel: Channel, params: dict[str, float]) -> bool:
         return params["friction"] > 0.0
 
 
@@ -319,6 +362,10 @@ class InternalStiffness(Model):
     def bounds(self, channel: Channel, base: dict[str, float]):  # noqa: ANN201
         return np.array([0.5, 1e-3]), np.array([self._top(channel), 3.0])
 
+    def prior(self, channel: Channel) -> NDArray:
+        s = channel.nominal.specimen
+        return np.array([s.inertance, s.stiffness, 0.0])
+
     def describe(self, channel: Channel, theta: NDArray, beta: NDArray):  # noqa: ANN201
         f, z = float(theta[0]), float(theta[1])
         m, k, b = (float(q) for q in beta)
@@ -330,7 +377,7 @@ class InternalStiffness(Model):
             "offset": b,
         }
 
-    def physical(self, params: dict[str, float]) -> bool:
+    def physical(self, channel: Channel, params: dict[str, float]) -> bool:
         return params["stiffness"] > 0.0
 
 
@@ -389,6 +436,10 @@ class Backlash(Model):
         return (np.array([0.0, 2.0, 0.01 * c0]),
                 np.array([self._scale(channel), self._top(channel), 100.0 * c0]))  # fmt: skip
 
+    def prior(self, channel: Channel) -> NDArray:
+        s = channel.nominal.specimen
+        return np.array([s.inertance, s.stiffness, 0.0])
+
     def describe(self, channel: Channel, theta: NDArray, beta: NDArray):  # noqa: ANN201
         gap, f, c_per_m = (float(q) for q in theta)
         m, k, b = (float(q) for q in beta)
@@ -400,7 +451,7 @@ class Backlash(Model):
             "offset": b,
         }
 
-    def physical(self, params: dict[str, float]) -> bool:
+    def physical(self, channel: Channel, params: dict[str, float]) -> bool:
         return params["gap"] > 0.0 and params["stiffness"] > 0.0
 
 

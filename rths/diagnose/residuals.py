@@ -80,8 +80,8 @@ class Decomposition:
     phase
         ``reversals``, ``zero_crossings`` or ``broadband``.
     windows
-        ``[[t0, t1], ...]`` [s] of the first held-out record where the smoothed residual power
-        exceeds four times the floor (at most 30, longest first).
+        ``[[t0, t1], ...]`` [s] in the first held-out part (record time) where the smoothed
+        residual power exceeds four times the floor (at most 30, longest first).
     frequency, residual_psd, floor_psd
         Welch PSDs [unit^2/Hz] for the report.
     """
@@ -99,6 +99,7 @@ class Decomposition:
 
 def _welch(parts: list[NDArray], dt: float) -> tuple[NDArray, NDArray, float]:
     """Length-weighted Welch PSD over records and the number of averaged segments."""
+    parts = [p for p in parts if p.size >= 64] or parts
     nper = max(64, min(int(round(1.0 / (_RESOLUTION * dt))), min(p.size for p in parts)))
     acc, count, f = None, 0.0, None
     for p in parts:
@@ -156,14 +157,14 @@ def _phase(drive: list[NDArray], residual: list[NDArray], floor_var: float) -> s
     return "reversals" if m_rev >= m_zc else "zero_crossings"
 
 
-def _windows(r: NDArray, t0: float, dt: float, floor_var: float, width: float) -> list:
+def _windows(r: NDArray, t: NDArray, dt: float, floor_var: float, width: float) -> list:
     n = max(1, int(round(width / dt)))
     power = np.convolve(r * r, np.ones(n) / n, mode="same")
     hot = power > 4.0 * floor_var
     edges = np.flatnonzero(np.diff(np.concatenate([[0], hot.astype(int), [0]])))
-    spans = [(t0 + a * dt, t0 + b * dt) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+    spans = [(t[a], t[b - 1] + dt) for a, b in zip(edges[::2], edges[1::2], strict=True)]
     spans.sort(key=lambda s: s[0] - s[1])
-    return [(round(a, 6), round(b, 6)) for a, b in spans[:30]]
+    return [(round(float(a), 6), round(float(b), 6)) for a, b in spans[:30]]
 
 
 def decompose(
@@ -209,7 +210,7 @@ def decompose(
     band, peak = _band_of_excess(f, excess)
     phase = _phase(drive, residual, floor_var) if significant else "none"
     width = 0.5 / max(peak, 1.0)
-    windows = _windows(residual[0], times[0][0], dt, floor_var, width) if significant else []
+    windows = _windows(residual[0], times[0], dt, floor_var, width) if significant else []
     return Decomposition(
         significant, (best, threshold), band, peak, phase, windows, f, s_r, s_n
     )

@@ -153,13 +153,13 @@ def lab_record(
 ) -> Record:
     """Run the emulated lab on a command history; return the record the CSV would hold.
 
-    Without explicit ``case.converters`` the load cell is ranged as a lab engineer would: the
-    seed converters (:func:`seed_converters`), and if the force saturates, the run is repeated
-    with the force range set to 1.25 times the peak true force.
+    The converters are ``case.converters`` (default :func:`seed_converters`) with the load cell
+    ranged as a lab engineer would: if the force saturates, the run is repeated with the force
+    range set to 1.25 times the peak true force.
     """
     converters = case.converters or seed_converters()
     measured, force, peak, saturated = _run(case, command, dt, seed, converters)
-    if case.converters is None and saturated["force"]:
+    if saturated["force"]:
         converters = replace(converters, force=replace(
             converters.force, units_per_volt=1.25 * peak / converters.force.full_scale))
         measured, force, _, _ = _run(case, command, dt, seed, converters)

@@ -31,13 +31,15 @@ from rths.diagnose.residuals import FLOOR_MARGIN, Decomposition, decompose
 from rths.diagnose.structure import StructureGap, structure_gap
 from rths.errors import ParameterError, format_choices
 
-__all__ = ["MIN_CLOSED", "PENALTY", "Candidate", "ChannelResult", "Diagnosis", "Options",
+__all__ = ["DRIVES", "held_runs", "MIN_CLOSED", "PENALTY", "Candidate", "ChannelResult", "Diagnosis", "Options",
            "diagnose"]  # fmt: skip
 
 #: Complexity penalty per effect parameter [fraction of the reducible gap].
 PENALTY: float = 0.05
 #: Smallest fraction of the reducible gap an eligible candidate must close.
 MIN_CLOSED: float = 0.5
+#: Choices of :attr:`Options.drive`.
+DRIVES: tuple[str, ...] = ("auto", "measured")
 
 
 @dataclass(frozen=True)
@@ -54,6 +56,10 @@ class Options:
         See the module docstring.
     seed
         Seed of the synthetic noise used for the per-model floors.
+    drive
+        Drive of the specimen channel: ``"auto"`` (the transfer model's replay of the command
+        when it explains the measured displacement to its noise floor, else the measured
+        displacement) or ``"measured"`` (always the measured displacement).
     """
 
     cutoff: float = DEFAULT_CUTOFF
@@ -61,8 +67,12 @@ class Options:
     penalty: float = PENALTY
     min_closed: float = MIN_CLOSED
     seed: int = 0
+    drive: str = "auto"
 
     def __post_init__(self) -> None:
+        if self.drive not in DRIVES:
+            raise ParameterError(f"drive must be one of {format_choices(DRIVES)}; got "
+                                 f"{self.drive!r}")  # fmt: skip
         unknown = [e for e in self.effects if e not in EFFECTS]
         if unknown:
             raise ParameterError(
@@ -170,8 +180,16 @@ class Diagnosis:
         }
 
 
+def held_runs(mask: np.ndarray) -> list[slice]:
+    """Contiguous runs of a boolean mask as slices."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
+    return [slice(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
 def _held(channel: Channel, arrays: list[np.ndarray]) -> list[np.ndarray]:
-    return [a[s.held] for s, a in zip(channel.segments, arrays, strict=True) if np.any(s.held)]
+    """The held-out samples of per-record arrays, one part per contiguous run."""
+    return [a[run] for s, a in zip(channel.segments, arrays, strict=True)
+            for run in held_runs(s.held)]  # fmt: skip
 
 
 def _nrmse(channel: Channel, mse: float) -> float:
@@ -228,7 +246,7 @@ def _candidate(name: str, result: ChannelResult, options: Options) -> Candidate:
     significant = result.decomposition.significant and result.excess > 0.0
     closed = (result.excess - (fit.held_mse - floor)) / result.excess if significant else 0.0
     score = closed - options.penalty * model.n_effect
-    eligible = significant and model.physical(fit.params) and closed >= options.min_closed
+    eligible = significant and model.physical(channel, fit.params) and closed >= options.min_closed
     return Candidate(fit, model.subsystem, channel.name, _nrmse(channel, fit.held_mse),
                      _nrmse(channel, floor), closed, score, eligible)  # fmt: skip
 
@@ -268,7 +286,7 @@ def diagnose(
     transfer = _channel_result(actuator_channel(records, nominal, options.cutoff))
     candidates = [_candidate(n, transfer, options) for n in options.effects
                   if EFFECTS[n].subsystem == "actuator"]  # fmt: skip
-    drive = _replayed_drive(transfer, candidates)
+    drive = _replayed_drive(transfer, candidates) if options.drive == "auto" else None
     specimen = _channel_result(specimen_channel(records, nominal, options.cutoff, drive))
     candidates += [_candidate(n, specimen, options) for n in options.effects
                    if EFFECTS[n].subsystem == "specimen"]  # fmt: skip

@@ -1,0 +1,162 @@
+"""Human output of a diagnosis: a short terminal table and four figures (matplotlib, Agg).
+
+Figures (``write_figures``):
+
+``residual_time.png``
+    Held-out residual of the re-calibrated nominal (and of the verdict) on the located channel,
+    with the windows where its power exceeds four times the floor shaded.
+``residual_spectrum.png``
+    Welch PSD of those residuals against the noise floor (+ modelling tolerance), the located
+    band shaded.
+``ranking.png``
+    Fraction of the reducible gap each candidate closes on held-out data, and its score.
+``overlay.png``
+    Observed signal against the baseline and the verdict over two seconds around the largest
+    window: the before/after picture.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from rths.diagnose.verdict import ChannelResult, Diagnosis, held_runs
+
+__all__ = ["table", "write_figures"]
+
+_UNITS = {"stiffness": "N/m", "gap": "m", "friction": "N", "delay": "s",
+          "velocity_limit": "m/s", "frequency": "Hz"}  # fmt: skip
+
+
+def _params(params: dict[str, float]) -> str:
+    return ", ".join(f"{k}={v:.4g} {_UNITS.get(k, '')}".rstrip() for k, v in params.items())
+
+
+def _pct(x: float) -> str:
+    return f"{100.0 * x:.3g} %"
+
+
+def table(d: Diagnosis) -> str:
+    """The terminal summary: channels, ranked candidates, verdict and shrink."""
+    lines = [
+        f"identification: {', '.join(d.identification)}   held out: {', '.join(d.held_out)}"
+        + ("   (time split)" if d.identification == d.held_out else ""),
+        "",
+        f"{'channel':9} {'subsystem':9} {'nominal':>9} {'baseline':>9} {'floor':>9}  "
+        f"{'significant':11} {'band [Hz]':>13}  phase",
+    ]
+    for name, c in d.channels.items():
+        dec = c.decomposition
+        band = f"{dec.band_hz[0]:.3g}-{dec.band_hz[1]:.3g}" if dec.significant else "-"
+        lines.append(
+            f"{name:9} {c.channel.subsystem:9} {_pct(c.nominal_nrmse):>9} "
+            f"{_pct(c.baseline_nrmse):>9} {_pct(c.floor_nrmse):>9}  "
+            f"{'yes' if dec.significant else 'no':11} {band:>13}  {dec.phase}"
+        )
+    lines += ["", f"{'candidate':20} {'subsystem':9} {'held-out':>9} {'closed':>8} "
+              f"{'score':>6}  parameters"]  # fmt: skip
+    for c in d.candidates:
+        mark = "*" if c.eligible else " "
+        lines.append(
+            f"{mark}{c.name:19} {c.subsystem:9} {_pct(c.held_nrmse):>9} "
+            f"{100 * c.closed:7.1f}% {c.score:6.2f}  {_params(c.fit.params)}"
+        )
+    lines.append("")
+    if d.verdict == "none":
+        where = "" if d.subsystem == "none" else (
+            f" (unexplained gap in the {d.subsystem}: {d.band_hz[0]:.3g}-{d.band_hz[1]:.3g} Hz,"
+            f" {d.phase})")  # fmt: skip
+        lines.append(f"verdict: none{where}")
+    else:
+        lines.append(
+            f"verdict: {d.verdict} ({d.subsystem}, {d.band_hz[0]:.3g}-{d.band_hz[1]:.3g} Hz, "
+            f"{d.phase}): {_params(d.params)}"
+        )
+    lines.append(
+        f"gap ({d.gap_channel}, held out): {_pct(d.before)} -> {_pct(d.after)}, closes "
+        f"{100 * d.shrink:.1f} % of the reducible gap"
+    )
+    return "\n".join(lines)
+
+
+def _held_part(c: ChannelResult, arrays: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Record time [s] and values of the first contiguous held-out part."""
+    for s, a in zip(c.channel.segments, arrays, strict=True):
+        runs = held_runs(s.held)
+        if runs:
+            return np.arange(a.size)[runs[0]] * s.dt, a[runs[0]]
+    raise ValueError("no held-out samples")  # pragma: no cover - split guarantees some
+
+
+def write_figures(d: Diagnosis, directory: str | os.PathLike[str]) -> list[Path]:
+    """Write the four figures (module docstring) into ``directory``; return their paths."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from scipy import signal
+
+    out = Path(directory)
+    out.mkdir(parents=True, exist_ok=True)
+    c = d.channels[d.gap_channel]
+    unit = "m" if c.channel.name == "measured" else "N"
+    verdict = next((k for k in d.candidates if k.name == d.verdict), None)
+    t, r0 = _held_part(c, c.baseline.residuals(c.channel))
+    r1 = _held_part(c, verdict.fit.residuals(c.channel))[1] if verdict else None
+    paths = []
+
+    fig, ax = plt.subplots(figsize=(9, 3.5))
+    ax.plot(t, r0, lw=0.6, label="re-calibrated nominal")
+    if r1 is not None:
+        ax.plot(t, r1, lw=0.6, label=f"+ {d.verdict}")
+    for a, b in c.decomposition.windows:
+        ax.axvspan(a, b, color="tab:red", alpha=0.15, lw=0)
+    ax.set(xlabel="time [s]", ylabel=f"residual [{unit}]",
+           title=f"{c.channel.name} channel, held out (shaded: > 4x noise floor)")  # fmt: skip
+    ax.legend(loc="upper right")
+    paths.append(out / "residual_time.png")
+
+    fig2, ax2 = plt.subplots(figsize=(7, 4))
+    dec = c.decomposition
+    ax2.loglog(dec.frequency[1:], dec.residual_psd[1:], lw=0.8, label="re-calibrated nominal")
+    if r1 is not None:
+        f, p = signal.welch(r1, fs=1.0 / c.channel.dt, nperseg=min(r1.size, dec.frequency.size
+                                                                    * 2 - 2))  # fmt: skip
+        ax2.loglog(f[1:], p[1:], lw=0.8, label=f"+ {d.verdict}")
+    ax2.loglog(dec.frequency[1:], dec.floor_psd[1:], "k--", lw=0.8, label="noise floor + tol.")
+    if dec.significant:
+        ax2.axvspan(*dec.band_hz, color="tab:red", alpha=0.15, lw=0)
+    ax2.set(xlabel="frequency [Hz]", ylabel=f"PSD [{unit}$^2$/Hz]", title="residual spectrum")
+    ax2.legend()
+    paths.append(out / "residual_spectrum.png")
+
+    fig3, ax3 = plt.subplots(figsize=(7, 3.5))
+    names = [k.name for k in d.candidates]
+    closed = [100.0 * k.closed for k in d.candidates]
+    colors = ["tab:green" if k.eligible else "tab:gray" for k in d.candidates]
+    ax3.barh(names[::-1], closed[::-1], color=colors[::-1])
+    ax3.axvline(100.0 * 0.5, color="k", lw=0.6, ls=":")
+    ax3.set(xlabel="held-out reducible gap closed [%]", title=f"verdict: {d.verdict}")
+    paths.append(out / "ranking.png")
+
+    fig4, ax4 = plt.subplots(figsize=(9, 3.5))
+    tt, obs = _held_part(c, [s.observed for s in c.channel.segments])
+    center = np.mean(dec.windows[0]) if dec.windows else tt[tt.size // 2]
+    sel = np.abs(tt - center) <= 1.0
+    ax4.plot(tt[sel], obs[sel], "k", lw=1.0, label="observed")
+    ax4.plot(tt[sel], _held_part(c, c.baseline.prediction)[1][sel], lw=0.8,
+             label="re-calibrated nominal")  # fmt: skip
+    if verdict:
+        ax4.plot(tt[sel], _held_part(c, verdict.fit.prediction)[1][sel], "--", lw=0.8,
+                 label=f"+ {d.verdict}")  # fmt: skip
+    ax4.set(xlabel="time [s]", ylabel=f"{c.channel.name} [{unit}]", title="before / after")
+    ax4.legend(loc="upper right")
+    paths.append(out / "overlay.png")
+
+    for figure, path in zip((fig, fig2, fig3, fig4), paths, strict=True):
+        figure.tight_layout()
+        figure.savefig(path, dpi=110)
+        plt.close(figure)
+    return paths

@@ -1,0 +1,87 @@
+"""``rths diagnose`` on the command line: the JSON contract, figures and one-line errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from rths.cli import main
+from rths.diagnose.data import write_csv
+from rths.diagnose.nominal import nominal_toml
+from rths.diagnose.synthetic import CLASSES, LabCase, band_limited_command, lab_record
+
+DT = 1.0 / 512.0
+
+
+@pytest.fixture(scope="module")
+def case_dir(tmp_path_factory):
+    """Two short records with a 5 ms extra actuator delay and their nominal file."""
+    folder = tmp_path_factory.mktemp("case")
+    case = LabCase("actuator_delay", 0.005, 1589.0, 6000.0)
+    rng = np.random.default_rng(2)
+    for k in (1, 2):
+        r = lab_record(case, band_limited_command(rng, 6.0, DT, (0.3, 5.0), 3e-3), DT, seed=k)
+        write_csv(folder / f"run_{k}.csv", r.time, r.command, r.measured, r.force)
+    (folder / "NOMINAL.toml").write_text(nominal_toml(case.nominal(1500.0, 6000.0, 1.0)))
+    return folder
+
+
+def _args(folder, *extra):
+    return ["diagnose", str(folder / "run_1.csv"), str(folder / "run_2.csv"),
+            "--nominal", str(folder / "NOMINAL.toml"), *extra]  # fmt: skip
+
+
+def test_json_keys_follow_the_contract(case_dir, capsys):
+    out = case_dir / "d.json"
+    assert main(_args(case_dir, "--json", str(out))) == 0
+    doc = json.loads(out.read_text())
+    # design.md section 7: verdict, where{subsystem, band_hz, phase}, params, gap{channel,
+    # before, after}, ranked candidates with held-out scores
+    assert {"verdict", "where", "params", "gap", "candidates"} <= set(doc)
+    assert doc["verdict"] in CLASSES and doc["verdict"] == "actuator_delay"
+    assert set(doc["where"]) == {"subsystem", "band_hz", "phase"}
+    assert doc["where"]["subsystem"] in ("specimen", "actuator", "none")
+    assert len(doc["where"]["band_hz"]) == 2
+    assert set(doc["gap"]) == {"channel", "before", "after"}
+    assert set(doc["params"]) == {"delay"}
+    assert doc["params"]["delay"] == pytest.approx(0.005, abs=1e-4)  # 1/20 sample at 512 Hz
+    names = [c["name"] for c in doc["candidates"]]
+    assert sorted(names) == sorted(CLASSES[:-1])  # every effect tried, ranked
+    assert names[0] == "actuator_delay"
+    assert all("held_out_nrmse" in c and "closed" in c for c in doc["candidates"])
+    text = capsys.readouterr().out
+    assert "verdict: actuator_delay" in text and "held out" in text
+
+
+def test_plots_and_quiet(case_dir, tmp_path, capsys):
+    assert main(_args(case_dir, "--plots", str(tmp_path), "--quiet")) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("verdict: actuator_delay")
+    for name in ("residual_time", "residual_spectrum", "ranking", "overlay"):
+        assert (tmp_path / f"{name}.png").stat().st_size > 1000
+
+
+def _one_line_error(capsys, argv, match):
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("rths diagnose: error:")
+    assert match in err[0]
+
+
+def test_errors_are_one_line_with_exit_code_2(case_dir, tmp_path, capsys):
+    _one_line_error(capsys, ["diagnose", str(case_dir / "run_1.csv"), "--nominal",
+                             str(tmp_path / "no.toml")], "no such file")  # fmt: skip
+    bad = tmp_path / "bad.toml"
+    bad.write_text((case_dir / "NOMINAL.toml").read_text().replace("inertance", "inertia"))
+    _one_line_error(capsys, ["diagnose", str(case_dir / "run_1.csv"), "--nominal", str(bad)],
+                    "[specimen] inertance: missing")  # fmt: skip
+    rows = np.loadtxt(case_dir / "run_1.csv", delimiter=",", skiprows=1)
+    rows[100:, 0] += 0.5 * DT
+    gap = tmp_path / "gap.csv"
+    write_csv(gap, *rows.T)
+    _one_line_error(capsys, ["diagnose", str(gap), "--nominal", str(case_dir / "NOMINAL.toml")],
+                    "non-uniform sampling")  # fmt: skip
+    _one_line_error(capsys, _args(case_dir, "--effects", "wobble"), "unknown effect 'wobble'")
+    _one_line_error(capsys, _args(case_dir, "--cutoff", "300"), "smoothing cutoff must lie in")
