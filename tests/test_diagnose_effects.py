@@ -77,7 +77,7 @@ def test_friction_candidate_dissipates_4_F_A_per_cycle():
     x = amp * np.sin(2 * math.pi * f0 * t)
     ch = specimen_channel([_record(t, x, x, 0 * x)], UNIT, 30.0)
     cols, _ = CoulombFriction().columns(ch, ch.segments[0], np.empty(0))
-    force = friction * cols[:, 3]
+    force = friction * cols[:, 4]  # columns: a, v, x, amplitude damping, sign, offset
     sel = slice(2 * 2048, 8 * 2048)  # six whole cycles away from the edges
     work = np.sum(force[sel] * np.gradient(x, dt)[sel]) * dt / 6
     # tanh regularisation lowers it by 0.41 (eps/(A w))^2 (IMDParameters docstring), eps is

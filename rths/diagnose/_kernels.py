@@ -27,7 +27,7 @@ def _loop(advance, u, v, dt, damping_per_mass, omega, half_gap):  # noqa: ANN001
     n = u.size
     out = np.empty(n)
     stiffness = omega * omega
-    rate = max(omega, damping_per_mass)
+    rate = max(omega, np.max(damping_per_mass))
     n_sub = max(1, int(math.ceil(rate * dt / _MAX_STEP_PHASE)))
     x = u[0]
     w = v[0]
@@ -35,7 +35,7 @@ def _loop(advance, u, v, dt, damping_per_mass, omega, half_gap):  # noqa: ANN001
     for i in range(1, n):
         x, w, f = advance(
             x, w, u[i - 1], v[i - 1], u[i], v[i], dt, n_sub,
-            1.0, damping_per_mass, stiffness, 0.0, half_gap,
+            1.0, damping_per_mass[i], stiffness, 0.0, half_gap,
         )  # fmt: skip
         out[i] = f
     return out
@@ -46,7 +46,7 @@ def _run_jit(u, v, dt, damping_per_mass, omega, half_gap):  # noqa: ANN001, ANN2
     n = u.size
     out = np.empty(n)
     stiffness = omega * omega
-    rate = max(omega, damping_per_mass)
+    rate = max(omega, np.max(damping_per_mass))
     n_sub = max(1, int(math.ceil(rate * dt / _MAX_STEP_PHASE)))
     x = u[0]
     w = v[0]
@@ -54,17 +54,22 @@ def _run_jit(u, v, dt, damping_per_mass, omega, half_gap):  # noqa: ANN001, ANN2
     for i in range(1, n):
         x, w, f = advance_flywheel_jit(
             x, w, u[i - 1], v[i - 1], u[i], v[i], dt, n_sub,
-            1.0, damping_per_mass, stiffness, 0.0, half_gap,
+            1.0, damping_per_mass[i], stiffness, 0.0, half_gap,
         )  # fmt: skip
         out[i] = f
     return out
+
+
+def _damping_array(damping_per_mass: float | NDArray[np.float64], n: int) -> NDArray:
+    d = np.asarray(damping_per_mass, dtype=float)
+    return np.ascontiguousarray(np.broadcast_to(d, (n,)) if d.ndim == 0 else d)
 
 
 def series_force_per_mass(
     u: NDArray[np.float64],
     v: NDArray[np.float64],
     dt: float,
-    damping_per_mass: float,
+    damping_per_mass: float | NDArray[np.float64],
     omega: float,
     gap: float,
 ) -> NDArray[np.float64]:
@@ -85,15 +90,16 @@ def series_force_per_mass(
     dt
         Sample period [s].
     damping_per_mass
-        ``c/m`` [1/s] on the flywheel.
+        ``c/m`` [1/s] on the flywheel: a number, or one value per sample (held over the
+        interval ending at it), e.g. an amplitude-dependent damping (S0 Eq.18).
     omega
         ``sqrt(k/m)`` [rad/s] of the series spring.
     gap
         Total clearance [m] (0: internal stiffness only).
     """
     return _run_jit(
-        np.ascontiguousarray(u), np.ascontiguousarray(v), float(dt), float(damping_per_mass),
-        float(omega), 0.5 * float(gap),
+        np.ascontiguousarray(u), np.ascontiguousarray(v), float(dt),
+        _damping_array(damping_per_mass, len(u)), float(omega), 0.5 * float(gap),
     )  # fmt: skip
 
 
@@ -101,12 +107,12 @@ def series_force_per_mass_py(
     u: NDArray[np.float64],
     v: NDArray[np.float64],
     dt: float,
-    damping_per_mass: float,
+    damping_per_mass: float | NDArray[np.float64],
     omega: float,
     gap: float,
 ) -> NDArray[np.float64]:
     """Plain-Python reference of :func:`series_force_per_mass` (same source, no numba)."""
     return _loop(
         advance_flywheel, np.asarray(u, float), np.asarray(v, float), float(dt),
-        float(damping_per_mass), float(omega), 0.5 * float(gap),
+        _damping_array(damping_per_mass, len(u)), float(omega), 0.5 * float(gap),
     )  # fmt: skip

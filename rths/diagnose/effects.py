@@ -18,8 +18,8 @@ actuator_delay       actuator   extra delay tau [s]                  pure delay 
 rate_limit           actuator   velocity_limit [m/s] (+ gain)        valve flow limit (Simulink)
 baseline (specimen)  specimen   --                                   S0 Eq.1 + spring
 coulomb_friction     specimen   friction F_r [N] (linear)            S0 Eq.1 friction term
-internal_stiffness   specimen   f_e = sqrt(k_s/m)/2pi, zeta          S0 Eq.12 (series spring)
-backlash             specimen   gap, contact f_c, c/m                S0 Table 6, S1 Eq.11
+internal_stiffness   specimen   f_e = sqrt(k_s/m)/2pi, kappa         S0 Eq.12 (series spring)
+backlash             specimen   gap, contact f_c, kappa              S0 Table 6, S1 Eq.11
 ===================  =========  ===================================  ============================
 
 Adding an effect: subclass :class:`Model` (``name``, ``subsystem``, ``n_effect``,
@@ -96,6 +96,9 @@ class Model(ABC):
         """False when the identified effect parameters are unphysical (e.g. negative) or
         contradicted by the record."""
         return True
+
+    def prepare(self, channel: Channel, base: dict[str, float]) -> None:  # noqa: B027
+        """Take what the model needs from the re-calibrated baseline (default: nothing)."""
 
     @abstractmethod
     def prior(self, channel: Channel) -> NDArray[np.float64]:
@@ -260,6 +263,66 @@ def _rigid(seg: Segment) -> tuple[NDArray, NDArray, NDArray]:
     )
 
 
+#: ``A_0`` [m] of the amplitude-dependent damping re-calibration ``c + c_A A_0/(A + A_0)``: the
+#: ``c_2`` of S0 Eq.18 for the Type II damper (0.153 mm; Type I: 0.236 mm).
+AMPLITUDE_SCALE: float = 0.153e-3
+
+
+def _amplitude_weight(channel: Channel, seg: Segment) -> NDArray:
+    """``A_0/(A + A_0)`` per sample, ``A`` the load amplitude of S0 Eq.17-18 on the drive.
+
+    ``A`` is tracked as the emulated IMD does (:class:`plants._imd_amplitude.AmplitudeTracker`:
+    half the peak-to-peak between the last two reversals, 0 until two reversals), with a
+    hysteresis of five times the smoothed drive noise so that noise makes no reversals.
+    """
+    if "amplitude_weight" not in seg.cache:
+        from plants._imd_amplitude import AmplitudeTracker
+        from rths.diagnose._signals import impulse_kernel
+
+        assert seg.sos is not None
+        gain = float(np.sqrt(np.sum(impulse_kernel(seg.sos, seg.dt) ** 2)))
+        tracker = AmplitudeTracker(max(1e-6, 5.0 * channel.noise["drive"] * gain))
+        amplitude = np.empty(seg.observed.size)
+        for i, value in enumerate(seg.signals["x"].tolist()):
+            tracker.update(value)
+            amplitude[i] = tracker.amplitude
+        seg.cache["amplitude_weight"] = AMPLITUDE_SCALE / (amplitude + AMPLITUDE_SCALE)
+    return seg.cache["amplitude_weight"]
+
+
+def _amplitude_damping(channel: Channel, seg: Segment) -> NDArray:
+    """``h * (v A_0/(A + A_0))``: the regressor of the amplitude-dependent damping ``c_A``."""
+    return _smoothed(seg, "amplitude_damping",
+                     lambda: seg.signals["v"] * _amplitude_weight(channel, seg))  # fmt: skip
+
+
+class _Flywheel(Model):
+    """Shared part of the series models: the baseline's damping law moved onto the flywheel.
+
+    The re-calibrated baseline damping ``c + c_A A_0/(A + A_0)`` (per unit inertance) is put
+    behind the series element, scaled by a factor ``kappa`` (a nonlinear parameter, 1 when
+    the baseline's split holds), exactly as S0 Eq.12 puts ``c_d`` (with its amplitude law,
+    Eq.18) on the flywheel.
+    """
+
+    _law: tuple[float, float] = (0.0, 0.0)
+
+    def prepare(self, channel: Channel, base: dict[str, float]) -> None:
+        m = base.get("inertance", channel.nominal.specimen.inertance)
+        if m > 0.0:
+            self._law = (base.get("damping", 0.0) / m, base.get("amplitude_damping", 0.0) / m)
+        else:
+            self._law = (1.0, 0.0)
+
+    def _damping(self, channel: Channel, seg: Segment, kappa: float) -> NDArray:
+        c0, ca = self._law
+        law = c0 + ca * _amplitude_weight(channel, seg)
+        return np.clip(kappa * law, 0.0, None)
+
+    def _scaled(self, kappa: float, m: float) -> dict[str, float]:
+        return {"damping": kappa * self._law[0] * m, "amplitude_damping": kappa * self._law[1] * m}
+
+
 def _nominal_friction(channel: Channel, seg: Segment) -> NDArray:
     return channel.nominal.specimen.friction * _sign(channel, seg)
 
@@ -272,15 +335,17 @@ class SpecimenBaseline(Model):
 
     def columns(self, channel: Channel, seg: Segment, theta: NDArray) -> Columns:
         a, v, x = _rigid(seg)
-        return np.column_stack([a, v, x, np.ones_like(x)]), _nominal_friction(channel, seg)
+        va = _amplitude_damping(channel, seg)
+        return np.column_stack([a, v, x, va, np.ones_like(x)]), _nominal_friction(channel, seg)
 
     def prior(self, channel: Channel) -> NDArray:
         s = channel.nominal.specimen
-        return np.array([s.inertance, s.damping, s.stiffness, 0.0])
+        return np.array([s.inertance, s.damping, s.stiffness, 0.0, 0.0])
 
     def describe(self, channel: Channel, theta: NDArray, beta: NDArray):  # noqa: ANN201
-        m, c, k, b = (float(q) for q in beta)
-        return {}, {"inertance": m, "damping": c, "stiffness": k, "offset": b}
+        m, c, k, ca, b = (float(q) for q in beta)
+        return {}, {"inertance": m, "damping": c, "stiffness": k, "amplitude_damping": ca,
+                    "offset": b}  # fmt: skip
 
 
 class CoulombFriction(Model):
@@ -297,15 +362,17 @@ class CoulombFriction(Model):
     def columns(self, channel: Channel, seg: Segment, theta: NDArray) -> Columns:
         a, v, x = _rigid(seg)
         s = _sign(channel, seg)
-        return np.column_stack([a, v, x, s, np.ones_like(x)]), np.zeros_like(x)
+        va = _amplitude_damping(channel, seg)
+        return np.column_stack([a, v, x, va, s, np.ones_like(x)]), np.zeros_like(x)
 
     def prior(self, channel: Channel) -> NDArray:
         s = channel.nominal.specimen
-        return np.array([s.inertance, s.damping, s.stiffness, s.friction, 0.0])
+        return np.array([s.inertance, s.damping, s.stiffness, 0.0, s.friction, 0.0])
 
     def describe(self, channel: Channel, theta: NDArray, beta: NDArray):  # noqa: ANN201
-        m, c, k, fr, b = (float(q) for q in beta)
-        return {"friction": fr}, {"inertance": m, "damping": c, "stiffness": k, "offset": b}
+        m, c, k, ca, fr, b = (float(q) for q in beta)
+        return {"friction": fr}, {"inertance": m, "damping": c, "stiffness": k,
+                                  "amplitude_damping": ca, "offset": b}  # fmt: skip
 
     def physical(self, channel: Channel, params: dict[str, float]) -> bool:
         return params["friction"] > 0.0
@@ -326,13 +393,14 @@ def flywheel_displacement(
     return signal.lfilter(b, a, x, zi=zi)[0]
 
 
-class InternalStiffness(Model):
+class InternalStiffness(_Flywheel):
     """Series internal stiffness, S0 Eq.12: ``F = k_s (x - x_i) + k x + F_r0 sign(v) + b``.
 
-    The nominal inertance and damping move behind the spring onto the flywheel,
-    ``m x_i'' + c x_i' = k_s (x - x_i)``, so ``F/x = k_s (1 - G)`` with
-    ``G = w_e^2/(s^2 + 2 zeta w_e s + w_e^2)``, ``w_e = sqrt(k_s/m)``, ``c = 2 zeta w_e m``.
-    ``theta = (f_e [Hz], zeta)``; ``beta = (m, k, b)``; reported ``stiffness = m w_e^2``.
+    The nominal inertance and (amplitude-dependent) damping move behind the spring onto the
+    flywheel, ``m x_i'' + c(A) x_i' = k_s (x - x_i)``; with a constant ``c`` this is
+    ``F/x = k_s (1 - G)``, ``G = w_e^2/(s^2 + (c/m) s + w_e^2)``, ``w_e = sqrt(k_s/m)``.
+    Simulated by the emulated IMD's own kernel (:func:`series_force_per_mass`, no gap).
+    ``theta = (f_e [Hz], kappa)``; ``beta = (m, k, b)``; reported ``stiffness = m w_e^2``.
     """
 
     name = "internal_stiffness"
@@ -341,8 +409,9 @@ class InternalStiffness(Model):
 
     def columns(self, channel: Channel, seg: Segment, theta: NDArray) -> Columns:
         omega = 2.0 * math.pi * float(theta[0])
-        x = seg.signals["x"]
-        per_mass = omega * omega * (x - flywheel_displacement(x, seg.dt, omega, float(theta[1])))
+        s = seg.signals
+        damping = self._damping(channel, seg, float(theta[1]))
+        per_mass = series_force_per_mass(s["x"], s["v"], seg.dt, damping, omega, 0.0)
         _, _, xs = _rigid(seg)
         cols = np.column_stack([seg.h(per_mass), xs, np.ones_like(xs)])
         return cols, _nominal_friction(channel, seg)
@@ -351,46 +420,37 @@ class InternalStiffness(Model):
         return min(0.4 / channel.dt, 4.0 * (channel.cutoff or 0.2 / channel.dt))
 
     def starts(self, channel: Channel, base: dict[str, float]) -> list[NDArray]:
-        out = []
-        for f in np.geomspace(1.0, self._top(channel), 28):
-            w = 2.0 * math.pi * f
-            z0 = base["damping"] / (2.0 * w * base["inertance"]) if base["inertance"] > 0 else 0.05
-            for z in sorted({min(max(z0, 0.003), 2.0), 0.05, 0.3}):
-                out.append(np.array([f, z]))
-        return out
+        return [np.array([f, kappa]) for f in np.geomspace(1.0, self._top(channel), 28)
+                for kappa in (0.3, 1.0, 3.0)]  # fmt: skip
 
     def bounds(self, channel: Channel, base: dict[str, float]):  # noqa: ANN201
-        return np.array([0.5, 1e-3]), np.array([self._top(channel), 3.0])
+        return np.array([0.5, 1e-3]), np.array([self._top(channel), 1e3])
 
     def prior(self, channel: Channel) -> NDArray:
         s = channel.nominal.specimen
         return np.array([s.inertance, s.stiffness, 0.0])
 
     def describe(self, channel: Channel, theta: NDArray, beta: NDArray):  # noqa: ANN201
-        f, z = float(theta[0]), float(theta[1])
+        f, kappa = float(theta[0]), float(theta[1])
         m, k, b = (float(q) for q in beta)
         w = 2.0 * math.pi * f
         return {"stiffness": m * w * w, "frequency": f}, {
-            "inertance": m,
-            "damping": 2.0 * z * w * m,
-            "stiffness": k,
-            "offset": b,
-        }
+            "inertance": m, **self._scaled(kappa, m), "stiffness": k, "offset": b,
+        }  # fmt: skip
 
     def physical(self, channel: Channel, params: dict[str, float]) -> bool:
         return params["stiffness"] > 0.0
 
 
-class Backlash(Model):
+class Backlash(_Flywheel):
     """Backlash (total clearance ``gap``) in series with a contact spring before the flywheel.
 
     The force path is open while the gap is crossed and the flywheel coasts (S0 Table 6 EIMD,
     S1 Eq.11); simulated by :func:`rths.diagnose._kernels.series_force_per_mass`, the emulated
-    lab's own kernel.  ``theta = (gap [m], f_c [Hz], c/m [1/s])`` with ``f_c = sqrt(k_c/m)/2pi``
-    and the damping per unit inertance on the flywheel (started from the baseline's ``c/m``,
-    which does not depend on ``f_c``); ``beta = (m, k, b)``; reported ``gap`` and the contact
-    ``stiffness = m (2 pi f_c)^2``.  With ``gap -> 0`` this is :class:`InternalStiffness`,
-    hence one more penalised parameter.
+    lab's own kernel, with the baseline's damping law on the flywheel (:class:`_Flywheel`).
+    ``theta = (gap [m], f_c [Hz], kappa)`` with ``f_c = sqrt(k_c/m)/2pi``;
+    ``beta = (m, k, b)``; reported ``gap`` and the contact ``stiffness = m (2 pi f_c)^2``.  With
+    ``gap -> 0`` this is :class:`InternalStiffness`, hence one more penalised parameter.
     """
 
     name = "backlash"
@@ -401,11 +461,10 @@ class Backlash(Model):
     max_frequency: ClassVar[float] = 200.0
 
     def columns(self, channel: Channel, seg: Segment, theta: NDArray) -> Columns:
-        gap, f, c_per_m = (float(q) for q in theta)
+        gap, f, kappa = (float(q) for q in theta)
         s = seg.signals
-        per_mass = series_force_per_mass(
-            s["x"], s["v"], seg.dt, c_per_m, 2.0 * math.pi * f, gap
-        )
+        damping = self._damping(channel, seg, kappa)
+        per_mass = series_force_per_mass(s["x"], s["v"], seg.dt, damping, 2.0 * math.pi * f, gap)
         _, _, xs = _rigid(seg)
         cols = np.column_stack([seg.h(per_mass), xs, np.ones_like(xs)])
         return cols, _nominal_friction(channel, seg)
@@ -414,42 +473,36 @@ class Backlash(Model):
     def _scale(channel: Channel) -> float:
         return float(np.std(channel.stack("x")))
 
-    @staticmethod
-    def _damping(base: dict[str, float]) -> float:
-        m = base.get("inertance", 0.0)
-        return max(base.get("damping", 0.0) / m, 0.1) if m > 0.0 else 1.0
-
     def _top(self, channel: Channel) -> float:
         return min(self.max_frequency, 0.4 / channel.dt)
 
     def starts(self, channel: Channel, base: dict[str, float]) -> list[NDArray]:
-        scale, c0 = self._scale(channel), self._damping(base)
-        return [
-            np.array([gap, f, c])
+        scale = self._scale(channel)
+        grid = [
+            np.array([gap, f, kappa])
             for f in np.geomspace(5.0, self._top(channel), 11)
             for gap in np.geomspace(3e-3 * scale, 0.3 * scale, 8)
-            for c in (0.5 * c0, c0, 2.0 * c0)
+            for kappa in (0.5, 1.0, 2.0)
         ]
+        # and the internal-stiffness limit (no gap) on a finer frequency grid
+        return grid + [np.array([1e-4 * scale, f, 1.0])
+                       for f in np.geomspace(2.0, self._top(channel), 28)]  # fmt: skip
 
     def bounds(self, channel: Channel, base: dict[str, float]):  # noqa: ANN201
-        c0 = self._damping(base)
-        return (np.array([0.0, 2.0, 0.01 * c0]),
-                np.array([self._scale(channel), self._top(channel), 100.0 * c0]))  # fmt: skip
+        return (np.array([0.0, 2.0, 1e-2]),
+                np.array([self._scale(channel), self._top(channel), 1e2]))  # fmt: skip
 
     def prior(self, channel: Channel) -> NDArray:
         s = channel.nominal.specimen
         return np.array([s.inertance, s.stiffness, 0.0])
 
     def describe(self, channel: Channel, theta: NDArray, beta: NDArray):  # noqa: ANN201
-        gap, f, c_per_m = (float(q) for q in theta)
+        gap, f, kappa = (float(q) for q in theta)
         m, k, b = (float(q) for q in beta)
         w = 2.0 * math.pi * f
         return {"gap": gap, "stiffness": m * w * w, "frequency": f}, {
-            "inertance": m,
-            "damping": c_per_m * m,
-            "stiffness": k,
-            "offset": b,
-        }
+            "inertance": m, **self._scaled(kappa, m), "stiffness": k, "offset": b,
+        }  # fmt: skip
 
     def physical(self, channel: Channel, params: dict[str, float]) -> bool:
         return params["gap"] > 0.0 and params["stiffness"] > 0.0

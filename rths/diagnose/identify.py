@@ -150,6 +150,7 @@ def fit_model(
         If the search fails or gives non-finite parameters.
     """
     stride = stride_for(channel)
+    model.prepare(channel, base or {})
     problem = _Problem(model, channel, stride)
     starts = model.starts(channel, base or {})
     theta = np.empty(0)

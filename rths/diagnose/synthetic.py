@@ -72,6 +72,9 @@ class LabCase:
         Backlash contact ``sqrt(k_c/m)/2pi`` [Hz].
     converters
         Lab converters (default :func:`seed_converters`).
+    specimen
+        The true IMD parameters outright (e.g. ``IMDParameters.preset("type_ii")`` with its
+        amplitude law, S0 Eq.18); default: built from the fields above and the effect.
     """
 
     effect: str
@@ -83,6 +86,7 @@ class LabCase:
     den: tuple[float, ...] = MTS_IDENTIFIED.den
     contact_frequency: float = 100.0
     converters: LabConverters | None = None
+    specimen: IMDParameters | None = None
 
     def __post_init__(self) -> None:
         if self.effect not in CLASSES:
@@ -95,6 +99,8 @@ class LabCase:
 
     def specimen_parameters(self) -> IMDParameters:
         """The true IMD (S0 Eq.1 or Eq.12) with the hidden specimen effect switched on."""
+        if self.specimen is not None:
+            return self.specimen
         p = IMDParameters(inertance=self.inertance, damping=self.damping)
         if self.effect == "internal_stiffness":
             return replace(p, stiffness=self.value)

@@ -198,9 +198,7 @@ def _nrmse(channel: Channel, mse: float) -> float:
 
 
 def _nominal_mse(channel: Channel, base: Fit) -> float:
-    spec = channel.nominal.specimen
-    beta = np.array([1.0, 0.0]) if channel.subsystem == "actuator" else np.array(
-        [spec.inertance, spec.damping, spec.stiffness, 0.0])  # fmt: skip
+    beta = base.model.prior(channel)  # the nominal values of the baseline's parameters
     sq, n = 0.0, 0
     for s in channel.segments:
         cols, fixed = base.model.columns(channel, s, base.theta)
