@@ -24,8 +24,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("--out", type=Path, help="MCAP log path (default runs/<run-id>.mcap)")
     p.add_argument("--compensator", help="override the compensator kind (none, polynomial, ats, "
                    "ff, lqg, ff_lqg); with --monte-carlo also 'all'")  # fmt: skip
-    p.add_argument("--monte-carlo", type=int, metavar="N", default=None,
-                   help="run N perturbed draws of the lab on the fast clock instead")  # fmt: skip
+    p.add_argument("--monte-carlo", type=int, metavar="N", default=None, nargs="?", const=0,
+                   help="run N perturbed draws of the lab on the fast clock instead (no N: the "
+                   "scenario's [monte_carlo] draws)")  # fmt: skip
     p.add_argument("--seed", type=int, help="noise seed (default: the scenario's)")
     p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
                    help="zenoh endpoint to listen on (default tcp/127.0.0.1:<free port>)")  # fmt: skip
