@@ -20,6 +20,14 @@ mode of the gap ``g = θ_S - θ_G ∈ [-ε2, ε1]``:
 In contact ``T = k_S(θ_P - θ_G - δ) + c_S(θ̇_P - ω_G)`` with ``δ = ε1`` or ``-ε2`` and
 ``J_B ω̇_G + c_B ω_G = T``; the rack feels ``F_B = f_y tanh(v_T / v_eps) + T / r_P``.
 
+Each HDRB (S1 Eq.8) may carry an amplitude-dependent dashpot ``c(A)``
+(:class:`plants.hdrb.AmplitudeDamping`); its amplitude estimate (half the distance between the
+last two reversals of the bearing deformation ``u_I`` or ``u_TI``) and the dashpot it implies
+live in the state and are updated once per loop step, after the step (:func:`track_amplitude`),
+so ``c`` is constant within a step and the Newton iteration is unchanged.  The state stores
+``c/c(A_lo) - 1``, so the all-zero state is the rest state with the small-amplitude dashpot and
+reading ``c`` costs one multiplication.
+
 Between ``u_T`` and the ground the secondary DOF may also carry a rigid inertance ``b`` [kg] (the
 ideal inerter of :class:`plants.tmdi.TMDIStructure`, or the nominal device of
 :class:`plants.tmdi.TMDISubstructure`) and a viscous ``c_G`` [N s/m] (nominal device only); both
@@ -48,8 +56,9 @@ from numba import njit
 from rths.errors import RTHSError
 
 if TYPE_CHECKING:
+    from plants._tmdi_parameters import TMDIParameters
+    from plants.hdrb import HDRB
     from plants.inerter import RackPinionParameters
-    from plants.tmdi import TMDIParameters
 
 # ---- parameter vector layout ---------------------------------------------------------------------
 P_M_I, P_K1_I, P_K2_I, P_K3_I, P_C_I = 0, 1, 2, 3, 4
@@ -59,11 +68,22 @@ P_RACK = 11  # 1.0 when the rack-and-pinion inerter is present
 P_R, P_J, P_KS, P_CS, P_CB = 12, 13, 14, 15, 16
 P_EPS1, P_EPS2, P_FY, P_VEPS = 17, 18, 19, 20
 P_C_G = 21  # viscous coefficient between u_T and the ground (nominal device) [N s/m]
-N_PARAM = 22
+# amplitude-dependent dashpot of each HDRB (plants.hdrb.AmplitudeDamping); block offsets + 0..5:
+# active flag, exponent n, A_lo [m], A_hi [m], reversal tolerance [m], dashpot at rest c(A_lo)
+# [N s/m] (without a law: the block is zero except c(A_lo) = c)
+P_LAW_I, P_LAW_T = 22, 28
+LAW_N, LAW_ALO, LAW_AHI, LAW_TOL, LAW_C0 = 1, 2, 3, 4, 5
+N_PARAM = 34
 
 # ---- state vector layout -------------------------------------------------------------------------
 S_U_I, S_V_I, S_U_T, S_V_T, S_TH_S, S_TH_G, S_OM_G, S_MODE = 0, 1, 2, 3, 4, 5, 6, 7
-N_STATE = 8
+# online amplitude estimate of each HDRB deformation (u_I, u_TI); block offsets + 0..5:
+# amplitude [m], direction (+1, -1, 0 = not moved yet), running extremum [m],
+# deformation at the last reversal [m], reversals seen (0, 1; capped at 1),
+# c(A)/c(A_lo) - 1 [-] (0 at rest, so a zero state is the rest state)
+S_AMP_I, S_AMP_T = 8, 14
+TRK_DIR, TRK_EXT, TRK_TURN, TRK_SEEN, TRK_DC = 1, 2, 3, 4, 5
+N_STATE = 20
 
 # ---- per-step inputs -----------------------------------------------------------------------------
 I_AG0, I_AG1, I_FEXT, I_DRIVEN, I_U0, I_V0, I_U1, I_V1 = 0, 1, 2, 3, 4, 5, 6, 7
@@ -72,14 +92,15 @@ N_INPUT = 8
 # ---- output row layout ---------------------------------------------------------------------------
 O_U_I, O_A_I_TOT, O_F_I, O_U_TI, O_A_T_TOT, O_F_T, O_U_T, O_A_T, O_F_B = 0, 1, 2, 3, 4, 5, 6, 7, 8
 O_V_I, O_V_T, O_TH_S, O_TH_G, O_OM_G, O_TORQUE, O_MODE = 9, 10, 11, 12, 13, 14, 15
-N_OUTPUT = 16
+O_C_I, O_C_T = 16, 17
+N_OUTPUT = 18
 #: Output column of each named response quantity (S1 Eq.7 names and internal states).
 OUTPUT_FIELDS: dict[str, int] = {
     "u_I": O_U_I, "a_I_tot": O_A_I_TOT, "F_I": O_F_I, "u_TI": O_U_TI,
     "a_T_tot": O_A_T_TOT, "F_T": O_F_T, "u_T": O_U_T, "a_T": O_A_T,
     "F_B": O_F_B, "v_I": O_V_I, "v_T": O_V_T, "theta_S": O_TH_S,
     "theta_G": O_TH_G, "omega_G": O_OM_G, "torque": O_TORQUE,
-    "contact": O_MODE,
+    "contact": O_MODE, "c_I": O_C_I, "c_T": O_C_T,
 }
 
 OPEN, FORWARD, BACKWARD = 0, 1, -1
@@ -108,9 +129,11 @@ def pack_parameters(
     if structure is not None:
         iso = structure.primary_isolator
         p[P_M_I : P_C_I + 1] = (structure.primary_mass, iso.k1, iso.k2, iso.k3, iso.c)
+        _pack_law(p, P_LAW_I, iso)
         if structure.has_tmd:
             iso = structure.secondary_isolator
             p[P_M_T : P_C_T + 1] = (structure.secondary_mass, iso.k1, iso.k2, iso.k3, iso.c)
+            _pack_law(p, P_LAW_T, iso)
     p[P_B] = inertance
     p[P_C_G] = grounded_damping
     if device is not None:
@@ -121,6 +144,17 @@ def pack_parameters(
             device.clearance_backward, device.friction_force, device.friction_velocity,
         )
     return p
+
+
+def _pack_law(p: np.ndarray, block: int, isolator: HDRB) -> None:
+    """Write an HDRB's dashpot at rest and its damping law (if any) into the block."""
+    law = isolator.damping_law
+    p[block + LAW_C0] = isolator.c
+    if law is None:
+        return
+    lo, hi = law.amplitude_range
+    p[block : block + LAW_TOL + 1] = (1.0, law.exponent, lo, hi, law.reversal_tolerance)
+    p[block + LAW_C0] = float(isolator.damping_coefficient(0.0))
 
 
 class IntegrationError(RTHSError, ArithmeticError):
@@ -154,6 +188,46 @@ def _spring(u: float, k1: float, k2: float, k3: float) -> tuple:
 
 
 @njit(cache=True, error_model="numpy")
+def dashpots(s: np.ndarray, p: np.ndarray) -> tuple:
+    """Current dashpot coefficients ``(c_I, c_T)`` [N s/m] of the two HDRBs (S1 Eq.8)."""
+    return (p[P_LAW_I + LAW_C0] * (1.0 + s[S_AMP_I + TRK_DC]),
+            p[P_LAW_T + LAW_C0] * (1.0 + s[S_AMP_T + TRK_DC]))
+
+
+@njit(cache=True, error_model="numpy")
+def track_amplitude(s: np.ndarray, block: int, u: float, p: np.ndarray, law: int) -> None:
+    """Feed the deformation ``u`` [m] to the amplitude estimate at state ``block`` and update
+    the dashpot of the damping law at parameter block ``law``.
+
+    The rule of :class:`plants._imd_amplitude.AmplitudeTracker`: a reversal is a retreat of
+    more than the tolerance from the running extremum; the amplitude is half the distance
+    between the last two reversals (0 until two have been seen).  At each new amplitude ``A``
+    the dashpot ratio ``c(A)/c(A_lo) = (clip(A, A_lo, A_hi)/A_lo)**(-n)`` is stored.
+    """
+    direction = s[block + TRK_DIR]
+    extremum = s[block + TRK_EXT]
+    if direction == 0.0:
+        if abs(u - extremum) > p[law + LAW_TOL]:
+            s[block + TRK_DIR] = 1.0 if u > extremum else -1.0
+            s[block + TRK_EXT] = u
+        return
+    if (u - extremum) * direction >= 0.0:
+        s[block + TRK_EXT] = u
+        return
+    if abs(u - extremum) <= p[law + LAW_TOL]:
+        return
+    s[block + TRK_DIR] = -direction
+    s[block + TRK_EXT] = u
+    if s[block + TRK_SEEN] != 0.0:
+        amplitude = 0.5 * abs(extremum - s[block + TRK_TURN])
+        s[block] = amplitude
+        a = min(max(amplitude, p[law + LAW_ALO]), p[law + LAW_AHI])
+        s[block + TRK_DC] = (a / p[law + LAW_ALO]) ** (-p[law + LAW_N]) - 1.0
+    s[block + TRK_TURN] = extremum
+    s[block + TRK_SEEN] = 1.0
+
+
+@njit(cache=True, error_model="numpy")
 def _offset(mode: int, p: np.ndarray) -> float:
     return p[P_EPS1] if mode == FORWARD else -p[P_EPS2]
 
@@ -181,8 +255,9 @@ def friction(v_t: float, p: np.ndarray) -> float:
 def accelerations(s: np.ndarray, ag: float, f_ext: float, p: np.ndarray) -> tuple:
     """Accelerations (a_I, a_T, α_G) from equilibrium (S1 Eq.12) at the state ``s``."""
     mode = int(s[S_MODE])
-    f_i = _spring(s[S_U_I], p[P_K1_I], p[P_K2_I], p[P_K3_I])[0] + p[P_C_I] * s[S_V_I]
-    f_t = _spring(s[S_U_T] - s[S_U_I], p[P_K1_T], p[P_K2_T], p[P_K3_T])[0] + p[P_C_T] * (
+    c_i, c_t = dashpots(s, p)
+    f_i = _spring(s[S_U_I], p[P_K1_I], p[P_K2_I], p[P_K3_I])[0] + c_i * s[S_V_I]
+    f_t = _spring(s[S_U_T] - s[S_U_I], p[P_K1_T], p[P_K2_T], p[P_K3_T])[0] + c_t * (
         s[S_V_T] - s[S_V_I]
     )
     a_i = (-p[P_M_I] * ag - f_i + f_t) / p[P_M_I]
@@ -251,6 +326,7 @@ def _advance(
         x[0] = 0.0
         x[1] = u_drv
     ci, mi = 2.0 / h, 4.0 / (h * h)
+    c_i, c_t = dashpots(s0, p)  # the amplitude estimates change only between loop steps
     delta = _offset(mode, p) if contact else 0.0
     ok = False
     for _ in range(MAX_NEWTON):
@@ -261,8 +337,8 @@ def _advance(
             v[1] = v_drv
         f_ei, k_i = _spring(x[0], p[P_K1_I], p[P_K2_I], p[P_K3_I])
         f_et, k_t = _spring(x[1] - x[0], p[P_K1_T], p[P_K2_T], p[P_K3_T])
-        f_i = f_ei + p[P_C_I] * v[0]
-        f_t = f_et + p[P_C_T] * (v[1] - v[0])
+        f_i = f_ei + c_i * v[0]
+        f_t = f_et + c_t * (v[1] - v[0])
         tq, dfric = 0.0, 0.0
         f_rack = 0.0
         if rack:
@@ -274,9 +350,9 @@ def _advance(
         res[0] = p[P_M_I] * (a[0] + ag1) + f_i - f_t
         res[1] = p[P_M_T] * (a[1] + ag1) + p[P_B] * a[1] + f_t + f_rack + f_ext
         res[1] += p[P_C_G] * v[1]
-        jac[0, 0] = p[P_M_I] * mi + (p[P_C_I] + p[P_C_T]) * ci + k_i + k_t
-        jac[0, 1] = jac[1, 0] = -p[P_C_T] * ci - k_t
-        jac[1, 1] = (p[P_M_T] + p[P_B]) * mi + (p[P_C_T] + p[P_C_G]) * ci + k_t + dfric * ci
+        jac[0, 0] = p[P_M_I] * mi + (c_i + c_t) * ci + k_i + k_t
+        jac[0, 1] = jac[1, 0] = -c_t * ci - k_t
+        jac[1, 1] = (p[P_M_T] + p[P_B]) * mi + (c_t + p[P_C_G]) * ci + k_t + dfric * ci
         jac[0, 2] = jac[2, 0] = 0.0
         if rack:
             res[2] = p[P_J] * a[2] + p[P_CB] * v[2] - tq
@@ -404,6 +480,10 @@ def step(s: np.ndarray, dt: float, n_sub: int, inp: np.ndarray, p: np.ndarray) -
                 _enter(s, FORWARD if g > 0.0 else BACKWARD, p)
             elif mode != OPEN and torque(s, mode, p) * mode < 0.0:
                 s[S_MODE] = OPEN
+    if p[P_LAW_I] != 0.0:
+        track_amplitude(s, S_AMP_I, s[S_U_I], p, P_LAW_I)
+    if p[P_LAW_T] != 0.0:
+        track_amplitude(s, S_AMP_T, s[S_U_T] - s[S_U_I], p, P_LAW_T)
     return failures
 
 
@@ -415,10 +495,11 @@ def outputs(s: np.ndarray, ag: float, f_ext: float, p: np.ndarray, out: np.ndarr
     u_ti = s[S_U_T] - s[S_U_I]
     out[O_U_I] = s[S_U_I]
     out[O_A_I_TOT] = a_i + ag
-    out[O_F_I] = _spring(s[S_U_I], p[P_K1_I], p[P_K2_I], p[P_K3_I])[0] + p[P_C_I] * s[S_V_I]
+    c_i, c_t = dashpots(s, p)
+    out[O_F_I] = _spring(s[S_U_I], p[P_K1_I], p[P_K2_I], p[P_K3_I])[0] + c_i * s[S_V_I]
     out[O_U_TI] = u_ti
     out[O_A_T_TOT] = a_t + ag
-    out[O_F_T] = _spring(u_ti, p[P_K1_T], p[P_K2_T], p[P_K3_T])[0] + p[P_C_T] * (
+    out[O_F_T] = _spring(u_ti, p[P_K1_T], p[P_K2_T], p[P_K3_T])[0] + c_t * (
         s[S_V_T] - s[S_V_I]
     )
     out[O_U_T] = s[S_U_T]
@@ -435,6 +516,8 @@ def outputs(s: np.ndarray, ag: float, f_ext: float, p: np.ndarray, out: np.ndarr
     out[O_OM_G] = s[S_OM_G]
     out[O_TORQUE] = tq
     out[O_MODE] = mode
+    out[O_C_I] = c_i
+    out[O_C_T] = c_t
 
 
 @njit(cache=True, error_model="numpy")

@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike, NDArray
 from rths.errors import ParameterError, check_nonnegative
 
 if TYPE_CHECKING:
-    from plants.tmdi import TMDIParameters
+    from plants._tmdi_parameters import TMDIParameters
 
 __all__ = ["linear_frf", "linearised_frequencies"]
 

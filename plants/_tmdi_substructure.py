@@ -19,7 +19,7 @@ from plants.inerter import IdealInerter, RackPinionInerter
 from rths.errors import ParameterError, check_nonnegative, check_positive
 
 if TYPE_CHECKING:
-    from plants.tmdi import TMDIParameters
+    from plants._tmdi_parameters import TMDIParameters
 
 __all__ = ["NominalInerter", "TMDISubstructure"]
 
@@ -199,7 +199,9 @@ def _ground_motion(
         def checked(t: float) -> float:
             value = float(source(t))
             if not math.isfinite(value):
-                raise ParameterError(f"ground acceleration at t={t!r} s must be finite; got {value!r}")
+                raise ParameterError(
+                    f"ground acceleration at t={t!r} s must be finite; got {value!r}"
+                )
             return value
         return checked
     samples = np.asarray(source, dtype=float)

@@ -24,7 +24,15 @@ scales, with the backlash switches located inside the step.
 The S1 configurations (Table 1: secondary mass SM/IM/LM × flywheel NF/IF/LF, plus the uncontrolled
 PS) are built by :func:`s1_configuration`; the numbers live in :data:`PRIMARY_MASS`,
 :data:`SECONDARY_MASSES`, :data:`plants.inerter.FLYWHEELS` and the HDRB presets of
-:mod:`plants.hdrb` (S1 §4.2).
+:mod:`plants.hdrb` (S1 §4.2), either as S1 identified them (viscous dashpots) or with the
+amplitude-dependent dashpots of :class:`plants.hdrb.AmplitudeDamping`.
+
+S1 identifies no model of the PS alone.  :func:`calibrate_uncontrolled_ps` fits one to the numbers
+S1 reports for the uncontrolled tests (:data:`S1_UNCONTROLLED`: 5 mm at 0.05 g, 38 mm at
+0.15 g, f0 = 2.25 Hz at 0.10 g) -- harmonic balance (:func:`harmonic_balance_crest`) corrected
+to the time-domain crests of this model (:func:`stepped_sine_crest`); see
+:mod:`plants._tmdi_calibration`.  Its result is the preset
+:data:`plants.hdrb.S1_PRIMARY_UNCONTROLLED`.
 """
 
 from __future__ import annotations
@@ -37,106 +45,74 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from plants import _tmdi_kernel as kern
+from plants._tmdi_calibration import (
+    S1_UNCONTROLLED,
+    PSCalibration,
+    UncontrolledObservations,
+    calibrate_uncontrolled_ps,
+    harmonic_balance_crest,
+    stepped_sine_crest,
+)
 from plants._tmdi_kernel import IntegrationError
 from plants._tmdi_linear import EQ7_QUANTITIES, linear_frf, linearised_frequencies
+from plants._tmdi_parameters import PRIMARY_MASS, SECONDARY_MASSES, TMDIParameters
 from plants._tmdi_substructure import NominalInerter, TMDISubstructure
 from plants.base import Specimen
 from plants.hdrb import (
-    HDRB,
     S1_PRIMARY,
+    S1_PRIMARY_AMPLITUDE,
     S1_PRIMARY_IDEAL_INERTER,
+    S1_PRIMARY_IDEAL_INERTER_AMPLITUDE,
+    S1_PRIMARY_UNCONTROLLED,
     S1_SECONDARY,
+    S1_SECONDARY_AMPLITUDE,
     S1_SECONDARY_IDEAL_INERTER,
+    S1_SECONDARY_IDEAL_INERTER_AMPLITUDE,
 )
 from plants.inerter import (
+    SUBSTEP_FRACTION,
     IdealInerter,
     RackPinionInerter,
-    SUBSTEP_FRACTION,
     ideal_inerter_preset,
     rack_pinion_preset,
 )
 from rths.errors import (
     ParameterError,
-    check_nonnegative,
     check_positive,
     format_choices,
 )
 
 __all__ = [
     "EQ7_QUANTITIES",
+    "HDRB_MODELS",
     "IntegrationError",
     "NominalInerter",
     "PRIMARY_MASS",
+    "PSCalibration",
+    "S1_UNCONTROLLED",
     "SECONDARY_MASSES",
     "TMDIParameters",
     "TMDIResponse",
     "TMDIStructure",
     "TMDISubstructure",
+    "UncontrolledObservations",
+    "calibrate_uncontrolled_ps",
+    "harmonic_balance_crest",
     "linear_frf",
     "linearised_frequencies",
     "s1_configuration",
+    "stepped_sine_crest",
 ]
 
-#: Primary mass m_I [kg], S1 §2.2.
-PRIMARY_MASS: Final[float] = 125.0
-#: Secondary masses m_T [kg] of S1 Table 1 (μ = m_T / m_I = 0.048, 0.080, 0.160).
-SECONDARY_MASSES: Final[dict[str, float]] = {"SM": 6.0, "IM": 10.0, "LM": 20.0}
-
-
-@dataclass(frozen=True, slots=True)
-class TMDIParameters:
-    """The structure of S1 Eq.12 without the inerter.
-
-    Parameters
-    ----------
-    primary_mass
-        ``m_I`` [kg].
-    primary_isolator
-        Primary HDRB (S1 Eq.8).
-    secondary_mass
-        ``m_T`` [kg]; 0 for the uncontrolled primary structure (PS).
-    secondary_isolator
-        Secondary HDRB; required when ``secondary_mass > 0``, ignored otherwise.
-    """
-
-    primary_mass: float = PRIMARY_MASS
-    primary_isolator: HDRB = S1_PRIMARY
-    secondary_mass: float = 0.0
-    secondary_isolator: HDRB | None = None
-
-    def __post_init__(self) -> None:
-        check_positive(self.primary_mass, "primary mass m_I")
-        check_nonnegative(self.secondary_mass, "secondary mass m_T")
-        if not isinstance(self.primary_isolator, HDRB):
-            raise ParameterError(
-                f"primary isolator must be an HDRB; got {type(self.primary_isolator).__name__}"
-            )
-        if self.secondary_mass > 0.0 and not isinstance(self.secondary_isolator, HDRB):
-            raise ParameterError(
-                "secondary isolator must be an HDRB when the secondary mass is "
-                f"{self.secondary_mass!r} kg; got {self.secondary_isolator!r}"
-            )
-
-    @property
-    def has_tmd(self) -> bool:
-        """True when a secondary mass (TMD/TMDI) is attached."""
-        return self.secondary_mass > 0.0
-
-    @property
-    def mass_ratio(self) -> float:
-        """``μ = m_T / m_I`` [-]."""
-        return self.secondary_mass / self.primary_mass
-
-    def linear(self) -> TMDIParameters:
-        """The same structure with linear isolators (``k2 = k3 = 0``)."""
-        iso = self.secondary_isolator.linear() if self.secondary_isolator is not None else None
-        return TMDIParameters(
-            self.primary_mass, self.primary_isolator.linear(), self.secondary_mass, iso
-        )
+#: HDRB damping models of :func:`s1_configuration`.
+HDRB_MODELS: Final[tuple[str, ...]] = ("viscous", "amplitude")
 
 
 def s1_configuration(
-    mass: str | None, flywheel: str | None = None, inerter: str = "rack_pinion"
+    mass: str | None,
+    flywheel: str | None = None,
+    inerter: str = "rack_pinion",
+    hdrb: str = "viscous",
 ) -> tuple[TMDIParameters, Specimen | None]:
     """A physical model of S1 Table 1 as (structure, inerter specimen).
 
@@ -151,22 +127,40 @@ def s1_configuration(
         ``"rack_pinion"``: the S1 Eq.9-11 device (:func:`plants.inerter.rack_pinion_preset`)
         with the isolators identified with it (c_I = 538.13, c_T = 409.15 N s/m);
         ``"ideal"``: the ideal-inerter variant of S1 §4.2 (b = 48.7 kg for IF, scaled for NF/LF;
-        c_I = 743.3, c_T = 324.7 N s/m).
+        c_I = 743.3, c_T = 324.7 N s/m).  Ignored for the uncontrolled PS.
+    hdrb
+        ``"viscous"``: the S1 §4.2 isolators as identified (constant dashpots); for the
+        uncontrolled PS the TMDI's primary bearing (S1 identifies no PS-alone model).
+        ``"amplitude"``: the dashpots follow the amplitude law of :mod:`plants.hdrb` -- with a
+        TMDI the S1 §4.2 bearings anchored where S1 identified them (``S1_*_AMPLITUDE``
+        presets), for the uncontrolled PS the bearing calibrated on S1's uncontrolled tests
+        (:data:`~plants.hdrb.S1_PRIMARY_UNCONTROLLED`).
     """
     if inerter not in ("rack_pinion", "ideal"):
         raise ParameterError(f"inerter must be 'rack_pinion' or 'ideal'; got {inerter!r}")
+    if hdrb not in HDRB_MODELS:
+        raise ParameterError(f"hdrb must be one of {format_choices(HDRB_MODELS)}; got {hdrb!r}")
     ideal = inerter == "ideal"
-    primary = S1_PRIMARY_IDEAL_INERTER if ideal else S1_PRIMARY
+    amplitude = hdrb == "amplitude"
     if mass is None:
         if flywheel is not None:
             raise ParameterError(f"the uncontrolled PS has no inerter; got flywheel {flywheel!r}")
-        return TMDIParameters(PRIMARY_MASS, primary), None
+        return TMDIParameters(PRIMARY_MASS, S1_PRIMARY_UNCONTROLLED if amplitude else S1_PRIMARY
+                              ), None
     if mass not in SECONDARY_MASSES:
         raise ParameterError(
             f"secondary mass must be one of {format_choices(list(SECONDARY_MASSES))} or None; "
             f"got {mass!r}"
         )
-    secondary = S1_SECONDARY_IDEAL_INERTER if ideal else S1_SECONDARY
+    if ideal and amplitude:
+        primary = S1_PRIMARY_IDEAL_INERTER_AMPLITUDE
+        secondary = S1_SECONDARY_IDEAL_INERTER_AMPLITUDE
+    elif ideal:
+        primary, secondary = S1_PRIMARY_IDEAL_INERTER, S1_SECONDARY_IDEAL_INERTER
+    elif amplitude:
+        primary, secondary = S1_PRIMARY_AMPLITUDE, S1_SECONDARY_AMPLITUDE
+    else:
+        primary, secondary = S1_PRIMARY, S1_SECONDARY
     structure = TMDIParameters(PRIMARY_MASS, primary, SECONDARY_MASSES[mass], secondary)
     if flywheel is None:
         return structure, None
@@ -183,8 +177,10 @@ class TMDIResponse:
     ``a_I_tot``, ``a_T_tot`` (total) and ``a_T`` (relative) [m/s²]; ``F_I``, ``F_T``, ``F_B``
     [N].  Also the velocities ``v_I``, ``v_T`` [m/s] and, for the rack-and-pinion inerter, the
     node and flywheel angles ``theta_S``, ``theta_G`` [rad], flywheel speed ``omega_G`` [rad/s],
-    gap torque ``torque`` [N m] and ``contact`` (-1, 0, +1).  For the uncontrolled PS the
-    secondary kinematics are NaN and ``F_T = F_B = 0``.
+    gap torque ``torque`` [N m] and ``contact`` (-1, 0, +1); the HDRB dashpot coefficients
+    ``c_I``, ``c_T`` [N s/m] in force at each sample (constant unless a bearing has an
+    :class:`~plants.hdrb.AmplitudeDamping` law).  For the uncontrolled PS the secondary
+    kinematics are NaN and ``F_T = F_B = 0``.
     """
 
     time: NDArray[np.float64]
@@ -205,6 +201,8 @@ class TMDIResponse:
     omega_G: NDArray[np.float64]
     torque: NDArray[np.float64]
     contact: NDArray[np.float64]
+    c_I: NDArray[np.float64]
+    c_T: NDArray[np.float64]
 
     def quantities(self) -> dict[str, NDArray[np.float64]]:
         """The S1 Eq.7 quantities keyed by name, in the paper's order."""

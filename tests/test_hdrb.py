@@ -9,11 +9,21 @@ import pytest
 from scipy.integrate import quad
 
 from plants.hdrb import (
+    AMPLITUDE_EXPONENT,
+    AMPLITUDE_RANGE,
     HDRB,
+    IDENTIFICATION_AMPLITUDE,
     S1_PRIMARY,
+    S1_PRIMARY_AMPLITUDE,
     S1_PRIMARY_IDEAL_INERTER,
+    S1_PRIMARY_IDEAL_INERTER_AMPLITUDE,
+    S1_PRIMARY_UNCONTROLLED,
     S1_SECONDARY,
+    S1_SECONDARY_AMPLITUDE,
     S1_SECONDARY_IDEAL_INERTER,
+    S1_SECONDARY_IDEAL_INERTER_AMPLITUDE,
+    UNCONTROLLED_STIFFNESS_SCALE,
+    AmplitudeDamping,
 )
 from rths.errors import ParameterError
 
@@ -102,6 +112,8 @@ def test_force_is_spring_plus_dashpot_and_scalar_in_scalar_out() -> None:
 def test_linear_limit_and_monotonic_limit() -> None:
     lin = S1_PRIMARY.linear()
     assert (lin.k2, lin.k3, lin.c) == (0.0, 0.0, S1_PRIMARY.c)
+    # the linear limit is viscous: the damping law goes with the nonlinearity
+    assert S1_PRIMARY_UNCONTROLLED.linear().damping_law is None
     assert lin.softening_limit() == 0.0
     assert HDRB(1.0, -1.0, 0.0).softening_limit() == math.inf
     # a strongly softening spring: tangent k1 + 2 k2 x + 3 k3 x² vanishes at the limit
@@ -110,6 +122,111 @@ def test_linear_limit_and_monotonic_limit() -> None:
     assert math.isfinite(x)
     assert soft.tangent_stiffness(x) == pytest.approx(0.0, abs=1e-6)
     assert HDRB(k1=1e4, k2=-1e5).monotonic_limit() == pytest.approx(0.05, rel=1e-15)
+
+
+# --- amplitude-dependent damping ----------------------------------------------------------------
+LAW = AmplitudeDamping(0.36, 0.010, (0.005, 0.038))
+
+
+def test_damping_law_is_a_clamped_power_law() -> None:
+    iso = HDRB(3.94e4, c=600.0, damping_law=LAW)
+    assert iso.damping_coefficient(0.010) == pytest.approx(600.0, rel=1e-15)  # c = c(A_ref)
+    assert iso.damping_coefficient(None) == 600.0  # no amplitude: the reference dashpot
+    # held constant outside the calibrated range, on both sides
+    assert iso.damping_coefficient(0.0) == iso.damping_coefficient(0.005)
+    assert iso.damping_coefficient(0.1) == iso.damping_coefficient(0.038)
+    assert iso.damping_coefficient(0.005) == pytest.approx(600.0 * 0.5**-0.36, rel=1e-14)
+    # the law applies to |A| and to arrays
+    np.testing.assert_allclose(iso.damping_coefficient([-0.02, 0.02]),
+                               600.0 * 2.0**-0.36, rtol=1e-14)
+    # anchoring moves the reference, not the exponent or the range
+    moved = LAW.anchored(0.02)
+    assert (moved.exponent, moved.amplitude_range) == (LAW.exponent, LAW.amplitude_range)
+    assert moved.factor(0.02) == pytest.approx(1.0, rel=1e-15)
+    # without a law every amplitude gives c
+    assert S1_PRIMARY.damping_coefficient(0.03) == S1_PRIMARY.c
+
+
+@pytest.mark.parametrize("amplitude", [0.006, 0.02])
+def test_energy_per_cycle_grows_as_a_power_2_minus_n(amplitude: float) -> None:
+    """W(A) = ∮ F du over a cycle of u = A sin ωt with the dashpot c(A): W ∝ A^(2-n)."""
+    iso = HDRB(3.94e4, -6.46e5, 4.52e6, 600.0, LAW)
+    omega = 2.0 * math.pi * 2.25
+    t = np.linspace(0.0, 2.0 * math.pi / omega, 4001)
+
+    def work(a: float) -> float:
+        u, v = a * np.sin(omega * t), a * omega * np.cos(omega * t)
+        return float(np.trapezoid(iso.force(u, v, amplitude=a) * v, t))
+
+    # doubling A inside the range (6-12 mm, 20-40 mm clamps at 38 mm: check the clamp too);
+    # periodic trapezoidal quadrature is spectrally accurate
+    ratio = work(2.0 * amplitude) / work(amplitude)
+    exponent = 2.0 - LAW.exponent if 2.0 * amplitude <= 0.038 else None
+    if exponent is not None:
+        assert ratio == pytest.approx(2.0**exponent, rel=1e-10)
+    else:
+        expected = 4.0 * (0.038 / amplitude) ** -LAW.exponent
+        assert ratio == pytest.approx(expected, rel=1e-10)
+    assert work(amplitude) == pytest.approx(
+        math.pi * float(iso.damping_coefficient(amplitude)) * omega * amplitude**2, rel=1e-10)
+
+
+def test_variants_keep_what_they_do_not_change() -> None:
+    iso = HDRB(3.94e4, -6.46e5, 4.52e6, 600.0, LAW)
+    assert iso.with_damping(500.0).damping_law == LAW
+    assert iso.with_damping_law(None).damping_law is None
+    scaled = iso.with_stiffness_scale(0.5)
+    assert (scaled.k1, scaled.k2, scaled.k3) == (0.5 * 3.94e4, 0.5 * -6.46e5, 0.5 * 4.52e6)
+    assert (scaled.c, scaled.damping_law) == (600.0, LAW)
+    assert scaled.equivalent_stiffness(0.02) == pytest.approx(
+        0.5 * iso.equivalent_stiffness(0.02), rel=1e-15)
+    assert iso.force(0.01, 0.2) == pytest.approx(iso.elastic_force(0.01) + 600.0 * 0.2,
+                                                 rel=1e-15)
+    assert iso.damping_force(0.2, 0.005) == pytest.approx(
+        float(iso.damping_coefficient(0.005)) * 0.2, rel=1e-15)
+
+
+def test_amplitude_presets() -> None:
+    law = S1_PRIMARY_UNCONTROLLED.damping_law
+    assert law is not None and law.amplitude_range == AMPLITUDE_RANGE == (0.005, 0.038)
+    assert law.exponent == AMPLITUDE_EXPONENT
+    # the uncontrolled PS: S1 §4.2 springs scaled, c = 623.0 N s/m at 10 mm
+    scaled = S1_PRIMARY.with_stiffness_scale(UNCONTROLLED_STIFFNESS_SCALE)
+    assert (S1_PRIMARY_UNCONTROLLED.k1, S1_PRIMARY_UNCONTROLLED.k2,
+            S1_PRIMARY_UNCONTROLLED.k3) == (scaled.k1, scaled.k2, scaled.k3)
+    assert S1_PRIMARY_UNCONTROLLED.damping_coefficient(0.010) == pytest.approx(623.0, rel=1e-15)
+    # the TMDI bearings give S1's identified dashpots where S1 identified them (0.10 g)
+    for iso, viscous, amplitude in (
+        (S1_PRIMARY_AMPLITUDE, S1_PRIMARY, IDENTIFICATION_AMPLITUDE["rack_pinion"]),
+        (S1_PRIMARY_IDEAL_INERTER_AMPLITUDE, S1_PRIMARY_IDEAL_INERTER,
+         IDENTIFICATION_AMPLITUDE["ideal"]),
+        (S1_SECONDARY_AMPLITUDE, S1_SECONDARY, 0.003),
+        (S1_SECONDARY_IDEAL_INERTER_AMPLITUDE, S1_SECONDARY_IDEAL_INERTER, 0.003),
+    ):
+        assert (iso.k1, iso.k2, iso.k3, iso.c) == (viscous.k1, viscous.k2, viscous.k3, viscous.c)
+        assert iso.damping_coefficient(amplitude) == pytest.approx(viscous.c, rel=1e-14)
+    # secondary: c_T up to A_lo = 5 mm, less for the 0.15 g strokes
+    assert S1_SECONDARY_AMPLITUDE.damping_coefficient(0.005) == pytest.approx(409.15, rel=1e-14)
+    assert S1_SECONDARY_AMPLITUDE.damping_coefficient(0.006) < 409.15
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"exponent": -0.1}, r"damping law exponent n must lie in \[0.0, 1.0\]; got -0.1"),
+        ({"exponent": 1.5}, r"damping law exponent n must lie in \[0.0, 1.0\]; got 1.5"),
+        ({"reference_amplitude": 0.0}, "reference amplitude A_ref must be positive; got 0.0"),
+        ({"amplitude_range": (0.01, 0.005)},
+         r"amplitude range must satisfy 0 < A_lo < A_hi; got \(0.01, 0.005\)"),
+        ({"amplitude_range": (0.0, 0.005)}, "amplitude range must satisfy 0 < A_lo < A_hi"),
+        ({"amplitude_range": 0.005}, r"amplitude range must be \(A_lo, A_hi\) in m; got 0.005"),
+        ({"reversal_tolerance": -1e-6}, "reversal tolerance must be positive; got -1e-06"),
+    ],
+)
+def test_bad_damping_laws_are_rejected(kwargs: dict, match: str) -> None:
+    args = {"exponent": 0.3, "reference_amplitude": 0.01, "amplitude_range": (0.005, 0.038)}
+    with pytest.raises(ParameterError, match=match):
+        AmplitudeDamping(**(args | kwargs))
 
 
 @pytest.mark.parametrize(
@@ -121,8 +238,15 @@ def test_linear_limit_and_monotonic_limit() -> None:
         ({"k1": 1.0, "k3": math.inf}, "k3 must be finite"),
         ({"k1": 1.0, "c": -1.0}, "damping c must be non-negative; got -1.0"),
         ({"k1": "stiff"}, "k1 must be a number; got 'stiff'"),
+        ({"k1": 1.0, "damping_law": 0.3},
+         "damping law must be an AmplitudeDamping or None; got 0.3"),
     ],
 )
 def test_bad_parameters_are_rejected(kwargs: dict, match: str) -> None:
     with pytest.raises(ParameterError, match=match):
         HDRB(**kwargs)
+
+
+def test_bad_stiffness_scale_is_rejected() -> None:
+    with pytest.raises(ParameterError, match="HDRB stiffness scale must be positive; got -0.5"):
+        S1_PRIMARY.with_stiffness_scale(-0.5)

@@ -9,15 +9,24 @@ import numpy as np
 import pytest
 from scipy.integrate import cumulative_trapezoid
 
+from controllers.baselines import NoCompensation
+from plants._imd_amplitude import AmplitudeTracker
 from plants.base import Specimen
-from plants.hdrb import HDRB, S1_PRIMARY, S1_SECONDARY
+from plants.hdrb import (
+    HDRB,
+    S1_PRIMARY,
+    S1_PRIMARY_AMPLITUDE,
+    S1_PRIMARY_UNCONTROLLED,
+    S1_SECONDARY,
+    S1_SECONDARY_AMPLITUDE,
+    AmplitudeDamping,
+)
 from plants.inerter import (
     S1_RACK_PINION,
     IdealInerter,
     RackPinionInerter,
     rack_pinion_preset,
 )
-from controllers.baselines import NoCompensation
 from plants.tmdi import (
     EQ7_QUANTITIES,
     IntegrationError,
@@ -160,7 +169,7 @@ def energy_error(par: TMDIParameters, inerter: Specimen, dt: float) -> float:
     power_in = -ag * (m_i * r.v_I + m_t * r.v_T)
     stored = (0.5 * m_i * r.v_I**2 + 0.5 * m_t * r.v_T**2
               + iso_i.elastic_energy(r.u_I) + iso_t.elastic_energy(r.u_TI))
-    loss = iso_i.c * r.v_I**2 + iso_t.c * (r.v_T - r.v_I) ** 2
+    loss = r.c_I * r.v_I**2 + r.c_T * (r.v_T - r.v_I) ** 2  # the dashpots in force
     if isinstance(inerter, IdealInerter):
         stored = stored + 0.5 * inerter.inertance * r.v_T**2
     else:
@@ -178,9 +187,11 @@ def energy_error(par: TMDIParameters, inerter: Specimen, dt: float) -> float:
     return float(np.max(np.abs(work_in - stored - dissipated)) / np.max(np.abs(work_in)))
 
 
-def test_energy_balance_with_the_ideal_inerter() -> None:
-    par, inerter = s1_configuration("IM", "IF", inerter="ideal")
-    # trapezoidal scheme + trapezoidal work quadrature: O(dt²), measured 2.1e-6 at 1 ms
+@pytest.mark.parametrize("hdrb", ["viscous", "amplitude"])
+def test_energy_balance_with_the_ideal_inerter(hdrb: str) -> None:
+    par, inerter = s1_configuration("IM", "IF", inerter="ideal", hdrb=hdrb)
+    # trapezoidal scheme + trapezoidal work quadrature: O(dt²), measured 2.1e-6 at 1 ms; the
+    # amplitude law switches c at reversals (|v| ~ a dt): measured 2.1e-6
     assert energy_error(par, inerter, 1e-3) < 1e-5
 
 
@@ -190,6 +201,72 @@ def test_energy_balance_with_the_rack_and_pinion_inerter(flywheel: str) -> None:
     # contact switches make the dissipation rate jump inside a step: O(dt) quadrature error
     # at each impact; measured 2.0e-5 (NF) and 6.7e-5 (IF) at 1 ms
     assert energy_error(par, inerter, 1e-3) < 3e-4
+
+
+# --- amplitude-dependent HDRB damping ---------------------------------------------------------
+def test_kernel_amplitude_estimate_is_the_imd_tracker_rule() -> None:
+    """Two implementations of one rule: the numba kernel's per-step tracker on ``u_I`` and
+    ``u_TI`` against :class:`plants._imd_amplitude.AmplitudeTracker` fed the same samples."""
+    law = AmplitudeDamping(0.5, 0.005, (0.0005, 0.03))  # wide range: both dashpots vary
+    par = TMDIParameters(125.0, S1_PRIMARY.with_damping_law(law), 10.0,
+                         S1_SECONDARY.with_damping_law(law))
+    inerter = rack_pinion_preset("IF")
+    dt = 1e-3
+    t, ag = harmonic(dt, 6.0, 2.0, 0.1, ramp=1.0)
+    ag = ag * (1.0 + 0.5 * np.sin(2 * math.pi * 0.3 * t))  # a varying amplitude
+    r = TMDIStructure(par, RackPinionInerter(inerter), dt).run(ag)
+    for deformation, iso, c in ((r.u_I, par.primary_isolator, r.c_I),
+                                (r.u_TI, par.secondary_isolator, r.c_T)):
+        law = iso.damping_law
+        tracker = AmplitudeTracker(law.reversal_tolerance)
+        expected = [iso.damping_coefficient(0.0)]
+        for u in deformation[1:]:
+            tracker.update(float(u))
+            expected.append(iso.damping_coefficient(tracker.amplitude))
+        # same arithmetic up to the kernel's (c/c_lo - 1) storage: round-off only
+        np.testing.assert_allclose(c, expected, rtol=1e-13)
+        assert np.ptp(c) > 0.1 * np.max(c)  # the run does exercise the law
+
+
+def test_zero_exponent_law_is_the_viscous_bearing() -> None:
+    law = AmplitudeDamping(0.0, 0.01, (0.005, 0.038))
+    viscous, _ = s1_configuration("IM", "IF")
+    par = TMDIParameters(125.0, S1_PRIMARY.with_damping_law(law), 10.0,
+                         S1_SECONDARY.with_damping_law(law))
+    dt = 1e-3
+    t, ag = harmonic(dt, 3.0, 2.25, 0.1, ramp=0.5)
+    a = TMDIStructure(par, None, dt).run(ag)
+    b = TMDIStructure(viscous, None, dt).run(ag)
+    for name in ("u_I", "u_T", "F_I", "F_T"):
+        # n = 0: c(A) = c for every A; the tracker runs but changes nothing (bit-identical)
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+
+
+def test_amplitude_configurations() -> None:
+    par, inerter = s1_configuration("IM", "IF", hdrb="amplitude")
+    assert isinstance(inerter, RackPinionInerter)
+    assert (par.primary_isolator, par.secondary_isolator) == (S1_PRIMARY_AMPLITUDE,
+                                                              S1_SECONDARY_AMPLITUDE)
+    ideal, _ = s1_configuration("IM", "IF", inerter="ideal", hdrb="amplitude")
+    assert ideal.primary_isolator.damping_coefficient(0.0139) == pytest.approx(743.3, rel=1e-12)
+    assert ideal.secondary_isolator.c == 324.7
+    ps, _ = s1_configuration(None, hdrb="amplitude")
+    assert ps.primary_isolator == S1_PRIMARY_UNCONTROLLED
+    assert s1_configuration(None)[0].primary_isolator == S1_PRIMARY  # the default is S1 §4.2
+
+
+def test_partitioned_run_with_amplitude_law_is_the_monolithic_run() -> None:
+    """The substructure carries the amplitude estimates in its state like the full model."""
+    dt = 1e-3
+    t, ag = harmonic(dt, 4.0, 2.25, 0.1, ramp=0.5)
+    b = S1_RACK_PINION.nominal_inertance
+    par, _ = s1_configuration("IM", "IF", hdrb="amplitude")
+    mono = TMDIStructure(par, IdealInerter(b), dt).run(ag)
+    part = partitioned_run(IdealInerter(b), NominalInerter(b), ag, dt, par)
+    for name in ("u_I", "u_T", "F_B"):
+        # zero correction every step: the same kernel does the same arithmetic
+        np.testing.assert_allclose(part[name], getattr(mono, name), rtol=0.0,
+                                   atol=1e-12 * np.max(np.abs(getattr(mono, name))))
 
 
 # --- rack-and-pinion inside the structure ------------------------------------------------------
@@ -324,9 +401,9 @@ class ExactKinematicsLink:
 
 
 def partitioned_run(specimen: Specimen, device: NominalInerter | None, ag: np.ndarray,
-                    dt: float) -> dict[str, np.ndarray]:
+                    dt: float, par: TMDIParameters | None = None) -> dict[str, np.ndarray]:
     """RTHS through rths.loop.Loop: TMDISubstructure + specimen, correction fed one step late."""
-    par, _ = s1_configuration("IM", "IF")
+    par = par or s1_configuration("IM", "IF")[0]
     sub = TMDISubstructure(par, ag, dt, device=device)
     specimen.reset()
     records: list[dict[str, float]] = []
@@ -447,6 +524,8 @@ def test_bad_parameters_are_rejected() -> None:
         s1_configuration("IM", "IF", inerter="x")
     with pytest.raises(ParameterError, match="uncontrolled PS has no inerter; got flywheel 'IF'"):
         s1_configuration(None, "IF")
+    with pytest.raises(ParameterError, match="hdrb must be one of 'viscous', 'amplitude'; got 'x'"):
+        s1_configuration("IM", "IF", hdrb="x")
     with pytest.raises(ParameterError, match="inertance b must be non-negative; got -1.0"):
         linear_frf(TMDIParameters(), -1.0, 2.0)
     with pytest.raises(ParameterError, match="inertance b must be non-negative; got -1.0"):
@@ -487,7 +566,8 @@ def test_bad_substructure_inputs_are_rejected() -> None:
     ps, _ = s1_configuration(None)
     with pytest.raises(ParameterError, match="needs a secondary mass; got 0.0 kg"):
         TMDISubstructure(ps, lambda t: 0.0, 1e-3)
-    with pytest.raises(ParameterError, match=r"samples must be a non-empty 1-D array; got shape \(0,\)"):
+    with pytest.raises(ParameterError,
+                       match=r"samples must be a non-empty 1-D array; got shape \(0,\)"):
         make_substructure(np.array([]))
     with pytest.raises(ParameterError, match="ground acceleration samples must be finite"):
         make_substructure(np.array([0.0, math.nan]))
