@@ -23,6 +23,7 @@ does; every key is checked and an unknown key is an error naming the file, table
     mass = "IM"                   # S1 Table 1 secondary mass: SM | IM | LM
     flywheel = "IF"               # S1 Table 1 flywheel: NF | IF | LF
     models = ["uncontrolled", "rack_pinion", "ideal"]
+    hdrb = "amplitude"            # "viscous" (S1 §4.2 as identified) | "amplitude"
 
     [table]
     kind = "transfer_function"    # | "ideal" (perfect tracking)
@@ -111,6 +112,10 @@ class SweepConfig:
         S1 Table 1 configuration of the TMDI models.
     models
         Specimens swept, among :data:`MODELS`.
+    hdrb
+        HDRB damping model, among :data:`plants.tmdi.HDRB_MODELS`:
+        ``"amplitude"`` (the primary bearing's amplitude law; the uncontrolled PS calibrated on
+        S1's uncontrolled tests) or ``"viscous"`` (S1 §4.2 as identified).
     table
         Shaking-table model.
     """
@@ -127,6 +132,7 @@ class SweepConfig:
     flywheel: str = "IF"
     models: tuple[str, ...] = MODELS
     table: TableSpec = TableSpec()
+    hdrb: str = "amplitude"
 
     @property
     def dt(self) -> float:
@@ -184,7 +190,7 @@ def _table(table: Table) -> TableSpec:
 
 def _config(doc: Table) -> SweepConfig:
     from plants.inerter import FLYWHEELS
-    from plants.tmdi import SECONDARY_MASSES
+    from plants.tmdi import HDRB_MODELS, SECONDARY_MASSES
 
     sweep = doc.table("sweep")
     name = sweep.string("name")
@@ -205,11 +211,12 @@ def _config(doc: Table) -> SweepConfig:
     mass = spec.choice("mass", tuple(SECONDARY_MASSES), "IM")
     flywheel = spec.choice("flywheel", tuple(FLYWHEELS), "IF")
     models = _names(spec, "models", MODELS, MODELS)
+    hdrb = spec.choice("hdrb", HDRB_MODELS, "amplitude")
     spec.finish()
     table = _table(doc.table("table", {}))
     doc.finish()
     return SweepConfig(name, rate, pga, directions, cycles, steady, amplitude, grid, mass,
-                       flywheel, models, table)
+                       flywheel, models, table, hdrb)
 
 
 def parse_sweep(text: str, source: str = "<string>") -> SweepConfig:

@@ -10,7 +10,7 @@ Per PGA and direction::
         A_k = PGA g / |table acceleration gain at f_k|   (= PGA g / ω_k² for a perfect table)
     command ──► table model (rths._shake_table) ──► measured ü_G
     ü_G ──► TMDIStructure.run  (uncontrolled PS; TMDI with rack-and-pinion inerter, S1 Eq.9-12;
-                                TMDI with the ideal inerter of S1 §4.2)
+                                TMDI with the ideal inerter of S1 §4.2; HDRBs per ``hdrb``)
     responses ──► rths.frf.estimate_frf (S1 Eq.7) + the last cycle of every step (loops)
 
 The table signal does not depend on the specimen (no control-structure interaction: the table
@@ -85,20 +85,24 @@ PRIMARY_QUANTITIES = ("u_I", "a_I_tot", "F_I")
 
 
 def model_configuration(
-    model: str, mass: str = "IM", flywheel: str = "IF"
+    model: str, mass: str = "IM", flywheel: str = "IF", hdrb: str = "amplitude"
 ) -> tuple[TMDIParameters, Specimen | None]:
     """Structure and inerter of a swept model (:data:`MODELS`).
 
     Parameters
     ----------
     model
-        ``"uncontrolled"``: the PS with the primary isolator identified with the
-        rack-and-pinion model (S1 §4.2: ``c_I = 538.13 N s/m``; S1 identifies no separate PS
-        model); ``"rack_pinion"`` / ``"ideal"``: :func:`plants.tmdi.s1_configuration` with
-        that inerter (S1 Eq.9-11, or the ideal inerter and dampers of S1 §4.2).
+        ``"uncontrolled"``: the PS alone; ``"rack_pinion"`` / ``"ideal"``: the TMDI with that
+        inerter (S1 Eq.9-11, or the ideal inerter and dampers of S1 §4.2).
     mass, flywheel
         S1 Table 1 secondary mass (``"SM"``, ``"IM"``, ``"LM"``) and flywheel (``"NF"``,
         ``"IF"``, ``"LF"``) of the TMDI models.
+    hdrb
+        ``"amplitude"``: the primary HDRB's amplitude-dependent damping -- for the PS the bearing
+        calibrated on S1's uncontrolled tests (:data:`plants.hdrb.S1_PRIMARY_UNCONTROLLED`),
+        with a TMDI the S1 §4.2 bearing anchored at S1's ``c_I``; ``"viscous"``: the S1 §4.2
+        isolators as identified, the PS with the TMDI's primary bearing
+        (:func:`plants.tmdi.s1_configuration`).
 
     Returns
     -------
@@ -106,9 +110,9 @@ def model_configuration(
         (:class:`plants.tmdi.TMDIParameters`, inerter specimen or None).
     """
     if model == "uncontrolled":
-        return s1_configuration(None)
+        return s1_configuration(None, hdrb=hdrb)
     if model in ("rack_pinion", "ideal"):
-        return s1_configuration(mass, flywheel, inerter=model)
+        return s1_configuration(mass, flywheel, inerter=model, hdrb=hdrb)
     raise ParameterError(f"model must be one of {format_choices(MODELS)}; got {model!r}")
 
 
@@ -131,7 +135,8 @@ def step_frequencies(config: SweepConfig) -> NDArray[np.float64]:
     """
     centres: list[float] = []
     for model in config.models:
-        structure, inerter = model_configuration(model, config.mass, config.flywheel)
+        structure, inerter = model_configuration(model, config.mass, config.flywheel,
+                                                 config.hdrb)
         centres.extend(linearised_frequencies(structure, _inertance(inerter)))
     g = config.grid
     return frequency_grid(g.f_start, g.f_stop, g.coarse_step, g.fine_step, centres, g.fine_band)
@@ -321,7 +326,7 @@ def run_model(
     pga, direction
         Labels of the run (``pga`` in g).
     """
-    structure, inerter = model_configuration(model, config.mass, config.flywheel)
+    structure, inerter = model_configuration(model, config.mass, config.flywheel, config.hdrb)
     frf, cycles = sweep_structure(structure, inerter, motion, sine, config.dt,
                                   config.steady_cycles, config.amplitude)
     return SweepRun(model, direction, pga, frf, cycles)

@@ -9,13 +9,15 @@ Numbers (:func:`summarise`), per PGA and sweep direction:
 * the change of the peak PS displacement FRF with the TMDI, ``max Ĥ_uI(TMDI) / max Ĥ_uI(PS) - 1``
   (S1 §3.1: -37 % at 0.05 g, -25 % at 0.15 g);
 * the NRMSE of every S1 Eq.7 FRF of the ideal-inerter model against the rack-and-pinion
-  ("experiment-like") model, over the whole grid and near ``f1`` (``±15 %``), S1 §4.2.
+  ("experiment-like") model, over the whole grid and near ``f1`` (``±15 %``), S1 §4.2;
+* next to them, what S1 reports at that PGA (:data:`S1_REPORTED`).
 
 Figures (:func:`write_figures`, PNG via matplotlib's Agg backend):
 
 ``frf_<pga>g.png``        the 9 S1 Eq.7 FRFs, rack-and-pinion vs ideal inerter, up and down sweeps
                           overlaid, uncontrolled PS on the PS row (layout of S1 Fig.17/18);
-``ps_displacement.png``   ``Ĥ_uI`` up vs down for the PS and the TMDI at each PGA (S1 Fig.5);
+``ps_displacement.png``   ``Ĥ_uI`` up vs down for the PS and the TMDI at each PGA (S1 Fig.5), with
+                          S1's uncontrolled-PS numbers (peak, ``f0``) where S1 gives them;
 ``loops_<pga>g.png``      ``F_I-u_I``, ``F_T-u_TI``, ``F_B-u_T``, ``F_B-ü_T`` over the last cycle at
                           ``f1``, ``f0``, ``f2`` (S1 Fig.9/10/12), down sweep.
 """
@@ -29,11 +31,12 @@ import numpy as np
 
 from rths.errors import ParameterError
 from rths.frf import FRF, frf_nrmse, resonance, second_resonance
-from rths.sweep import SweepResult, SweepRun
+from rths.sweep import STANDARD_GRAVITY, SweepResult, SweepRun
 
 __all__ = [
     "FRF_UNITS",
     "NEAR_F1",
+    "S1_REPORTED",
     "frf_figure",
     "frf_records",
     "frf_table",
@@ -45,6 +48,15 @@ __all__ = [
 
 #: Half-width of the band around ``f1`` in which the ideal-inerter model is compared [-].
 NEAR_F1: Final[float] = 0.15
+
+#: What S1 reports about the campaign, per PGA [g] (keys as in :func:`summarise`): absolute
+#: peak ``u_I`` [m] of the uncontrolled PS (S1 §3.1), its resonance ``f0`` [Hz] (S1 Fig.12
+#: caption) and the change of the peak PS displacement with the IM-IF TMDI [-] (S1 §3.1).
+S1_REPORTED: Final[dict[str, dict[str, float]]] = {
+    "0.05": {"ps_peak_u_I": 0.005, "ps_peak_change": -0.37},
+    "0.1": {"f0": 2.25},
+    "0.15": {"ps_peak_u_I": 0.038, "ps_peak_change": -0.25},
+}
 
 _TMDI_MODELS: Final[tuple[str, ...]] = ("rack_pinion", "ideal")
 _PANELS: Final[tuple[tuple[str, str], ...]] = (
@@ -132,13 +144,15 @@ def summarise(result: SweepResult) -> dict[str, Any]:
 
     Layout: ``{"scenario", "wall_time_s", "grid_hz", "pga": {"<pga>": {"resonances":
     {model: {direction: {...}}}, "ps_peak_change": {model: {direction: x}},
-    "nrmse_ideal_vs_rack_pinion": {direction: {channel: {"full": x, "near_f1": x}}}}}}``.
+    "nrmse_ideal_vs_rack_pinion": {direction: {channel: {"full": x, "near_f1": x}}},
+    "s1": {...}}}}`` with ``"s1"`` the :data:`S1_REPORTED` numbers at that PGA (empty if none).
     """
     cfg = result.config
     per_pga: dict[str, Any] = {}
     for pga in result.pgas:
         entry: dict[str, Any] = {"resonances": {}, "ps_peak_change": {},
-                                 "nrmse_ideal_vs_rack_pinion": {}}
+                                 "nrmse_ideal_vs_rack_pinion": {},
+                                 "s1": dict(S1_REPORTED.get(f"{pga:g}", {}))}
         for model in cfg.models:
             entry["resonances"][model] = {
                 d: _resonances(result.get(model, d, pga)) for d in cfg.directions
@@ -211,13 +225,25 @@ def frf_figure(result: SweepResult, pga: float) -> Any:
     return fig
 
 
+def _mark_s1(ax: Any, pga: float) -> None:
+    """S1's uncontrolled-PS numbers at ``pga`` [g] on an ``Ĥ_uI`` panel (peak / PGA g, f0)."""
+    reported = S1_REPORTED.get(f"{pga:g}", {})
+    if "ps_peak_u_I" in reported:
+        level = reported["ps_peak_u_I"] / (pga * STANDARD_GRAVITY)
+        ax.axhline(level, color="k", ls=":", lw=0.9,
+                   label=f"S1 §3.1: peak {1e3 * reported['ps_peak_u_I']:g} mm")
+    if "f0" in reported:
+        ax.axvline(reported["f0"], color="k", ls=":", lw=0.9,
+                   label=f"S1 Fig.12: f0 = {reported['f0']:g} Hz")
+
+
 def ps_displacement_figure(result: SweepResult) -> Any:
     """``Ĥ_uI`` of ``result``, up vs down, per PGA and model (S1 Fig.5); returns the Figure."""
     plt = _pyplot()
     models = [m for m in result.config.models]
     pgas = result.pgas
     fig, axes = plt.subplots(len(models), len(pgas), figsize=(4 * len(pgas), 3 * len(models)),
-                             squeeze=False, sharex=True, constrained_layout=True)
+                             squeeze=False, constrained_layout=True)
     for i, model in enumerate(models):
         for j, pga in enumerate(pgas):
             ax = axes[i, j]
@@ -228,11 +254,14 @@ def ps_displacement_figure(result: SweepResult) -> Any:
                 ax.annotate(f"{d}: {peak.frequency:.2f} Hz", (peak.frequency, peak.value),
                             fontsize=7, xytext=(8, -12 if d == "down" else -2),
                             textcoords="offset points")
+            if model == "uncontrolled":  # zoom on the single peak and its up/down fold
+                _mark_s1(ax, pga)
+                ax.set_xlim(result.grid[0], min(result.grid[-1], 4.0))
             ax.set_title(f"{_LABELS[model]}, PGA = {pga:g} g", fontsize=9)
             ax.grid(alpha=0.3)
-            ax.legend(fontsize=7)
+            ax.legend(fontsize=7, loc="lower center" if model == "uncontrolled" else "best")
             ax.set_ylabel("$\\hat H_{u_I}$ [s²]")
-    for ax in axes[-1]:
+    for ax in axes.flat:
         ax.set_xlabel("frequency [Hz]")
     return fig
 

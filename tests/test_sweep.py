@@ -164,9 +164,11 @@ def test_shipped_scenario() -> None:
     assert cfg.pga == (0.05, 0.10, 0.15) and cfg.directions == ("up", "down")
     assert cfg.cycles == 20 and cfg.dt == 1e-3 and cfg.amplitude == "peak"
     assert cfg.table.num == MTS_IDENTIFIED.num and cfg.table.amplitude_correction
+    assert cfg.hdrb == "amplitude"
     grid = step_frequencies(cfg)
-    # fine (0.05 Hz) steps at the S1 resonances of the identified model: f1 ≈ 2 Hz, f0 ≈ 2.5 Hz
-    for f in (2.0, 2.05, 2.5, 2.55, 5.65):
+    # fine (0.05 Hz) steps around the resonances: f1 ≈ 1.8-2.1 Hz, f0 ≈ 1.95-2.4 Hz (linearised
+    # 2.57 Hz, band from 1.93 Hz), f2 ≈ 5.5-6.1 Hz
+    for f in (1.8, 1.85, 1.95, 2.0, 2.25, 2.4, 2.5, 2.55, 5.65):
         assert np.any(np.isclose(grid, f, atol=1e-9)), f
     assert np.min(np.diff(grid)) == pytest.approx(0.05, abs=1e-9)
 
@@ -192,6 +194,8 @@ def test_shipped_scenario() -> None:
         (('models = ["uncontrolled", "rack_pinion", "ideal"]', 'models = ["tmd"]'),
          r"\[specimen\] models: entries must be among 'uncontrolled', 'rack_pinion', 'ideal'"),
         (("[specimen]", "[specimen]\nmass = 'XL'"), r"\[specimen\] mass: must be one of 'SM'"),
+        (("[specimen]", "[specimen]\nhdrb = 'bouc_wen'"),
+         r"\[specimen\] hdrb: must be one of 'viscous', 'amplitude'; got 'bouc_wen'"),
         (('kind = "ideal"', 'kind = "ideal"\nspeed = 3'), r"\[table\] speed: unknown key"),
         (('kind = "ideal"', 'kind = "hexapod"'), r"\[table\] kind: must be one of"),
         (('kind = "ideal"', 'kind = "transfer_function"\npreset = "mts_identified"\nnum = [1.0]'),
@@ -226,7 +230,8 @@ def test_tiny_sweep_runs_and_reports() -> None:
     cfg = parse_sweep(TINY, "tiny.toml")
     result = run_sweep(cfg, progress=True)
     # coarse 0.5 Hz lattice + ends, and the 0.25 Hz points within 0.9-1.1 x the linearised
-    # f1 (2.245 Hz rack-and-pinion, 2.238 Hz ideal) and f0 (2.826 Hz): 2.25 and 2.75
+    # f1 (2.245 Hz rack-and-pinion, 2.238 Hz ideal) and f0 (2.577 Hz, the calibrated PS):
+    # 2.25 and 2.5, 2.75
     assert result.grid.tolist() == pytest.approx([1.8, 2.0, 2.25, 2.5, 2.75, 2.8])
     assert len(result.runs) == 3 * 2 and result.pgas == (0.1,)
     run = result.get("rack_pinion", "down", 0.1)

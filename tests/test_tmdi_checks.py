@@ -4,26 +4,38 @@ S1 §3.1 reports, for the uncontrolled PS and the IM-IF TMDI (S1 Table 1) under 
 0.05/0.10/0.15 g: softening (f0 falls as the PGA grows; down-sweep peaks higher and lower in
 frequency than up-sweep peaks), f1 < f0 < f2, and a peak PS displacement reduction by the TMDI of
 37 % at 0.05 g and 25 % at 0.15 g.  S1 §4.2: the ideal-inerter model matches the PS FRFs near f1
-but not the secondary-mass and inerter accelerations.  The specimens here are the S1 §4.2
-identified models (:func:`rths.sweep.model_configuration`); where that model cannot reproduce a
-seed observation the test says so and checks the mechanism instead.
+but not the secondary-mass and inerter accelerations.
+
+The specimens are the ``hdrb = "amplitude"`` models of :func:`rths.sweep.model_configuration`:
+the uncontrolled PS calibrated on the numbers S1 reports for it (:mod:`plants._tmdi_calibration`:
+5 mm at 0.05 g, 38 mm at 0.15 g, f0 = 2.25 Hz at 0.10 g), the TMDIs with the S1 §4.2 bearings
+and the same amplitude law anchored at S1's dashpots.  Each test states our numbers next to the
+seed's; where the model departs from a seed observation the test says so and checks what holds.
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
-from scipy.optimize import brentq
 
 from plants.actuator import MTS_IDENTIFIED
-from plants.hdrb import HDRB, S1_PRIMARY
-from plants.tmdi import TMDIParameters
+from plants.hdrb import (
+    AMPLITUDE_EXPONENT,
+    HDRB,
+    S1_PRIMARY,
+    S1_PRIMARY_UNCONTROLLED,
+    UNCONTROLLED_STIFFNESS_SCALE,
+)
+from plants.tmdi import (
+    S1_UNCONTROLLED,
+    calibrate_uncontrolled_ps,
+    harmonic_balance_crest,
+    stepped_sine_crest,
+)
+from rths.errors import NumericalError, ParameterError
 from rths.frf import FRF, frf_nrmse, resonance, second_resonance
 from rths.sweep import (
     STANDARD_GRAVITY,
-    IdealTable,
     SteppedSine,
     TransferFunctionTable,
     command_amplitudes,
@@ -33,135 +45,226 @@ from rths.sweep import (
 
 DT = 1e-3
 PGAS = (0.05, 0.10, 0.15)
-#: fine 0.05 Hz steps over f1 and f0 (1.7-3.0 Hz), 0.1 Hz up to beyond f2
-GRID = np.round(np.concatenate([np.arange(1.7, 3.0, 0.05), np.arange(3.0, 7.01, 0.1)]), 9)
+MODELS = ("uncontrolled", "rack_pinion", "ideal")
+#: S1 §2.3 steps: 0.05 Hz over f1 and f0 (1.5-3.0 Hz), 0.1 Hz up to beyond f2
+GRID = np.round(np.concatenate([np.arange(1.5, 3.0, 0.05), np.arange(3.0, 7.01, 0.1)]), 9)
+#: S1 §3.1: peak PS displacement change by the IM-IF TMDI
+S1_PEAK_CHANGE = {0.05: -0.37, 0.15: -0.25}
 
 
-def sweep(structure, inerter, grid, pga: float, direction: str = "down", table=None) -> FRF:
-    """One stepped-sine run through a table model (the MTS transfer function by default)."""
-    table = table or TransferFunctionTable(MTS_IDENTIFIED.num, MTS_IDENTIFIED.den, DT)
+def table() -> TransferFunctionTable:
+    return TransferFunctionTable(MTS_IDENTIFIED.num, MTS_IDENTIFIED.den, DT)
+
+
+def sweep(model: str, grid: np.ndarray, pga: float, direction: str = "down",
+          hdrb: str = "amplitude") -> FRF:
+    """One stepped-sine run of a scenario model through the MTS table (amplitude-corrected)."""
+    tab = table()
     sine = SteppedSine.sweep(grid, direction, 20)
-    motion = table.run(sine, command_amplitudes(table, sine.frequencies, pga, DT), DT)
+    motion = tab.run(sine, command_amplitudes(tab, sine.frequencies, pga, DT), DT)
+    structure, inerter = model_configuration(model, hdrb=hdrb)
     return sweep_structure(structure, inerter, motion, sine, DT, 5.0, "peak")[0]
 
 
-def harmonic_balance_peak(iso: HDRB, mass: float, a_g: float) -> tuple[float, float]:
-    """Peak amplitude [m] and frequency [Hz] of ``m ü + c u̇ + F_E(u) = -m a_g sin ωt``.
-
-    With the describing-function stiffness ``k(A)`` (:meth:`HDRB.equivalent_stiffness`) the
-    amplitude satisfies ``A²[(k - mω²)² + (cω)²] = (m a_g)²``; its largest ``A`` over ω is where
-    the two frequency roots merge: ``A c sqrt(4 m k(A) - c²) = 2 m² a_g`` at
-    ``ω² = k/m - c²/(2m²)``.
-    """
-    c = iso.c
-
-    def gap(a: float) -> float:
-        stiffness = iso.equivalent_stiffness(a)
-        return a * c * math.sqrt(4.0 * mass * stiffness - c * c) - 2.0 * mass**2 * a_g
-
-    amplitude = brentq(gap, 1e-6, iso.softening_limit(), xtol=1e-12)
-    k = iso.equivalent_stiffness(amplitude)
-    return amplitude, math.sqrt(k / mass - c * c / (2 * mass**2)) / (2 * math.pi)
-
-
 @pytest.fixture(scope="module")
-def campaign() -> dict[tuple[str, float], FRF]:
-    """Down sweeps of the three S1 models at the three PGAs (MTS table, amplitude-corrected)."""
-    out = {}
-    for model in ("uncontrolled", "rack_pinion", "ideal"):
-        structure, inerter = model_configuration(model)
-        for pga in PGAS:
-            out[model, pga] = sweep(structure, inerter, GRID, pga)
-    return out
+def campaign() -> dict[tuple[str, float, str], FRF]:
+    """Up and down sweeps of the three models at the three PGAs (S1 grid, MTS table)."""
+    return {(model, pga, d): sweep(model, GRID, pga, d)
+            for model in MODELS for pga in PGAS for d in ("up", "down")}
 
 
-def test_uncontrolled_ps_softens_as_the_harmonic_balance_predicts(campaign) -> None:
-    f0 = [resonance(campaign["uncontrolled", pga]).frequency for pga in PGAS]
-    assert f0[0] > f0[1] > f0[2]  # measured 2.65 > 2.50 > 2.35 Hz (S1: f0 falls with the PGA)
-    structure, _ = model_configuration("uncontrolled")
-    for pga, f in zip(PGAS, f0):
-        amplitude, f_peak = harmonic_balance_peak(structure.primary_isolator, 125.0,
-                                                  pga * STANDARD_GRAVITY)
-        peak = np.max(campaign["uncontrolled", pga].response["u_I"])
-        # one fine step (0.05 Hz) of grid resolution; describing function + grid miss:
-        # measured 0.2-1.0 % below the harmonic-balance peak, f0 within 0.011 Hz of its frequency
-        assert abs(f - f_peak) <= 0.05 + 1e-9
-        assert peak == pytest.approx(amplitude, rel=0.02)
+def peak_mm(frf: FRF) -> float:
+    return 1e3 * float(np.max(frf.response["u_I"]))
 
 
-def test_down_sweep_peaks_higher_and_lower_than_up_sweep_when_multivalued() -> None:
-    """The sweep's history dependence: a softening PS with light damping jumps (S1 Fig.5).
+# --- the calibration ---------------------------------------------------------------------------
+def test_s1_identified_ps_misses_the_uncontrolled_numbers() -> None:
+    """Why a PS calibration: S1 §4.2's bearing (identified with the TMDI at 0.10 g) alone."""
+    crest = [harmonic_balance_crest(S1_PRIMARY, 125.0, pga) for pga in PGAS]
+    # harmonic balance of the viscous S1 bearing: 6.8 / 22.8 mm against S1's 5 / 38 mm, and
+    # f0 = 2.51 Hz at 0.10 g against 2.25 Hz
+    assert crest[0][0] > 0.0065 and crest[2][0] < 0.024 and crest[1][1] > 2.45
 
-    The S1 §4.2 PS (c_I = 538 N s/m, ζ = 12 %) stays single-valued up to 0.15 g (next test),
-    so the mechanism is shown on the same springs with c = 150 N s/m (ζ = 3.4 %) at 0.05 g.
+
+def test_calibration_reproduces_the_presets_and_s1_numbers() -> None:
+    fit = calibrate_uncontrolled_ps()
+    law = S1_PRIMARY_UNCONTROLLED.damping_law
+    # the presets are the fit rounded to 4 digits; the time-domain crests jitter by ~1e-4
+    assert fit.exponent == pytest.approx(AMPLITUDE_EXPONENT, rel=1e-3)
+    assert fit.stiffness_scale == pytest.approx(UNCONTROLLED_STIFFNESS_SCALE, rel=1e-3)
+    assert fit.reference_damping == pytest.approx(S1_PRIMARY_UNCONTROLLED.c, rel=1e-3)
+    assert law is not None and law.reference_amplitude == 0.010
+    # three numbers, three unknowns: the emulated crests meet S1's to 2 % of their reading
+    # uncertainty (the stop rule); measured 5.000 mm, 38.00 mm, 2.2500 Hz
+    assert max(abs(r) for r in fit.residuals) < 0.05
+    assert fit.peaks == pytest.approx((0.005, 0.038), abs=0.05 * 0.0005)
+    # harmonic balance is the fit's engine; its crest differs from the time-domain one by the
+    # describing function and the peak-vs-first-harmonic measure: measured 0.3 % at 5 mm,
+    # 1.6 % at 38 mm, 2 mHz on f0
+    (a1, _), (a3, _), (_, f0) = fit.harmonic_balance
+    assert a1 == pytest.approx(0.005, rel=0.01) and a3 == pytest.approx(0.038, rel=0.03)
+    assert f0 == pytest.approx(2.25, abs=0.01)
+
+
+def test_s1_springs_alone_cannot_give_f0() -> None:
+    """With the S1 §4.2 springs unscaled (s = 1) no damping law meets all three numbers."""
+    fit = calibrate_uncontrolled_ps(fit_stiffness=False, time_domain=False)
+    # best weighted fit: 6.5 mm (+3.1 σ), 38.4 mm (+0.8 σ), f0 = 2.45 Hz (+8.0 σ): the
+    # uncontrolled tests need springs 17 % softer than S1's identification with the TMDI
+    assert fit.stiffness_scale == 1.0
+    assert fit.residuals[-1] > 5.0
+
+
+def test_calibration_inputs_are_checked() -> None:
+    with pytest.raises(ParameterError, match="reference amplitude A_ref must be positive"):
+        calibrate_uncontrolled_ps(reference_amplitude=0.0, time_domain=False)
+    with pytest.raises(ParameterError, match="max_iterations must be a positive integer; got 0"):
+        calibrate_uncontrolled_ps(max_iterations=0)
+    empty = type(S1_UNCONTROLLED)(125.0, (), 0.0005, (0.1, 2.25), 0.025)
+    with pytest.raises(ParameterError, match="needs at least one observed peak; got none"):
+        calibrate_uncontrolled_ps(empty, time_domain=False)
+    with pytest.raises(ParameterError, match="sweep band must span at least two steps"):
+        stepped_sine_crest(S1_PRIMARY, 125.0, 0.1, (2.0, 2.005))
+    with pytest.raises(ParameterError, match="PGA must be positive; got 0.0"):
+        harmonic_balance_crest(S1_PRIMARY, 125.0, 0.0)
+    # no dashpot: the harmonic-balance branch grows without a crest
+    with pytest.raises(NumericalError, match="no harmonic-balance crest"):
+        harmonic_balance_crest(S1_PRIMARY.with_damping(0.0), 125.0, 0.1)
+
+
+# --- softening (S1 §3.1, Fig.4/5) --------------------------------------------------------------
+def folds(iso: HDRB, mass: float, pga: float) -> int:
+    """Turning points of the harmonic-balance response curve below its crest.
+
+    Parametrised by the amplitude ``A``, ``A²[(k(A) - mω²)² + (c(A)ω)²] = (m a_g)²`` gives
+    ``ω²_±(A)`` (a quadratic in ``ω²``); the FRF is multi-valued -- the sweep direction matters
+    -- exactly where ``ω_-(A)`` or ``ω_+(A)`` is not monotonic.
     """
-    iso = S1_PRIMARY.with_damping(150.0)
-    structure = TMDIParameters(125.0, iso)
-    grid = np.round(np.arange(2.0, 2.8001, 0.025), 9)
-    peaks = {}
-    for direction in ("up", "down"):
-        frf = sweep(structure, None, grid, 0.05, direction, IdealTable())
-        peaks[direction] = (resonance(frf).frequency, float(np.max(frf.response["u_I"])))
-    (f_up, u_up), (f_down, u_down) = peaks["up"], peaks["down"]
-    assert u_down > 1.1 * u_up  # measured 27.7 mm vs 23.2 mm
-    assert f_down < f_up  # measured 2.325 Hz vs 2.45 Hz
-    amplitude, f_peak = harmonic_balance_peak(iso, 125.0, 0.05 * STANDARD_GRAVITY)
-    # the down sweep climbs the upper branch to its crest: measured 1.1 % below, 0.002 Hz off
-    assert u_down == pytest.approx(amplitude, rel=0.03)
-    assert abs(f_down - f_peak) <= 0.025 + 1e-9
+    a = np.geomspace(1e-5, 0.06, 60000)
+    c, k = iso.damping_coefficient(a), iso.equivalent_stiffness(a)
+    b = c * c - 2.0 * k * mass
+    disc = b * b - 4.0 * mass**2 * (k * k - (mass * pga * STANDARD_GRAVITY / a) ** 2)
+    real = disc >= 0.0
+    turns = 0
+    for sign in (-1.0, 1.0):
+        w2 = (-b[real] + sign * np.sqrt(disc[real])) / (2.0 * mass**2)
+        slope = np.sign(np.diff(w2))
+        turns += int(np.count_nonzero(slope[1:] != slope[:-1]))
+    return turns
 
 
-def test_s1_identified_ps_has_no_up_down_hysteresis() -> None:
-    """Known departure from S1 Fig.5: the identified viscous c_I keeps the FRF single-valued."""
-    structure, _ = model_configuration("uncontrolled")
-    grid = np.round(np.arange(2.1, 2.6001, 0.05), 9)
-    up, down = (sweep(structure, None, grid, 0.15, d, IdealTable()) for d in ("up", "down"))
-    assert resonance(up).frequency == resonance(down).frequency  # 2.35 Hz both
-    # the previous step's transient decays to e^-15 of itself in 20 cycles: no memory left
-    assert resonance(down).value == pytest.approx(resonance(up).value, rel=1e-5)
+def test_uncontrolled_ps_meets_the_s1_numbers(campaign) -> None:
+    """On S1's own grid and the MTS table: the numbers the calibration was given."""
+    peaks = {pga: peak_mm(campaign["uncontrolled", pga, "down"]) for pga in PGAS}
+    # S1 §3.1 printed to the millimetre: measured 5.00 mm and 37.99 mm (16.33 mm at 0.10 g)
+    assert peaks[0.05] == pytest.approx(5.0, abs=0.5)
+    assert peaks[0.15] == pytest.approx(38.0, abs=0.5)
+    # S1 Fig.12: f0 = 2.25 Hz at 0.10 g; measured 2.25 Hz up and down
+    assert resonance(campaign["uncontrolled", 0.10, "down"]).frequency == pytest.approx(2.25)
 
 
+def test_uncontrolled_ps_softens(campaign) -> None:
+    """f0 falls with the PGA; the down sweep peaks higher and lower where the FRF folds.
+
+    Measured (up / down): f0 = 2.40 / 2.40, 2.25 / 2.25, 2.00 / 1.95 Hz; peaks 5.00 / 5.00,
+    16.33 / 16.33, 37.14 / 37.99 mm.  S1 Fig.5 shows the down sweep ahead at every PGA; here it
+    is ahead at 0.15 g only, where harmonic balance finds the fold.  At 0.05 g S1's spring shape
+    cannot fold: a 5 mm peak needs c ≈ 800 N s/m (ζ ≈ 0.2), while the backbone frequency drops
+    by only 3.4 % from 0 to 5 mm.
+    """
+    for d in ("up", "down"):
+        f0 = [resonance(campaign["uncontrolled", pga, d]).frequency for pga in PGAS]
+        assert f0[0] > f0[1] > f0[2], d
+    area = []
+    for pga in PGAS:
+        up, down = campaign["uncontrolled", pga, "up"], campaign["uncontrolled", pga, "down"]
+        r_up, r_down = resonance(up), resonance(down)
+        # a single-valued FRF forgets the previous step (transient e^-12 after 20 cycles at
+        # ζ >= 0.1): equal to 1e-6; where it folds the down sweep stays on the upper branch
+        assert r_down.value >= r_up.value * (1.0 - 1e-6)
+        assert r_down.frequency <= r_up.frequency
+        area.append(float(np.sum(down.normalised("u_I") - up.normalised("u_I"))
+                          / np.sum(down.normalised("u_I"))))
+        assert (folds(S1_PRIMARY_UNCONTROLLED, 125.0, pga) > 0) == (pga == 0.15)
+    assert r_down.value > 1.02 * r_up.value and r_down.frequency < r_up.frequency  # 0.15 g
+    # the up/down "hysteresis area" (S1 §3.1) relative to the area under the FRF: measured
+    # -9e-8, 5e-5 (slow transients near the fold, not a fold), 1.9e-2 -- growing with the PGA
+    assert abs(area[0]) < 1e-3 and abs(area[1]) < 1e-3 and area[2] > 1e-2
+
+
+# --- the TMDI (S1 §3.1) ------------------------------------------------------------------------
 def test_tmdi_resonances_bracket_the_ps_resonance(campaign) -> None:
     for pga in PGAS:
-        f0 = resonance(campaign["uncontrolled", pga]).frequency
-        for model in ("rack_pinion", "ideal"):
-            frf = campaign[model, pga]
-            f1 = resonance(frf).frequency
-            second = second_resonance(frf, f1, "a_I_tot")
-            assert second is not None
-            # S1 §3.1: f1 < f0 < f2; measured rack 2.1/2.0/1.9 < 2.65/2.5/2.35 < 5.5/5.7/5.7 Hz
-            assert f1 < f0 < second.frequency, (model, pga)
+        for d in ("up", "down"):
+            f0 = resonance(campaign["uncontrolled", pga, d]).frequency
+            for model in ("rack_pinion", "ideal"):
+                frf = campaign[model, pga, d]
+                f1 = resonance(frf).frequency
+                second = second_resonance(frf, f1, "a_I_tot")
+                assert second is not None
+                # S1 §3.1: f1 < f0 < f2; measured (down) rack 2.10/2.00/1.80 <
+                # 2.40/2.25/1.95 < 5.5/5.6/5.7 Hz, ideal f1 the same, f2 6.1/6.0/6.0 Hz
+                assert f1 < f0 < second.frequency, (model, pga, d)
 
 
 def test_tmdi_lowers_the_peak_ps_displacement(campaign) -> None:
-    """S1 §3.1: -37 % at 0.05 g, -25 % at 0.15 g.
+    """S1 §3.1: -37 % at 0.05 g, -25 % at 0.15 g (max Ĥ_uI ratio - 1).
 
-    Measured with the S1 §4.2 models (max Ĥ_uI ratio - 1, down sweep): rack-and-pinion
-    -14.8 %, -3.9 %, +0.3 %; ideal inerter -2.4 %, -2.5 %, -2.8 %.  The rack-and-pinion model
-    follows the seed's trend (smaller reduction at higher PGA) but loses the reduction at
-    0.15 g: the same viscous c_I serves the PS alone, and the linearised TMDI is 31 % *worse*
-    than the linear PS, the rack's friction and play supplying the reduction at low amplitude.
+    Measured (down sweep): rack-and-pinion -13.5 %, -16.4 %, -24.5 %; ideal inerter -8.1 %,
+    -15.2 %, -20.6 % (up sweep at 0.15 g: -23.0 %, -19.1 %).  At 0.15 g the rack model meets
+    the seed; at 0.05 g the S1 §4.2 TMDI, identified at 0.10 g, stays well above the seed's
+    implied 3.2 mm (4.3 mm), so the reduction grows with the PGA where S1's shrinks.
     """
-    change = {
-        model: [resonance(campaign[model, p]).value / resonance(campaign["uncontrolled", p]).value
-                - 1.0 for p in PGAS]
-        for model in ("rack_pinion", "ideal")
-    }
-    rack, ideal = change["rack_pinion"], change["ideal"]
-    assert rack[0] < -0.10 and rack[1] < -0.02  # reductions at 0.05 g and 0.10 g
-    assert rack[0] < rack[1] < rack[2]  # the reduction shrinks as the PGA grows (S1 trend)
-    assert max(ideal) < -0.01  # the ideal-inerter model reduces the peak at every PGA
+    for pga in PGAS:
+        for d in ("up", "down"):
+            ps = resonance(campaign["uncontrolled", pga, d]).value
+            rack = resonance(campaign["rack_pinion", pga, d]).value / ps - 1.0
+            ideal = resonance(campaign["ideal", pga, d]).value / ps - 1.0
+            assert rack < -0.10 and ideal < -0.05, (pga, d)  # lower at every PGA
+    change = resonance(campaign["rack_pinion", 0.15, "down"]).value / resonance(
+        campaign["uncontrolled", 0.15, "down"]).value - 1.0
+    assert change == pytest.approx(S1_PEAK_CHANGE[0.15], abs=0.01)
 
 
-def test_ideal_inerter_matches_ps_near_f1_but_not_the_accelerations() -> None:
-    """S1 §4.2 / Fig.17-18 at the identification PGA 0.10 g, full 1-10 Hz range."""
+# --- the S1 §4.2 models at the identification PGA ----------------------------------------------
+@pytest.fixture(scope="module")
+def full_range() -> dict[tuple[str, str], FRF]:
+    """Down sweeps over 1-10 Hz at 0.10 g (the S1 Eq.14 identification test)."""
     grid = np.round(np.arange(1.0, 10.001, 0.1), 9)
-    rack = sweep(*model_configuration("rack_pinion"), grid, 0.10)
-    ideal = sweep(*model_configuration("ideal"), grid, 0.10)
+    return {(model, hdrb): sweep(model, grid, 0.10, "down", hdrb)
+            for model, hdrb in (("rack_pinion", "amplitude"), ("ideal", "amplitude"),
+                                ("rack_pinion", "viscous"))}
+
+
+def test_amplitude_law_keeps_the_s1_identification(full_range) -> None:
+    """At 0.10 g the amplitude-law TMDI stays close to the S1 §4.2 model S1 found to match."""
+    law, viscous = full_range["rack_pinion", "amplitude"], full_range["rack_pinion", "viscous"]
+    # anchored at the viscous model's peak: measured 13.65 vs 13.66 mm
+    assert peak_mm(law) == pytest.approx(peak_mm(viscous), rel=0.005)
+    # the law damps the flanks (A < 13.7 mm) more than a dashpot: measured NRMSE over 1-10 Hz
+    # u_I 4.9 %, ü_I 2.9 %, u_TI 5.7 %, ü_T 3.0 %, F_B 6.2 % (the S1 Eq.14 quantities)
+    for channel in ("u_I", "a_I_tot", "u_TI", "a_T_tot", "F_B"):
+        assert frf_nrmse(viscous, law, channel) < 0.07, channel
+
+
+def test_ideal_inerter_matches_ps_near_f1_but_not_the_accelerations(full_range) -> None:
+    """S1 §4.2 / Fig.17-18 at the identification PGA 0.10 g, full 1-10 Hz range."""
+    rack, ideal = full_range["rack_pinion", "amplitude"], full_range["ideal", "amplitude"]
     f1 = resonance(rack).frequency
     near = frf_nrmse(rack, ideal, "u_I", band=(0.85 * f1, 1.15 * f1))
     departures = {ch: frf_nrmse(rack, ideal, ch) for ch in ("a_T_tot", "a_T")}
-    assert near < 0.05  # measured 2.3 %
+    assert near < 0.05  # measured 1.3 %
     for channel, value in departures.items():
-        # measured 77 % (ü_T^(tot)) and 70 % (ü_T): the play's impacts in the accelerations
+        # measured 78 % (ü_T^(tot)) and 73 % (ü_T): the play's impacts in the accelerations
         assert value > 0.5 and value > 10.0 * near, channel
+
+
+def test_crest_methods_agree_for_a_viscous_bearing() -> None:
+    """Cross-check of the two crest estimates on the S1 bearing (no law): time domain vs
+    harmonic balance."""
+    amplitude, frequency = harmonic_balance_crest(S1_PRIMARY, 125.0, 0.10)
+    td_amplitude, td_frequency = stepped_sine_crest(
+        S1_PRIMARY, 125.0, 0.10, (0.95 * frequency, 1.05 * frequency))
+    # describing function + peak measure at 14 mm: measured -0.5 % and +1 mHz
+    assert td_amplitude == pytest.approx(amplitude, rel=0.01)
+    assert td_frequency == pytest.approx(frequency, abs=0.01)

@@ -24,6 +24,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from plants.tmdi import TMDIStructure
+from rths.frf import estimate_frf, steady_state_windows
 from rths.sweep import (
     SteppedSine,
     build_table,
@@ -33,7 +34,6 @@ from rths.sweep import (
     run_sweep,
     step_frequencies,
 )
-from rths.frf import estimate_frf, steady_state_windows
 
 DEFAULT_SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "tmdi_shake_table.toml"
 
@@ -75,7 +75,7 @@ def main() -> None:
     print(f"  table motion (up):            {t_table:7.3f} s")
     motion = table.run(sine, amplitudes, cfg.dt)
     for model in cfg.models:
-        structure, inerter = model_configuration(model, cfg.mass, cfg.flywheel)
+        structure, inerter = model_configuration(model, cfg.mass, cfg.flywheel, cfg.hdrb)
         integrate = TMDIStructure(structure, inerter, cfg.dt)
         t_run = median_seconds(lambda: integrate.run(motion.acceleration), args.repeats)
         response = integrate.run(motion.acceleration)

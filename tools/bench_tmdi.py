@@ -10,7 +10,8 @@ Prints, as the median over ``--repeats`` runs (``time.perf_counter``):
   10 mm at 2.25 Hz through ``Specimen.step`` from Python: microseconds per call and internal
   sub-steps per call;
 * ``TMDIStructure.run`` for the IM secondary mass (S1 Table 1) with the ideal inerter, the
-  rack-and-pinion inerter (NF, IF, LF) and without inerter, plus the uncontrolled PS, under
+  rack-and-pinion inerter (NF, IF, LF) and without inerter, plus the uncontrolled PS, with the
+  viscous S1 §4.2 HDRBs and (``amp``) with the amplitude-dependent dashpots, under
   ``--seconds`` of a 0.10 g, 2.25 Hz ground acceleration: microseconds per step and wall seconds
   per simulated second (the cost of a 500-900 s stepped sweep is that number times 500-900);
 * ``TMDISubstructure.step`` (IM, sampled excitation): microseconds per call.
@@ -74,10 +75,13 @@ def bench_structure(rate: float, seconds: float, repeats: int) -> None:
     ag = PGA * G * np.sin(2.0 * math.pi * FREQ * t)
     cases = [
         ("PS (no TMDI)", *s1_configuration(None)),
+        ("PS amp", *s1_configuration(None, hdrb="amplitude")),
         ("IM, no inerter", *s1_configuration("IM")),
         ("IM-IF ideal", *s1_configuration("IM", "IF", inerter="ideal")),
+        ("IM-IF ideal amp", *s1_configuration("IM", "IF", inerter="ideal", hdrb="amplitude")),
         ("IM-NF rack", *s1_configuration("IM", "NF")),
         ("IM-IF rack", *s1_configuration("IM", "IF")),
+        ("IM-IF rack amp", *s1_configuration("IM", "IF", hdrb="amplitude")),
         ("IM-LF rack", *s1_configuration("IM", "LF")),
     ]
     for name, par, inerter in cases:

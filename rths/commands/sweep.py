@@ -58,14 +58,25 @@ def _print_table(summary: dict[str, Any]) -> None:
     print(f"{summary['scenario']}: wall time {summary['wall_time_s']:.2f} s, "
           f"{len(summary['grid_hz'])} frequency steps")
     print(f"{'PGA':>6} {'model':<14}{'dir':<6}{'f0/f1 [Hz]':>11}{'f2 [Hz]':>9}"
-          f"{'max H_uI [s2]':>15}{'vs PS':>10}")
+          f"{'max H_uI [s2]':>15}{'u_I [mm]':>10}{'vs PS':>10}")
     for pga, entry in summary["pga"].items():
         for model, by_dir in entry["resonances"].items():
             for d, r in by_dir.items():
                 change = entry["ps_peak_change"].get(model, {}).get(d)
                 first = r.get("f0", r.get("f1"))
                 print(f"{pga:>6} {model:<14}{d:<6}{_hz(first):>11}{_hz(r.get('f2')):>9}"
-                      f"{r['peak_H_u_I']:>15.5f}{_percent(change):>10}")
+                      f"{r['peak_H_u_I']:>15.5f}{1e3 * r['peak_u_I']:>10.2f}"
+                      f"{_percent(change):>10}")
+        s1 = entry.get("s1", {})
+        if s1:
+            cells = []
+            if "ps_peak_u_I" in s1:
+                cells.append(f"PS peak u_I {1e3 * s1['ps_peak_u_I']:g} mm")
+            if "f0" in s1:
+                cells.append(f"f0 {s1['f0']:g} Hz")
+            if "ps_peak_change" in s1:
+                cells.append(f"TMDI vs PS {_percent(s1['ps_peak_change'])}")
+            print(f"{pga:>6} S1 reports: {', '.join(cells)}")
         for d, channels in entry["nrmse_ideal_vs_rack_pinion"].items():
             cells = ", ".join(f"{ch} {100 * v['full']:.0f}/{100 * v['near_f1']:.0f}"
                               for ch, v in channels.items())
