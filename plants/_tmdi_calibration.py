@@ -127,7 +127,7 @@ def harmonic_balance_crest(isolator: HDRB, mass: float, pga: float) -> tuple[flo
     Raises
     ------
     NumericalError
-        If the branch has no crest below the bearing's softening limit.
+        If the branch has no crest below 1 m or the bearing's monotonic limit.
     """
     m = check_positive(mass, "mass")
     a_g = check_positive(pga, "PGA") * _GRAVITY
@@ -137,7 +137,7 @@ def harmonic_balance_crest(isolator: HDRB, mass: float, pga: float) -> tuple[flo
         k = np.asarray(isolator.equivalent_stiffness(a))
         return a * c * np.sqrt(np.maximum(4.0 * m * k - c * c, 0.0)) - 2.0 * m * m * a_g
 
-    top = min(isolator.softening_limit(), isolator.monotonic_limit(), 1.0)
+    top = min(isolator.monotonic_limit(), 1.0)
     grid = np.geomspace(1e-6, top, 400)
     values = gap(grid)
     crossings = np.flatnonzero((values[:-1] < 0.0) & (values[1:] >= 0.0))
@@ -183,6 +183,11 @@ def stepped_sine_crest(
     -------
     amplitude, frequency
         Crest amplitude [m] and frequency [Hz].
+
+    Raises
+    ------
+    NumericalError
+        If the integration fails or the largest step is at an end of the band.
     """
     a_g = check_positive(pga, "PGA") * _GRAVITY
     step = check_positive(step, "frequency step")
@@ -206,7 +211,12 @@ def stepped_sine_crest(
         np.max(u[math.ceil((b - _STEADY / f) / dt - 1e-9):math.ceil(b / dt - 1e-9)])
         for f, b in zip(freqs, bounds[1:])
     ])
-    i = int(np.clip(np.argmax(peaks), 1, freqs.size - 2))
+    i = int(np.argmax(peaks))
+    if i in (0, freqs.size - 1):
+        raise NumericalError(
+            f"the largest response of the sweep is at its edge, {freqs[i]!r} Hz: widen the band "
+            f"{band!r}"
+        )
     y0, y1, y2 = peaks[i - 1], peaks[i], peaks[i + 1]  # at f_i + step, f_i, f_i - step
     curvature = y0 - 2.0 * y1 + y2
     shift = 0.0 if curvature >= 0.0 else 0.5 * (y0 - y2) / curvature  # in steps toward f_i - step

@@ -259,6 +259,24 @@ def test_ideal_inerter_matches_ps_near_f1_but_not_the_accelerations(full_range) 
         assert value > 0.5 and value > 10.0 * near, channel
 
 
+def test_crests_of_a_linear_ps_are_the_closed_form() -> None:
+    """Linear viscous SDOF: peak of |H| = 2 m / (c sqrt(4 m k - c²)) at ω² = k/m - c²/(2 m²)."""
+    iso, m, pga = HDRB(3.94e4, c=538.13), 125.0, 0.10
+    a_g = pga * STANDARD_GRAVITY
+    amplitude = 2.0 * m * m * a_g / (iso.c * np.sqrt(4.0 * m * iso.k1 - iso.c**2))
+    frequency = np.sqrt(iso.k1 / m - iso.c**2 / (2.0 * m * m)) / (2.0 * np.pi)
+    hb = harmonic_balance_crest(iso, m, pga)
+    assert hb[0] == pytest.approx(amplitude, rel=1e-10)  # brentq to 1e-12
+    assert hb[1] == pytest.approx(frequency, rel=1e-10)
+    td = stepped_sine_crest(iso, m, pga, (0.95 * frequency, 1.05 * frequency))
+    # trapezoidal warping (ω dt)²/12 = 2e-5, sampled peak 1 - cos(ω dt/2) = 5e-5, parabola
+    # through a flat crest on 5 mHz steps: measured -8e-7 and -0.1 mHz
+    assert td[0] == pytest.approx(amplitude, rel=2e-4)
+    assert td[1] == pytest.approx(frequency, abs=1e-3)
+    with pytest.raises(NumericalError, match="largest response of the sweep is at its edge"):
+        stepped_sine_crest(iso, m, pga, (1.05 * frequency, 1.2 * frequency))
+
+
 def test_crest_methods_agree_for_a_viscous_bearing() -> None:
     """Cross-check of the two crest estimates on the S1 bearing (no law): time domain vs
     harmonic balance."""
