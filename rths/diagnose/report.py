@@ -4,15 +4,15 @@ Figures (``write_figures``):
 
 ``residual_time.png``
     Held-out residual of the re-calibrated nominal (and of the verdict) on the located channel,
-    with the windows where its power exceeds four times the floor shaded.
+    with the windows where its power concentrates shaded (:class:`Decomposition` ``windows``).
 ``residual_spectrum.png``
     Welch PSD of those residuals against the noise floor (+ modelling tolerance), the located
     band shaded.
 ``ranking.png``
     Fraction of the reducible gap each candidate closes on held-out data, and its score.
 ``overlay.png``
-    Observed signal against the baseline and the verdict over two seconds around the largest
-    window: the before/after picture.
+    Observed signal against the baseline and the verdict, and both residuals, over about six
+    periods of the residual's peak frequency around the largest window: before/after.
 """
 
 from __future__ import annotations
@@ -114,7 +114,7 @@ def write_figures(d: Diagnosis, directory: str | os.PathLike[str]) -> list[Path]
     for a, b in c.decomposition.windows:
         ax.axvspan(a, b, color="tab:red", alpha=0.15, lw=0)
     ax.set(xlabel="time [s]", ylabel=f"residual [{unit}]",
-           title=f"{c.channel.name} channel, held out (shaded: > 4x noise floor)")  # fmt: skip
+           title=f"{c.channel.name} channel, held out (shaded: where the gap concentrates)")  # fmt: skip
     ax.legend(loc="upper right")
     paths.append(out / "residual_time.png")
 
@@ -141,18 +141,23 @@ def write_figures(d: Diagnosis, directory: str | os.PathLike[str]) -> list[Path]
     ax3.set(xlabel="held-out reducible gap closed [%]", title=f"verdict: {d.verdict}")
     paths.append(out / "ranking.png")
 
-    fig4, ax4 = plt.subplots(figsize=(9, 3.5))
+    fig4, (ax4, ax5) = plt.subplots(2, 1, figsize=(9, 5), sharex=True,
+                                    gridspec_kw={"height_ratios": (2, 1)})  # fmt: skip
     tt, obs = _held_part(c, [s.observed for s in c.channel.segments])
     center = np.mean(dec.windows[0]) if dec.windows else tt[tt.size // 2]
-    sel = np.abs(tt - center) <= 1.0
+    half = float(np.clip(3.0 / max(dec.peak_hz, 0.5), 0.15, 1.0))  # ~6 periods of the peak
+    sel = np.abs(tt - center) <= half
+    before = _held_part(c, c.baseline.prediction)[1]
     ax4.plot(tt[sel], obs[sel], "k", lw=1.0, label="observed")
-    ax4.plot(tt[sel], _held_part(c, c.baseline.prediction)[1][sel], lw=0.8,
-             label="re-calibrated nominal")  # fmt: skip
+    ax4.plot(tt[sel], before[sel], lw=0.8, label="re-calibrated nominal")
+    ax5.plot(tt[sel], (obs - before)[sel], lw=0.8)
     if verdict:
-        ax4.plot(tt[sel], _held_part(c, verdict.fit.prediction)[1][sel], "--", lw=0.8,
-                 label=f"+ {d.verdict}")  # fmt: skip
-    ax4.set(xlabel="time [s]", ylabel=f"{c.channel.name} [{unit}]", title="before / after")
+        after = _held_part(c, verdict.fit.prediction)[1]
+        ax4.plot(tt[sel], after[sel], "--", lw=0.8, label=f"+ {d.verdict}")
+        ax5.plot(tt[sel], (obs - after)[sel], "--", lw=0.8)
+    ax4.set(ylabel=f"{c.channel.name} [{unit}]", title="before / after")
     ax4.legend(loc="upper right")
+    ax5.set(xlabel="time [s]", ylabel=f"residual [{unit}]")
     paths.append(out / "overlay.png")
 
     for figure, path in zip((fig, fig2, fig3, fig4), paths, strict=True):

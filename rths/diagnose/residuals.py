@@ -80,8 +80,9 @@ class Decomposition:
     phase
         ``reversals``, ``zero_crossings`` or ``broadband``.
     windows
-        ``[[t0, t1], ...]`` [s] in the first held-out part (record time) where the smoothed
-        residual power exceeds four times the floor (at most 30, longest first).
+        ``[[t0, t1], ...]`` [s] in the first held-out part (record time) where the residual
+        power, averaged over half a period of the peak frequency, exceeds both four times the
+        floor and twice its own median: where the gap concentrates (at most 30, longest first).
     frequency, residual_psd, floor_psd
         Welch PSDs [unit^2/Hz] for the report.
     """
@@ -160,7 +161,7 @@ def _phase(drive: list[NDArray], residual: list[NDArray], floor_var: float) -> s
 def _windows(r: NDArray, t: NDArray, dt: float, floor_var: float, width: float) -> list:
     n = max(1, int(round(width / dt)))
     power = np.convolve(r * r, np.ones(n) / n, mode="same")
-    hot = power > 4.0 * floor_var
+    hot = power > max(4.0 * floor_var, 2.0 * float(np.median(power)))
     edges = np.flatnonzero(np.diff(np.concatenate([[0], hot.astype(int), [0]])))
     spans = [(t[a], t[b - 1] + dt) for a, b in zip(edges[::2], edges[1::2], strict=True)]
     spans.sort(key=lambda s: s[0] - s[1])
