@@ -144,7 +144,7 @@ def tmdi(scn: Scenario, device: NominalInerter | None | str = "model") -> TMDISu
     assert isinstance(s, TMDISpec)
     dev = nominal_device(scn) if device == "model" else device
     with _table(scn, "substructure"):
-        params, _ = s1_configuration(s.mass, s.flywheel, s.isolators)
+        params, _ = s1_configuration(s.mass, s.flywheel, s.isolators, hdrb=s.hdrb)
         ground = stepped_sine_acceleration(s.frequencies, s.pga, s.cycles)
         return TMDISubstructure(params, ground, scn.run.dt, device=dev)
 

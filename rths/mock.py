@@ -93,7 +93,7 @@ def _monolithic(scn: Scenario, n: int) -> dict[str, NDArray[np.float64]]:
     s = scn.substructure
     assert isinstance(s, TMDISpec)
     dt = scn.run.dt
-    params, _ = s1_configuration(s.mass, s.flywheel, s.isolators)
+    params, _ = s1_configuration(s.mass, s.flywheel, s.isolators, hdrb=s.hdrb)
     ground = stepped_sine_acceleration(s.frequencies, s.pga, s.cycles)
     response = TMDIStructure(params, build.specimen(scn), dt).run(
         np.array([ground(k * dt) for k in range(n + 1)])

@@ -100,7 +100,8 @@ class TMDISpec:
     grounded inerter as the physical specimen, under a stepped-sine base acceleration (S1 §2.3).
 
     ``mass``: S1 Table 1 secondary mass (SM, IM, LM); ``flywheel`` (NF, IF, LF); ``isolators``:
-    which S1 §4.2 identification of the HDRBs ("rack_pinion" or "ideal"); excitation: ``pga``
+    which S1 §4.2 identification of the HDRBs ("rack_pinion" or "ideal"); ``hdrb``: "viscous"
+    (S1 §4.2) or "amplitude" (amplitude-dependent damping, plants.hdrb); excitation: ``pga``
     [g], step ``frequencies`` [Hz] in playing order, ``cycles`` per step.
     """
 
@@ -110,6 +111,7 @@ class TMDISpec:
     pga: float
     frequencies: tuple[float, ...]
     cycles: int = 20
+    hdrb: str = "viscous"
 
 
 @dataclass(frozen=True)
@@ -273,6 +275,7 @@ def _tmdi(t: Table) -> TMDISpec:
         pga=ex.number("pga", positive=True),
         frequencies=tuple(ex.numbers("frequencies")),
         cycles=ex.integer("cycles", 20, minimum=1),
+        hdrb=t.choice("hdrb", ("viscous", "amplitude"), default="viscous"),
     )
     if any(f <= 0 for f in spec.frequencies):
         raise ex.error("frequencies", f"must be positive; got {list(spec.frequencies)!r}")
