@@ -167,3 +167,17 @@ def test_nominal_file_errors(tmp_path):
     bad = NominalModel(ActuatorNominal((1.0,), (1.0,), 0.0), SpecimenNominal(-1.0))
     with pytest.raises(ParameterError, match="nominal inertance must be non-negative"):
         nominal_toml(bad)
+
+
+def test_structure_channel_explains_why_it_is_missing(tmp_path):
+    from rths.diagnose.data import Record
+    from rths.diagnose.structure import structure_gap
+
+    t, u, x, f = _columns()
+    csv = Record("a.csv", DT, t, u, x, f)
+    bad = Record("b.mcap", DT, t, u, x, f, target=u, scenario_text="[run]\nname = 3\n")
+    gap = structure_gap([csv, bad])
+    assert gap.records == {}
+    assert "no target/scenario" in gap.notes["a.csv"]
+    assert gap.notes["b.mcap"].startswith("numerical run unavailable: ")  # bad scenario text
+    assert gap.to_dict() == {"nrmse": {}, "notes": gap.notes}
