@@ -9,6 +9,15 @@ of ``rths run``.  With several files the first half identify and the rest are he
 is split in time (first two thirds identify).  The verdict is one of ``internal_stiffness``,
 ``backlash``, ``coulomb_friction``, ``actuator_delay``, ``rate_limit`` or ``none``.
 
+JSON (``--json``): ``verdict``; ``where`` = {``subsystem`` (specimen | actuator | none),
+``band_hz`` [lo, hi], ``phase`` (reversals | zero_crossings | broadband | none)}; ``params``
+named per verdict (``stiffness`` [N/m], ``gap`` [m], ``friction`` [N], ``delay`` [s] beyond the
+nominal, ``velocity_limit`` [m/s]; series models add their ``frequency`` [Hz]); ``gap`` =
+{``channel`` (measured | force), ``before``, ``after``}: held-out NRMSE as fractions of the
+observed RMS; ``shrink``: fraction of the reducible gap (above the noise floor) closed;
+``candidates``: every effect tried, ranked, with its held-out NRMSE, ``closed`` fraction and
+score; ``channels``: the decomposition of both channels; ``files``; ``structure`` (MCAP logs).
+
 Examples::
 
     rths diagnose run1.csv run2.csv --nominal NOMINAL.toml --json diagnosis.json

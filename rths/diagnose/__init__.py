@@ -6,7 +6,9 @@ Pipeline (one module each)::
     data        CSV/MCAP records and their checks          -> Record
     nominal     NOMINAL.toml                               -> NominalModel
     channels    replay channels 'measured' (actuator) and 'force' (specimen), the split
-    effects     baseline + candidate grey-box models (registry EFFECTS)
+    effects     baseline + candidate grey-box models (registry EFFECTS; the models live in
+                _actuator_effects and _specimen_effects, their interface in _model)
+    structure   the structure channel of an ``rths run`` log against the numerical mock run
     identify    variable-projection fit on identification data, held-out scoring, noise floors
     residuals   decomposition: NRMSE, significance vs the noise floor, band, phase, windows
     verdict     ranking with a complexity penalty, verdict, shrink     -> Diagnosis

@@ -13,7 +13,8 @@ are held out; a single record is cut into :data:`TIME_BLOCKS` equal blocks in ti
 identify and the odd ones are held out -- alternating blocks rather than one cut, so that the
 held-out part of a sine sweep spans the same frequencies as the identification part instead of
 asking for an extrapolation.  The replay always runs over the whole record from its start; only
-the fitting and scoring are split.  :data:`EDGE_SECONDS` (at least ``4/f_c``) at both ends of every record are left out of
+the fitting and scoring are split.  :data:`EDGE_SECONDS` (at least ``4/f_c``) at both ends of
+every record are left out of
 fitting and scoring (filter edge transients).
 """
 

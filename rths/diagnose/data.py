@@ -103,8 +103,8 @@ def _check_arrays(name: str, time: NDArray, columns: dict[str, NDArray]) -> floa
         bad = np.flatnonzero(~np.isfinite(values))
         if bad.size:
             raise DataError(
-                f"{name}: column '{column}' must be finite; got {float(values[bad[0]])!r} at sample "
-                f"{bad[0]} ({bad.size} non-finite values)"
+                f"{name}: column '{column}' must be finite; got {float(values[bad[0]])!r} at "
+                f"sample {bad[0]} ({bad.size} non-finite values)"
             )
     if time.size < 3:
         raise DataError(f"{name}: needs at least 3 samples; got {time.size}")

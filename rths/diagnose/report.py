@@ -114,7 +114,7 @@ def write_figures(d: Diagnosis, directory: str | os.PathLike[str]) -> list[Path]
     for a, b in c.decomposition.windows:
         ax.axvspan(a, b, color="tab:red", alpha=0.15, lw=0)
     ax.set(xlabel="time [s]", ylabel=f"residual [{unit}]",
-           title=f"{c.channel.name} channel, held out (shaded: where the gap concentrates)")  # fmt: skip
+           title=f"{c.channel.name} channel, held out (shaded: where the gap concentrates)")
     ax.legend(loc="upper right")
     paths.append(out / "residual_time.png")
 

@@ -31,8 +31,17 @@ from rths.diagnose.residuals import FLOOR_MARGIN, Decomposition, decompose
 from rths.diagnose.structure import StructureGap, structure_gap
 from rths.errors import ParameterError, format_choices
 
-__all__ = ["DRIVES", "held_runs", "MIN_CLOSED", "PENALTY", "Candidate", "ChannelResult", "Diagnosis", "Options",
-           "diagnose"]  # fmt: skip
+__all__ = [
+    "DRIVES",
+    "MIN_CLOSED",
+    "PENALTY",
+    "Candidate",
+    "ChannelResult",
+    "Diagnosis",
+    "Options",
+    "diagnose",
+    "held_runs",
+]
 
 #: Complexity penalty per effect parameter [fraction of the reducible gap].
 PENALTY: float = 0.05
