@@ -32,6 +32,9 @@ from rths.errors import DataError
 __all__ = ["EVENTS_TOPIC", "STOP", "RecordingSummary", "TopicStats", "WriterThread", "open_schema"]
 
 STOP = object()
+
+#: Seconds between two drains of the writer's queue.
+POLL = 0.005
 EVENTS_TOPIC = "rths/events"
 _COMPRESSION = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}
 _COUNTS = ("written", "missing", "reordered", "first_seq", "last_seq", "nonfinite", "rejected")
@@ -196,19 +199,26 @@ class WriterThread(threading.Thread):
             self._stream.close()
 
     def _drain(self) -> None:
-        get, interval = self._inbox.get, self._flush_interval
+        """Poll the queue every :data:`POLL` seconds and write everything waiting.
+
+        Polling, rather than blocking in ``get``, means a producer's ``put`` never wakes this
+        thread: a real-time loop thread does not hand the GIL over once per message.
+        """
+        get, interval = self._inbox.get_nowait, self._flush_interval
         while True:
-            try:
-                item = get(timeout=interval)
-            except queue.Empty:
-                item = None
-            if item is STOP:
-                return
-            if item is not None:
+            time.sleep(POLL)
+            handled = 0
+            while True:
+                if handled % 256 == 0:  # the largest backlog seen, sampled while draining
+                    self.max_backlog = max(self.max_backlog, self._inbox.qsize())
+                try:
+                    item = get()
+                except queue.Empty:
+                    break
+                if item is STOP:
+                    return
                 self._handle(item)
-                backlog = self._inbox.qsize()
-                if backlog > self.max_backlog:
-                    self.max_backlog = backlog
+                handled += 1
             if self._dirty and time.monotonic() - self._last_flush >= interval:
                 self._writer.flush()
                 self._dirty = False
@@ -249,9 +259,12 @@ class WriterThread(threading.Thread):
             entry.rejected += 1
             self._event(log_time, {"kind": "rejected", "message": f"{topic} seq {seq}: {exc}"})
             return
-        self._writer.add_message(
-            entry.channel_id, log_time, data.encode(), publish_time, seq & 0xFFFFFFFF
-        )
+        self._add(topic, seq, log_time, publish_time, data.encode())
+
+    def _add(self, topic: str, seq: int, log_time: int, publish_time: int, data: bytes) -> None:
+        """Write encoded JSON ``data`` and keep the counts (sequence gaps, reordering)."""
+        entry = self._topics[topic]
+        self._writer.add_message(entry.channel_id, log_time, data, publish_time, seq & 0xFFFFFFFF)
         self._dirty = True
         entry.written += 1
         last = entry.last_seq
@@ -277,7 +290,15 @@ class WriterThread(threading.Thread):
         entry.last_seq = max(last, seq)
 
     def _record(self, topic: str, payload: bytes) -> None:
+        """Write a record from another process; its JSON is written as received unless it
+        carries a non-finite number (JSON has none), which takes the decode/clean path."""
         try:
+            seq, log_time, body = LogRecord.split(payload)
+            if b"NaN" not in body and b"Infinity" not in body:
+                if topic not in self._topics:
+                    self._register(topic, open_schema(topic))
+                self._add(topic, seq, log_time, log_time, body)
+                return
             record = LogRecord.decode(payload)
         except DataError as exc:
             entry = self._topics.get(topic) or self._register(topic, open_schema(topic))

@@ -296,9 +296,13 @@ def lab(
     )
 
 
-def compensator(scn: Scenario, kind: str | None = None) -> Compensator:
-    """The ``[compensator]`` (or ``kind`` with default options) on the nominal plant."""
+def compensator(scn: Scenario, kind: str | None = None, extra_delay: float = 0.0) -> Compensator:
+    """The ``[compensator]`` (or ``kind`` with default options) on the nominal plant.
+
+    ``extra_delay`` [s] is added to the nominal plant's transport delay (e.g. the realtime link's).
+    """
     plant, delay = nominal_plant(scn)
+    delay += extra_delay
     options = dict(scn.compensator_options) if kind is None else {}
     with _table(scn, "compensator"):
         return make_compensator(kind or scn.compensator_kind, scn.run.dt, plant, delay=delay,

@@ -17,15 +17,20 @@ The time source and the sleep function are injectable, so tests drive the pacer 
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
-from rths.errors import RTHSError, check_positive, check_positive_int
+from rths.errors import RTHSError, check_nonnegative, check_positive, check_positive_int
 
 __all__ = ["FreeRunning", "Pacer", "RealtimeOverrun", "TimingStats", "WallClock"]
+
+
+#: Default busy-wait margin before each deadline [µs] (see :class:`WallClock`).
+DEFAULT_SPIN_US = 150.0
 
 
 class RealtimeOverrun(RTHSError, RuntimeError):
@@ -152,13 +157,15 @@ class WallClock(Pacer):
         n_steps: int,
         now_ns: Callable[[], int] = time.perf_counter_ns,
         sleep: Callable[[float], None] = time.sleep,
-        spin: float = 150e-6,
+        spin: float | None = None,
         strict: bool = False,
         max_consecutive_overruns: int = 100,
     ) -> None:
         super().__init__(dt, n_steps, now_ns)
         self._sleep = sleep
-        self._spin_ns = round(spin * 1e9)
+        if spin is None:  # RTHS_SPIN_US overrides the default (for tuning on a given machine)
+            spin = float(os.environ.get("RTHS_SPIN_US", DEFAULT_SPIN_US)) * 1e-6
+        self._spin_ns = round(check_nonnegative(spin, "spin") * 1e9)
         self.strict = strict
         self.max_consecutive_overruns = check_positive_int(
             max_consecutive_overruns, "max_consecutive_overruns"

@@ -147,9 +147,17 @@ class Measurement:
         return cls(*_MEASUREMENT.unpack(data))
 
 
+_LOG_HEADER = struct.Struct("<QQ")
+
+
 @dataclass(frozen=True, slots=True)
 class LogRecord:
-    """One JSON log record: ``{"seq": int, "log_time_ns": int, "message": {...}}`` in UTF-8.
+    """One log record of a side stream: a 16-byte header, then the message as UTF-8 JSON.
+
+    Wire format: ``struct "<QQ"`` (``seq``, ``log_time_ns``) followed by the JSON object of the
+    message.  The recorder writes the JSON bytes into the MCAP log as they are (no parse, no
+    re-encode: cheap enough to record at loop rate next to a real-time loop); a monitor skips 16
+    bytes and parses the rest.
 
     Attributes
     ----------
@@ -165,12 +173,33 @@ class LogRecord:
     log_time_ns: int
     message: Mapping[str, Any]
 
+    HEADER: ClassVar[int] = _LOG_HEADER.size
+
     def encode(self) -> bytes:
-        """UTF-8 JSON bytes of the record."""
-        return json.dumps(
-            {"seq": self.seq, "log_time_ns": self.log_time_ns, "message": self.message},
-            separators=(",", ":"),
-        ).encode()
+        """Header and compact JSON of the message."""
+        try:
+            header = _LOG_HEADER.pack(self.seq, self.log_time_ns)
+        except struct.error as exc:
+            raise ParameterError(
+                f"log record seq and log_time_ns must be integers >= 0; got {self.seq!r}, "
+                f"{self.log_time_ns!r} ({exc})"
+            ) from None
+        return header + json.dumps(self.message, separators=(",", ":")).encode()
+
+    @staticmethod
+    def split(data: bytes | bytearray | memoryview) -> tuple[int, int, bytes]:
+        """``(seq, log_time_ns, message JSON bytes)`` without parsing the JSON.
+
+        Raises
+        ------
+        DataError
+            If ``data`` is shorter than the header or the body does not look like a JSON object.
+        """
+        raw = bytes(data)
+        if len(raw) < _LOG_HEADER.size + 2 or raw[_LOG_HEADER.size] != 0x7B or raw[-1] != 0x7D:
+            raise DataError(f"log record must be a 16-byte header and a JSON object; got {raw[:40]!r}")
+        seq, log_time = _LOG_HEADER.unpack_from(raw)
+        return seq, log_time, raw[_LOG_HEADER.size :]
 
     @classmethod
     def decode(cls, data: bytes | bytearray | memoryview) -> LogRecord:
@@ -179,18 +208,13 @@ class LogRecord:
         Raises
         ------
         DataError
-            If ``data`` is not such a JSON object (the message names what is wrong).
+            If ``data`` is not such a record (the message names what is wrong).
         """
+        seq, log_time, body = cls.split(data)
         try:
-            obj = json.loads(bytes(data))
+            message = json.loads(body)
         except (UnicodeDecodeError, ValueError) as exc:
-            raise DataError(f"log record is not JSON ({exc}); got {bytes(data)[:60]!r}") from None
-        if not isinstance(obj, dict):
-            raise DataError(f"log record must be a JSON object; got {obj!r:.60}")
-        seq, log_time, message = obj.get("seq"), obj.get("log_time_ns"), obj.get("message")
-        for name, value in (("seq", seq), ("log_time_ns", log_time)):
-            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-                raise DataError(f"log record field {name!r} must be an integer >= 0; got {value!r}")
+            raise DataError(f"log record message is not JSON ({exc}); got {body[:60]!r}") from None
         if not isinstance(message, dict):
-            raise DataError(f"log record field 'message' must be a JSON object; got {message!r:.60}")
+            raise DataError(f"log record message must be a JSON object; got {message!r:.60}")
         return cls(seq, log_time, message)

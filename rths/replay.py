@@ -1,8 +1,9 @@
 """Replay a recorded run on zenoh at its recorded pace (``rths replay``).
 
-Records are published exactly as a live run publishes its side streams: as
-:class:`rths.codec.LogRecord` JSON on ``rths/<run-id>/log/<stream>`` (MCAP topic ``rths/<stream>``),
-so a monitor written against a live run works unchanged on a replay.  Pacing keeps the recorded
+Records are published on the keys a live run uses, as :class:`rths.codec.LogRecord` s: the loop
+record (MCAP topic ``rths/loop``) on ``rths/<run-id>/loop``, the other streams (e.g.
+``rths/specimen``) on ``rths/<run-id>/log/<stream>``; so a monitor written against a live run works
+unchanged on a replay.  Pacing keeps the recorded
 ``log_time`` spacing divided by ``speed`` on the monotonic clock.
 """
 
@@ -80,7 +81,10 @@ def replay(
     count = 0
     with open_session(endpoints) as session:
         publishers = {
-            t: session.declare_publisher(keys.log(t.removeprefix("rths/"))) for t in wanted
+            t: session.declare_publisher(
+                keys.loop if t == "rths/loop" else keys.log(t.removeprefix("rths/"))
+            )
+            for t in wanted
         }
         seqs = dict.fromkeys(wanted, 0)
         time.sleep(wait)

@@ -3,10 +3,13 @@
 ``fast``      everything in this process; the loop writes the MCAP log through the recorder's
               queue.
 ``lockstep``  and ``realtime``: the specimen is a separate process (``rths specimen``) started here
-              (or elsewhere, ``external_specimen=True``); the loop publishes its record on zenoh
-              (``rths/<run>/log/loop``) and the recorder, subscribed through a
-              :class:`rths.transport.LogBridge`, writes it -- with the specimen's own stream --
-              into the MCAP log.  Nothing but publishing happens on the loop thread.
+              (or elsewhere, ``external_specimen=True``).  Commands and measurements cross zenoh;
+              the specimen's own stream (its truth each step) arrives on ``rths/<run>/log/
+              specimen`` and the recorder, subscribed through a
+              :class:`rths.transport.LogBridge`, writes it into the MCAP log.  The loop's record
+              goes to the recorder's queue (never lost) and a live copy to ``rths/<run>/loop``
+              for monitors, published from a background thread: the loop thread only enqueues
+              and publishes the command.
 
 A crashed or vanished specimen ends the run with a :class:`rths.errors.TransportError`; the log is
 finished, carries an ``error`` event with the specimen's last words (its stderr), and the summary
@@ -39,6 +42,16 @@ from rths.scenario import Scenario
 __all__ = ["RunOptions", "RunOutcome", "run_scenario"]
 
 SPECIMEN_TOPIC = "rths/specimen"
+
+#: GIL switch interval [s] while a loop over zenoh runs.  CPython's default (5 ms) lets the
+#: recorder thread keep the GIL for milliseconds while the loop thread waits -- which showed up as
+#: 5 ms p99 jitter at 1 kHz in real time, and slows every lockstep round trip; 50 µs bounds it.
+
+#: Extra delay [loop steps] the realtime link adds, which the compensator is told about: the
+#: free-running specimen picks a command up at its next tick (~1 step) and the loop uses the
+#: newest measurement, ~1 step old on average (the logged ``age``).
+REALTIME_LINK_DELAY_STEPS = 2.0
+REALTIME_SWITCH_INTERVAL = 50e-6
 
 #: Schema of ``rths/specimen``: the emulated lab's truth each step (plus the actuator's and the
 #: specimen's internal states as ``actuator.<name>`` / ``actuator.specimen.<name>``, SI).
@@ -246,7 +259,8 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
     path.parent.mkdir(parents=True, exist_ok=True)
     n, dt = scn.run.steps, scn.run.dt
     substructure = build.substructure(scn)
-    compensator = build.compensator(scn, opts.compensator)
+    link_delay = REALTIME_LINK_DELAY_STEPS * dt if clock == "realtime" else 0.0
+    compensator = build.compensator(scn, opts.compensator, extra_delay=link_delay)
     substructure.predict(0.0)  # compile kernels before the clock starts
     pacer: Pacer = WallClock(dt, n) if clock == "realtime" else FreeRunning(dt, n)
     collector = _Collector(n)
@@ -272,6 +286,9 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
 
         if progress is not None:
             progress.start()
+        switch = sys.getswitchinterval()
+        if clock != "fast":  # see REALTIME_SWITCH_INTERVAL
+            sys.setswitchinterval(REALTIME_SWITCH_INTERVAL)
         try:
             if clock == "fast":
                 lab = build.lab(scn, opts.seed)
@@ -286,6 +303,7 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
                     lambda: round(collector.count * dt * 1e9),
                 )  # fmt: skip
         finally:
+            sys.setswitchinterval(switch)
             if progress is not None:
                 progress.finish()
         t_end = round(max(outcome.result.steps, collector.count) * dt * 1e9)
@@ -330,9 +348,9 @@ def _spawn_specimen(scn: Scenario, run_id: str, endpoint: str, clock: str, log: 
 
 def _run_over_zenoh(scn, opts, clock, run_id, rec, make_loop, on_progress, outcome, now_ns) -> LoopResult:  # noqa: ANN001, PLR0913
     from rths.transport import (
+        BackgroundPublisher,
         LockstepClient,
         LogBridge,
-        LogPublisher,
         Presence,
         RealtimeClient,
         RunKeys,
@@ -346,9 +364,9 @@ def _run_over_zenoh(scn, opts, clock, run_id, rec, make_loop, on_progress, outco
     endpoints = ZenohEndpoints(listen=tuple(listen), connect=tuple(opts.connect))
     stderr_log = outcome.path.with_suffix(".specimen.log")
     process = None
-    with open_session(endpoints) as session, LogBridge(session, keys, rec), LogPublisher(
-        session, keys, "loop"
-    ) as loop_log:
+    with open_session(endpoints) as session, LogBridge(session, keys, rec), BackgroundPublisher(
+        session, keys.loop, reliable=False
+    ) as live:
         client = (
             LockstepClient(session, keys, opts.step_timeout) if clock == "lockstep"
             else RealtimeClient(session, keys)
@@ -366,7 +384,12 @@ def _run_over_zenoh(scn, opts, clock, run_id, rec, make_loop, on_progress, outco
                 presence.wait_for_peer(opts.ready_timeout, [client.publisher])
                 link = _LockstepLink(client, opts.step_timeout) if clock == "lockstep" else (
                     _RealtimeLink(client))  # fmt: skip
-                loop = make_loop(link, lambda r: loop_log.put(round(r["t"] * 1e9), r))
+                def sink(r: dict[str, float]) -> None:
+                    t_ns = round(r["t"] * 1e9)
+                    rec.put(LOOP_TOPIC, int(r["seq"]), t_ns, r)
+                    live.put(t_ns, r)
+
+                loop = make_loop(link, sink)
                 watcher = threading.Thread(target=_stop_on_peer_loss, args=(presence, loop),
                                            daemon=True)  # fmt: skip
                 watcher.start()

@@ -17,6 +17,7 @@ log says why.
 
 from __future__ import annotations
 
+import sys
 import time
 import traceback
 
@@ -27,8 +28,8 @@ from rths.codec import Command, Measurement
 from rths.errors import TransportError
 from rths.scenario import Scenario
 from rths.transport import (
+    BackgroundPublisher,
     LockstepServer,
-    LogPublisher,
     Presence,
     RealtimeServer,
     RunKeys,
@@ -81,7 +82,7 @@ def serve(
     lab = build.lab(scn)
     _warm_up(lab)
     keys = RunKeys(run_id)
-    with open_session(endpoints) as session, LogPublisher(session, keys, "specimen") as log:
+    with open_session(endpoints) as session, BackgroundPublisher(session, keys.specimen_state) as log:
         try:
             if clock == "lockstep":
                 return _lockstep(lab, session, keys, endpoints, log, ready_timeout, log_state)
@@ -97,6 +98,7 @@ def _lockstep(lab, session, keys, endpoints, log, ready_timeout, log_state) -> i
         session, keys, "specimen", endpoints.describe()
     ) as presence:
         presence.wait_for_peer(ready_timeout, [link.publisher])
+        sys.setswitchinterval(50e-6)  # as the coordinator (rths.runner.REALTIME_SWITCH_INTERVAL)
 
         def respond(command: Command) -> Measurement:
             displacement, force = lab.step(command.command)
@@ -116,6 +118,7 @@ def _realtime(scn, lab, session, keys, endpoints, log, ready_timeout, log_state)
         session, keys, "specimen", endpoints.describe()
     ) as presence:
         presence.wait_for_peer(ready_timeout, [link.publisher])
+        sys.setswitchinterval(50e-6)  # as the coordinator (rths.runner.REALTIME_SWITCH_INTERVAL)
         pacer = WallClock(dt, horizon)
         command = 0.0
         pacer.start()

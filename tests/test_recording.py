@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import struct
 import threading
 import time
 from pathlib import Path
@@ -381,3 +382,18 @@ def test_metadata_added_at_the_end_is_readable_by_the_plain_reader(tmp_path: Pat
     assert records["scenario"] == {"text": "x = 1"}
     with pytest.raises(DataError, match="closed"):
         rec.add_metadata("late", {"a": "b"})
+
+
+def test_records_from_another_process_are_written_as_received_unless_non_finite(tmp_path):
+    from rths.codec import LogRecord
+
+    path = tmp_path / "records.mcap"
+    with Recorder(path) as rec:
+        rec.put_record("rths/side", LogRecord(0, 10, {"a": 1.25, "b": "x"}).encode())
+        rec.put_record("rths/side", LogRecord(1, 20, {"a": float("nan")}).encode())
+        rec.put_record("rths/side", struct.pack("<QQ", 2, 30) + b"not json")
+    with open(path, "rb") as f:
+        messages = [m.data for _, _, m in make_reader(f).iter_messages(topics=["rths/side"])]
+    assert messages == [b'{"a":1.25,"b":"x"}', b'{"a":null}']  # raw bytes; NaN cleaned
+    stats = rec.summary.topics["rths/side"]
+    assert (stats.written, stats.nonfinite, stats.rejected) == (2, 1, 1)

@@ -30,7 +30,7 @@ def test_replay_publishes_every_record_in_order_at_the_recorded_pace(tmp_path):
 
     keys = RunKeys("replayed")
     with open_session(ZenohEndpoints(listen=(endpoint,))) as session:
-        sub = session.declare_subscriber(keys.log("loop"), zenoh.handlers.Callback(on_sample))
+        sub = session.declare_subscriber(keys.loop, zenoh.handlers.Callback(on_sample))
         start = time.monotonic()
         code = main(["replay", str(log), "--connect", endpoint, "--speed", "1", "--wait", "1.0",
                      "--topic", "rths/loop"])  # fmt: skip
