@@ -125,6 +125,7 @@ class RunOutcome:
     metrics: TrackingSummary | None
     recording: RecordingSummary | None = None
     events: list[str] = field(default_factory=list)
+    saturated: dict[str, int] = field(default_factory=dict)
 
     def line(self) -> str:
         """The one-line summary the CLI prints."""
@@ -144,6 +145,9 @@ class RunOutcome:
             parts.append(f"p99 jitter {1e6 * t.jitter_p99:.0f} us")
         gaps = sum(s.missing for s in self.recording.topics.values()) if self.recording else 0
         parts.append(f"gaps {gaps}")
+        clipped = {k: v for k, v in self.saturated.items() if v}
+        if clipped:
+            parts.append("SATURATED " + ", ".join(f"{k} {v}" for k, v in clipped.items()))
         return ", ".join(parts) + f" -> {self.path}"
 
 
@@ -317,10 +321,26 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
             )  # fmt: skip
         except DataError as exc:  # too short or too quiet a record for some metric
             outcome.events.append(f"metrics not computed: {exc}")
+        outcome.saturated = _saturations(scn, collector.measured[:k], collector.force[:k])
+        for channel, count in outcome.saturated.items():
+            if count:
+                rec.event(t_end, "saturation",
+                          f"{count} {channel} samples at the ADC's full scale: clipped")  # fmt: skip
         rec.add_metadata("rths.summary", _summary(outcome))
         rec.event(t_end, "end", f"{outcome.result.steps} steps")
     outcome.recording = rec.summary
     return outcome
+
+
+def _saturations(scn: Scenario, measured: np.ndarray, force: np.ndarray) -> dict[str, int]:
+    """Samples at an ADC's extreme code (the converter clipped them), per channel."""
+    conv = build.converters(scn)
+    out = {}
+    for name, values, c in (("displacement", measured, conv.displacement), ("force", force, conv.force)):
+        top = 2 ** (c.bits - 1)
+        high, low = (top - 1) * c.resolution, -top * c.resolution
+        out[name] = int(np.count_nonzero((values >= high * (1 - 1e-12)) | (values <= low * (1 - 1e-12))))
+    return out
 
 
 def _summary(outcome: RunOutcome) -> dict[str, str]:
@@ -334,6 +354,7 @@ def _summary(outcome: RunOutcome) -> dict[str, str]:
         out.update({k: repr(v) for k, v in outcome.metrics.to_dict().items()})
     if outcome.events:
         out["notes"] = "; ".join(outcome.events)
+    out.update({f"saturated_{k}": str(v) for k, v in outcome.saturated.items()})
     return out
 
 

@@ -121,3 +121,16 @@ def test_run_scenario_returns_the_outcome(tmp_path):
     outcome = run_scenario(scn, RunOptions(clock="fast", out=tmp_path / "r.mcap"))
     assert outcome.result.steps == 512 and outcome.recording.complete
     assert "J2" in outcome.line() and "gaps 0" in outcome.line()
+
+
+def test_clipped_force_is_counted_and_reported(tmp_path):
+    """A load cell too small for the specimen saturates the ADC: the run says so (one-line
+    summary, an event, the summary metadata) instead of silently logging a clipped force."""
+    scn = parse_scenario(short(1.0).replace("force_per_volt = 220.0", "force_per_volt = 2.0"))
+    outcome = run_scenario(scn, RunOptions(clock="fast", out=tmp_path / "sat.mcap"))
+    assert outcome.saturated["force"] > 100 and outcome.saturated["displacement"] == 0
+    assert "SATURATED force" in outcome.line()
+    with open(tmp_path / "sat.mcap", "rb") as f:
+        reader = make_reader(f)
+        events = [json.loads(m.data) for _, _, m in reader.iter_messages(topics=["rths/events"])]
+    assert any(e["kind"] == "saturation" for e in events)
