@@ -2,15 +2,18 @@
 
 Rule: the amplitude is half the peak-to-peak excursion of the drive between its last two
 reversals.  A reversal is declared when the drive has retreated from its running extremum by
-more than a small hysteresis ``tolerance`` [m] (robust to round-off; the emulated specimen sees
-the true, noise-free actuator displacement).  Until two reversals have been seen the amplitude
+more than a hysteresis: the larger of ``tolerance`` [m] and ``fraction`` times the current
+amplitude estimate.  The relative part keeps wiggles that are small against the motion (a
+compensator's command jitter, sensor noise in a replayed drive) from counting as load reversals
+-- without it a 1 µm ripple on a 2 mm sine collapsed the estimate to 1 µm and the damping of
+S0 Eq.18 jumped to its small-amplitude value.  Until two reversals have been seen the amplitude
 is 0, so S0 Eq.18 gives its small-amplitude value (0.3) at the start of a test.  The estimate
 is piecewise constant: it changes only at reversals, half a cycle late by construction.
 """
 
 from __future__ import annotations
 
-from rths.errors import check_positive
+from rths.errors import check_nonnegative, check_positive
 
 __all__ = ["AmplitudeTracker"]
 
@@ -21,11 +24,15 @@ class AmplitudeTracker:
     Parameters
     ----------
     tolerance
-        Hysteresis [m] a retreat from the running extremum must exceed to count as a reversal.
+        Absolute hysteresis [m] a retreat from the running extremum must exceed to count as a
+        reversal.
+    fraction
+        Relative hysteresis: a retreat must also exceed ``fraction * amplitude`` [-] (0: none).
     """
 
-    def __init__(self, tolerance: float) -> None:
+    def __init__(self, tolerance: float, fraction: float = 0.0) -> None:
         self.tolerance: float = check_positive(tolerance, "reversal tolerance")
+        self.fraction: float = check_nonnegative(fraction, "reversal fraction")
         self.reset()
 
     def reset(self) -> None:
@@ -37,7 +44,7 @@ class AmplitudeTracker:
 
     def update(self, u: float) -> bool:
         """Take the drive displacement [m] at the next sample; return True at a new estimate."""
-        tol = self.tolerance
+        tol = max(self.tolerance, self.fraction * self.amplitude)
         if self._direction == 0:
             if abs(u - self._extremum) > tol:
                 self._direction = 1 if u > self._extremum else -1

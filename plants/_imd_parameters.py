@@ -144,6 +144,9 @@ class AmplitudeDamping:
     reversal_tolerance
         Hysteresis [m] of the online reversal detector (see ``plants._imd_amplitude``): the
         drive must retreat this far from its running extremum for a reversal to count.
+    reversal_fraction
+        Relative hysteresis: the retreat must also exceed this fraction of the current
+        amplitude estimate (wiggles small against the motion are not load reversals).
     """
 
     c1: float
@@ -151,6 +154,7 @@ class AmplitudeDamping:
     small_amplitude_mm: float = 0.1
     small_amplitude_ratio: float = 0.3
     reversal_tolerance: float = 1e-6
+    reversal_fraction: float = 0.1
 
     def __post_init__(self) -> None:
         check_positive(self.c1, "damping law coefficient c1")
@@ -158,6 +162,7 @@ class AmplitudeDamping:
         check_nonnegative(self.small_amplitude_mm, "small amplitude threshold [mm]")
         check_positive(self.small_amplitude_ratio, "small-amplitude damping ratio")
         check_positive(self.reversal_tolerance, "reversal tolerance")
+        check_nonnegative(self.reversal_fraction, "reversal fraction")
 
     def ratio_mm(self, amplitude_mm: float) -> float:
         """``xi_e`` [-] for a load amplitude in millimetres (S0 Eq.18)."""

@@ -90,7 +90,9 @@ class _DampingMixin:
 
     def _init_damping(self) -> None:
         law = self.parameters.damping_law
-        self._tracker = None if law is None else AmplitudeTracker(law.reversal_tolerance)
+        self._tracker = None if law is None else AmplitudeTracker(
+            law.reversal_tolerance, law.reversal_fraction
+        )
         self._damping = self.parameters.damping_coefficient(0.0)
 
     def _reset_damping(self) -> None:

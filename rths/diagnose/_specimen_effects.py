@@ -63,7 +63,7 @@ def _amplitude_weight(channel: Channel, seg: Segment) -> NDArray:
 
         assert seg.sos is not None
         gain = float(np.sqrt(np.sum(impulse_kernel(seg.sos, seg.dt) ** 2)))
-        tracker = AmplitudeTracker(max(1e-6, 5.0 * channel.noise["drive"] * gain))
+        tracker = AmplitudeTracker(max(1e-6, 5.0 * channel.noise["drive"] * gain), 0.1)
         amplitude = np.empty(seg.observed.size)
         for i, value in enumerate(seg.signals["x"].tolist()):
             tracker.update(value)
