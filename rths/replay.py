@@ -12,7 +12,7 @@ from __future__ import annotations
 import heapq
 import json
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 
 from mcap.reader import make_reader
@@ -22,7 +22,7 @@ from rths.errors import DataError
 from rths.mcap_io import list_topics, read_metadata
 from rths.transport import RunKeys, ZenohEndpoints, new_run_id, open_session
 
-__all__ = ["replay", "replay_records"]
+__all__ = ["paced", "replay", "replay_records"]
 
 DEFAULT_TOPICS = ("rths/loop", "rths/specimen")
 
@@ -42,6 +42,25 @@ def replay_records(path: Path, topics: Sequence[str]) -> Iterator[tuple[str, int
     while streams:
         log_time, topic, data = heapq.heappop(streams)
         yield topic, log_time, json.loads(data)
+
+
+def paced(
+    records: Iterable[tuple[str, int, dict]],
+    speed: float,
+    now_ns: Callable[[], int] = time.monotonic_ns,
+    sleep: Callable[[float], None] = time.sleep,
+) -> Iterator[tuple[str, int, dict]]:
+    """Yield ``(topic, log_time_ns, message)`` no earlier than its recorded time divided by
+    ``speed`` after the first one (clock and sleep injectable for tests)."""
+    start: int | None = None
+    first = 0
+    for topic, log_time, message in records:
+        if start is None:
+            start, first = now_ns(), log_time
+        pause = start + round((log_time - first) / speed) - now_ns()
+        if pause > 0:
+            sleep(pause * 1e-9)
+        yield topic, log_time, message
 
 
 def replay(
@@ -88,14 +107,7 @@ def replay(
         }
         seqs = dict.fromkeys(wanted, 0)
         time.sleep(wait)
-        start_wall = time.monotonic_ns()
-        first: int | None = None
-        for topic, log_time, message in replay_records(path, wanted):
-            first = log_time if first is None else first
-            due = start_wall + round((log_time - first) / speed)
-            pause = due - time.monotonic_ns()
-            if pause > 0:
-                time.sleep(pause * 1e-9)
+        for topic, log_time, message in paced(replay_records(path, wanted), speed):
             publishers[topic].put(LogRecord(seqs[topic], log_time, message).encode())
             seqs[topic] += 1
             count += 1
