@@ -58,13 +58,41 @@ class _RealtimeLink:
         return LinkSample(m.displacement, m.force, time.monotonic_ns() - m.sample_ns, m.seq)
 
 
-def _spawn_specimen(scn: Scenario, run_id: str, endpoint: str, clock: str, log: Path) -> subprocess.Popen[bytes]:
+def _wait_for_specimen(
+    presence: Presence,
+    publishers: list[Any],
+    timeout: float,
+    process: subprocess.Popen[bytes] | None,
+) -> None:
+    """The handshake, in slices, so a spawned specimen that exits at once is reported at once."""
+    deadline = time.monotonic() + timeout
+    while True:
+        remaining = deadline - time.monotonic()
+        try:
+            presence.wait_for_peer(max(min(0.5, remaining), 1e-3), publishers)
+            return
+        except TransportError:
+            if process is not None and process.poll() is not None:
+                raise TransportError(
+                    f"specimen process exited with code {process.returncode} before the run"
+                ) from None
+            if remaining <= 0.5:
+                raise
+
+
+def _spawn_specimen(
+    scn: Scenario, run_id: str, endpoint: str, clock: str, log: Path, seed: int
+) -> subprocess.Popen[bytes]:
+    # the exact text the coordinator parsed, so an edit to the file mid-run cannot split them
+    scenario = log.with_suffix(".scenario.toml")
+    scenario.write_text(scn.text, encoding="utf-8")
     args = [
-        sys.executable, "-m", "rths", "specimen", scn.source, "--run-id", run_id,
-        "--connect", endpoint, "--clock", clock,
+        sys.executable, "-m", "rths", "specimen", str(scenario), "--run-id", run_id,
+        "--connect", endpoint, "--clock", clock, "--seed", str(seed),
     ]  # fmt: skip
     env = dict(os.environ, PYTHONUNBUFFERED="1")
-    return subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=log.open("wb"), env=env)
+    with log.open("wb") as stderr:  # the child keeps its own descriptor
+        return subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=stderr, env=env)
 
 
 def run_over_zenoh(  # noqa: PLR0913 -- the run's parts, handed over by rths.runner
@@ -77,12 +105,13 @@ def run_over_zenoh(  # noqa: PLR0913 -- the run's parts, handed over by rths.run
     on_progress: Callable[[int], None],
     stderr_log: Path,
     now_ns: Callable[[], int],
+    seed: int,
 ) -> LoopResult:
     """Run the loop against a specimen process over zenoh; see the module docstring.
 
     ``opts`` is the run's :class:`rths.runner.RunOptions`; ``make_loop(link, sink)`` builds the
     loop; ``stderr_log`` receives the spawned specimen's stderr; ``now_ns()`` gives the
-    simulated time of the last recorded step for error events.
+    simulated time of the last recorded step for error events; ``seed`` seeds the lab's noise.
     """
     keys = RunKeys(run_id)
     listen = opts.listen or (() if opts.connect else (loopback_endpoint(),))
@@ -99,15 +128,16 @@ def run_over_zenoh(  # noqa: PLR0913 -- the run's parts, handed over by rths.run
             if not opts.external_specimen:
                 if not listen:
                     raise TransportError("starting the specimen here needs a --listen endpoint")
-                process = _spawn_specimen(scn, run_id, listen[0], clock, stderr_log)
+                process = _spawn_specimen(scn, run_id, listen[0], clock, stderr_log, seed)
             elif opts.on_waiting is not None:
                 where = f"--connect {listen[0]}" if listen else "--listen <endpoint>"
                 opts.on_waiting(f"rths specimen {scn.source} --run-id {run_id} {where} "
-                                f"--clock {clock}")  # fmt: skip
+                                f"--clock {clock} --seed {seed}")  # fmt: skip
             try:
-                presence.wait_for_peer(opts.ready_timeout, [client.publisher])
+                _wait_for_specimen(presence, [client.publisher], opts.ready_timeout, process)
                 link = _LockstepLink(client, opts.step_timeout) if clock == "lockstep" else (
                     _RealtimeLink(client))  # fmt: skip
+
                 def sink(r: dict[str, float]) -> None:
                     t_ns = round(r["t"] * 1e9)
                     rec.put(LOOP_TOPIC, int(r["seq"]), t_ns, r)
@@ -155,6 +185,8 @@ def _last_words(process: subprocess.Popen[bytes] | None, log: Path) -> str:
 
 
 def _reap(process: subprocess.Popen[bytes] | None, rec: Recorder) -> None:
+    """Wait for the spawned specimen (killing it after 10 s), note a failure, remove its copy
+    of the scenario."""
     if process is None:
         return
     try:
@@ -164,3 +196,4 @@ def _reap(process: subprocess.Popen[bytes] | None, rec: Recorder) -> None:
         code = process.wait()
     if code not in (0, None):
         rec.event(0, "specimen", f"specimen process exited with code {code}")
+    Path(process.args[4]).unlink(missing_ok=True)  # the copy written by _spawn_specimen

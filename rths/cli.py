@@ -8,8 +8,9 @@ Each sub-command lives in its own module under :mod:`rths.commands` and exposes:
 Modules there are discovered automatically, so adding a command never touches this file.  Command
 modules import their heavy dependencies inside ``run`` so that ``rths --help`` stays fast.
 
-Errors: any :class:`rths.errors.RTHSError` (bad scenario, bad data, bad parameter) becomes one line
-on stderr and exit code 2, with no traceback; argparse usage errors also exit with 2.
+Errors: any :class:`rths.errors.RTHSError` (bad scenario, bad data, bad parameter) or ``OSError``
+(a path that cannot be read or written) becomes one line on stderr and exit code 2, with no
+traceback; argparse usage errors also exit with 2.
 """
 
 from __future__ import annotations
@@ -51,6 +52,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.handler(args) or 0)
     except RTHSError as exc:
+        print(f"rths {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # a path that cannot be read or written: bad input, not a crash
         print(f"rths {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -26,8 +26,21 @@ import numpy as np
 
 from rths.errors import RTHSError, check_nonnegative, check_positive, check_positive_int
 
-__all__ = ["FreeRunning", "Pacer", "RealtimeOverrun", "TimingStats", "WallClock"]
+__all__ = [
+    "SWITCH_INTERVAL",
+    "FreeRunning",
+    "Pacer",
+    "RealtimeOverrun",
+    "TimingStats",
+    "WallClock",
+]
 
+
+#: GIL switch interval [s] while a loop over zenoh runs (coordinator and specimen process).
+#: CPython's default (5 ms) lets another thread keep the GIL for milliseconds while the loop
+#: thread waits -- which showed up as 5 ms p99 jitter at 1 kHz in real time, and slows every
+#: lockstep round trip; 50 µs bounds it.
+SWITCH_INTERVAL = 50e-6
 
 #: Default busy-wait margin before each deadline [µs] (see :class:`WallClock`).
 DEFAULT_SPIN_US = 150.0
@@ -171,10 +184,6 @@ class WallClock(Pacer):
             max_consecutive_overruns, "max_consecutive_overruns"
         )
         self._consecutive = 0
-
-    def deadline_ns(self, k: int) -> int:
-        """Scheduled start of step ``k`` on the pacer's clock [ns]."""
-        return self._t0 + k * self.dt_ns
 
     def wait(self, k: int) -> None:
         deadline = self._t0 + k * self.dt_ns

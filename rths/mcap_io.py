@@ -12,7 +12,7 @@ import json
 import math
 import os
 import struct
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -23,7 +23,8 @@ from mcap.stream_reader import StreamReader
 
 from rths.errors import DataError
 
-__all__ = ["is_complete", "list_topics", "read_metadata", "read_topic"]
+__all__ = [
+    "iter_messages","is_complete", "list_topics", "read_metadata", "read_topic"]
 
 _Record = Channel | Message | Metadata | Footer
 
@@ -70,6 +71,19 @@ def _records(path: str | os.PathLike[str]) -> Iterator[_Record]:
         raise DataError(f"'{p}' is not a readable MCAP log: {exc!r}") from None
     finally:
         stream.close()
+
+
+def iter_messages(
+    path: str | os.PathLike[str], topics: Iterable[str]
+) -> Iterator[tuple[str, int, bytes]]:
+    """``(topic, log_time_ns, data)`` of every message on ``topics``, in file order, stopping
+    quietly at a truncation (see :func:`_records`)."""
+    wanted, channels = set(topics), {}
+    for record in _records(path):
+        if isinstance(record, Channel):
+            channels[record.id] = record.topic
+        elif isinstance(record, Message) and channels.get(record.channel_id) in wanted:
+            yield channels[record.channel_id], record.log_time, record.data
 
 
 def is_complete(path: str | os.PathLike[str]) -> bool:

@@ -9,17 +9,14 @@ unchanged on a replay.  Pacing keeps the recorded
 
 from __future__ import annotations
 
-import heapq
 import json
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 
-from mcap.reader import make_reader
-
 from rths.codec import LogRecord
 from rths.errors import DataError
-from rths.mcap_io import list_topics, read_metadata
+from rths.mcap_io import iter_messages, list_topics, read_metadata
 from rths.transport import RunKeys, ZenohEndpoints, new_run_id, open_session
 
 __all__ = ["paced", "replay", "replay_records"]
@@ -27,21 +24,12 @@ __all__ = ["paced", "replay", "replay_records"]
 DEFAULT_TOPICS = ("rths/loop", "rths/specimen")
 
 
-def replay_records(path: Path, topics: Sequence[str]) -> Iterator[tuple[str, int, dict]]:
-    """``(topic, log_time_ns, message)`` of ``topics`` in log-time order."""
-    try:
-        f = open(path, "rb")  # noqa: SIM115 -- closed below
-    except OSError as exc:
-        raise DataError(f"cannot open MCAP log '{path}': {exc}") from None
-    with f:
-        reader = make_reader(f)
-        streams = []
-        for _, channel, message in reader.iter_messages(topics=list(topics), log_time_order=True):
-            streams.append((message.log_time, channel.topic, message.data))
-    heapq.heapify(streams)
-    while streams:
-        log_time, topic, data = heapq.heappop(streams)
-        yield topic, log_time, json.loads(data)
+def replay_records(path: Path, topics: Sequence[str]) -> list[tuple[str, int, dict]]:
+    """``(topic, log_time_ns, message)`` of ``topics`` in log-time order (a truncated log is read
+    up to its cut)."""
+    records = [(t, log_time, json.loads(data)) for t, log_time, data in iter_messages(path, topics)]
+    records.sort(key=lambda r: r[1])  # stable: streams stay in their own order at equal times
+    return records
 
 
 def paced(
@@ -89,6 +77,8 @@ def replay(
     wait
         Seconds to wait before publishing (for subscribers to connect).
     """
+    if not (speed > 0 and wait >= 0):
+        raise DataError(f"replay needs speed > 0 and wait >= 0; got speed={speed!r}, wait={wait!r}")
     available = list_topics(path)
     wanted = list(topics) if topics else [t for t in DEFAULT_TOPICS if t in available]
     missing = [t for t in wanted if t not in available]

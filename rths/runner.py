@@ -18,6 +18,7 @@ of what was recorded.
 
 from __future__ import annotations
 
+import re
 import sys
 import threading
 import time
@@ -29,8 +30,8 @@ from typing import Any
 import numpy as np
 
 from rths import __version__, build
-from rths.clocks import FreeRunning, Pacer, WallClock
-from rths.errors import DataError
+from rths.clocks import SWITCH_INTERVAL, FreeRunning, Pacer, WallClock
+from rths.errors import ConfigError, DataError, ParameterError, check_positive
 from rths.loop import InProcessLink, LinkSample, Loop, LoopResult
 from rths.metrics import TrackingSummary, summarize
 from rths.recording import LOOP_SCHEMA, LOOP_TOPIC, Recorder, RecordingSummary, object_schema
@@ -40,15 +41,10 @@ __all__ = ["RunOptions", "RunOutcome", "run_scenario"]
 
 SPECIMEN_TOPIC = "rths/specimen"
 
-#: GIL switch interval [s] while a loop over zenoh runs.  CPython's default (5 ms) lets the
-#: recorder thread keep the GIL for milliseconds while the loop thread waits -- which showed up as
-#: 5 ms p99 jitter at 1 kHz in real time, and slows every lockstep round trip; 50 µs bounds it.
-
 #: Extra delay [loop steps] the realtime link adds, which the compensator is told about: the
 #: free-running specimen picks a command up at its next tick (~1 step) and the loop uses the
 #: newest measurement, ~1 step old on average (the logged ``age``).
 REALTIME_LINK_DELAY_STEPS = 2.0
-REALTIME_SWITCH_INTERVAL = 50e-6
 
 #: Schema of ``rths/specimen``: the emulated lab's truth each step (plus the actuator's and the
 #: specimen's internal states as ``actuator.<name>`` / ``actuator.specimen.<name>``, SI).
@@ -193,14 +189,16 @@ class _TruthLink(InProcessLink):
         return sample
 
 
-def _metadata(scn: Scenario, run_id: str, clock: str, comp_kind: str) -> dict[str, dict[str, str]]:
+def _metadata(
+    scn: Scenario, run_id: str, clock: str, comp_kind: str, seed: int
+) -> dict[str, dict[str, str]]:
     s = scn.scaling
     return {
         "scenario": {"path": scn.source, "text": scn.text, "name": scn.run.name},
         "rths": {"version": __version__, "run_id": run_id, "python": sys.version.split()[0]},
         "run": {
             "clock": clock, "rate_hz": repr(scn.run.rate), "dt_s": repr(scn.run.dt),
-            "steps": str(scn.run.steps), "seed": str(scn.run.seed), "compensator": comp_kind,
+            "steps": str(scn.run.steps), "seed": str(seed), "compensator": comp_kind,
             "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
         },  # fmt: skip
         "scaling": {
@@ -217,6 +215,18 @@ def _metadata(scn: Scenario, run_id: str, clock: str, comp_kind: str) -> dict[st
     }
 
 
+_RUN_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
+
+
+def _check_run_id(run_id: str) -> None:
+    """The rule of :class:`rths.transport.RunKeys` (without importing zenoh for ``fast``)."""
+    if not isinstance(run_id, str) or not _RUN_ID.fullmatch(run_id):
+        raise ParameterError(
+            f"run id must be 1-64 characters of [A-Za-z0-9_.-] starting with a letter or digit; "
+            f"got {run_id!r}"
+        )
+
+
 def _new_run_id(name: str) -> str:
     from rths.transport import new_run_id
 
@@ -230,10 +240,12 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
     clock = opts.clock or scn.run.clock
     comp_kind = opts.compensator or scn.compensator_kind
     run_id = _new_run_id(scn.run.name) if opts.run_id is None else opts.run_id
-    if clock != "fast":
-        from rths.transport import RunKeys
-
-        RunKeys(run_id)  # refuse a bad id before building anything
+    _check_run_id(run_id)  # before anything is built: it names the keys and the log file
+    seed = scn.run.seed if opts.seed is None else opts.seed
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ConfigError(f"seed must be an integer >= 0; got {seed!r}")
+    check_positive(opts.ready_timeout, "ready timeout")
+    check_positive(opts.step_timeout, "step timeout")
     path = opts.out or Path("runs") / f"{run_id}.mcap"
     path.parent.mkdir(parents=True, exist_ok=True)
     n, dt = scn.run.steps, scn.run.dt
@@ -246,7 +258,7 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
     progress = _Progress(opts.progress, n) if opts.progress else None
     topics = {LOOP_TOPIC: LOOP_SCHEMA, SPECIMEN_TOPIC: SPECIMEN_SCHEMA}
     outcome = RunOutcome(path, run_id, clock, LoopResult(0, pacer.stats()), None)
-    with Recorder(path, topics=topics, metadata=_metadata(scn, run_id, clock, comp_kind)) as rec:
+    with Recorder(path, topics=topics, metadata=_metadata(scn, run_id, clock, comp_kind, seed)) as rec:
         rec.event(0, "start", f"run {run_id}: {scn.run.name}, clock {clock}, {n} steps")
 
         def make_loop(link: Any, sink: Callable[[dict[str, float]], None]) -> Loop:
@@ -266,11 +278,11 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
         if progress is not None:
             progress.start()
         switch = sys.getswitchinterval()
-        if clock != "fast":  # see REALTIME_SWITCH_INTERVAL
-            sys.setswitchinterval(REALTIME_SWITCH_INTERVAL)
+        if clock != "fast":  # see rths.clocks.SWITCH_INTERVAL
+            sys.setswitchinterval(SWITCH_INTERVAL)
         try:
             if clock == "fast":
-                lab = build.lab(scn, opts.seed)
+                lab = build.lab(scn, seed)
                 loop = make_loop(
                     _TruthLink(lab, rec),
                     lambda r: rec.put(LOOP_TOPIC, int(r["seq"]), round(r["t"] * 1e9), r),
@@ -282,6 +294,7 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
                 outcome.result = run_over_zenoh(
                     scn, opts, clock, run_id, rec, make_loop, on_progress,
                     path.with_suffix(".specimen.log"), lambda: round(collector.count * dt * 1e9),
+                    seed,
                 )  # fmt: skip
         finally:
             sys.setswitchinterval(switch)

@@ -23,8 +23,8 @@ import traceback
 
 from plants.lab import EmulatedLab
 from rths import build
-from rths.clocks import WallClock
-from rths.codec import Command, Measurement
+from rths.clocks import SWITCH_INTERVAL, WallClock
+from rths.codec import Measurement
 from rths.errors import TransportError
 from rths.scenario import Scenario
 from rths.transport import (
@@ -54,6 +54,7 @@ def serve(
     *,
     ready_timeout: float = 30.0,
     log_state: bool = True,
+    seed: int | None = None,
 ) -> int:
     """Serve the scenario's emulated lab until stopped; return the number of steps served.
 
@@ -71,6 +72,8 @@ def serve(
         Longest wait [s] for the coordinator.
     log_state
         Publish the lab's truth every step on the ``specimen`` log stream.
+    seed
+        Noise seed of the lab (default: the scenario's ``[run] seed``).
 
     Raises
     ------
@@ -79,18 +82,25 @@ def serve(
     """
     if clock not in ("lockstep", "realtime"):
         raise TransportError(f"the specimen process serves 'lockstep' or 'realtime'; got {clock!r}")
-    lab = build.lab(scn)
+    lab = build.lab(scn, seed)
     _warm_up(lab)
     keys = RunKeys(run_id)
-    with open_session(endpoints) as session, BackgroundPublisher(session, keys.specimen_state) as log:
+    with open_session(endpoints) as session, BackgroundPublisher(
+        session, keys.specimen_state
+    ) as log, BackgroundPublisher(session, keys.log("specimen/summary")) as summary:
         try:
             if clock == "lockstep":
-                return _lockstep(lab, session, keys, endpoints, log, ready_timeout, log_state)
-            return _realtime(scn, lab, session, keys, endpoints, log, ready_timeout, log_state)
+                served = _lockstep(lab, session, keys, endpoints, log, ready_timeout, log_state)
+            else:
+                served = _realtime(scn, lab, session, keys, endpoints, log, ready_timeout,
+                                   log_state, summary)  # fmt: skip
         except Exception as exc:
-            log.put(0, {"error": f"specimen process failed: {exc!r}",
-                        "traceback": traceback.format_exc()})  # fmt: skip
+            summary.put(round(lab.time * 1e9), {"error": f"specimen process failed: {exc!r}",
+                                                "traceback": traceback.format_exc()})  # fmt: skip
             raise
+        summary.put(round(lab.time * 1e9), {"steps": served, **{
+            f"saturated_{name}": count for name, count in lab.saturation_counts.items()}})
+        return served
 
 
 def _lockstep(lab, session, keys, endpoints, log, ready_timeout, log_state) -> int:  # noqa: ANN001
@@ -98,18 +108,22 @@ def _lockstep(lab, session, keys, endpoints, log, ready_timeout, log_state) -> i
         session, keys, "specimen", endpoints.describe()
     ) as presence:
         presence.wait_for_peer(ready_timeout, [link.publisher])
-        sys.setswitchinterval(50e-6)  # as the coordinator (rths.runner.REALTIME_SWITCH_INTERVAL)
-
-        def respond(command: Command) -> Measurement:
+        sys.setswitchinterval(SWITCH_INTERVAL)
+        served = 0
+        while not presence.stop.is_set():
+            command = link.receive(0.05)
+            if command is None:
+                continue
             displacement, force = lab.step(command.command)
-            if log_state:
+            link.reply(Measurement(command.seq, command.t_ns, displacement, force,
+                                   time.monotonic_ns()))  # fmt: skip
+            if log_state:  # after the reply: logging is off the round trip
                 log.put(command.t_ns, lab.truth())
-            return Measurement(command.seq, command.t_ns, displacement, force, time.monotonic_ns())
+            served += 1
+        return served
 
-        return link.serve(respond, presence.stop)
 
-
-def _realtime(scn, lab, session, keys, endpoints, log, ready_timeout, log_state) -> int:  # noqa: ANN001
+def _realtime(scn, lab, session, keys, endpoints, log, ready_timeout, log_state, summary) -> int:  # noqa: ANN001, PLR0913
     dt = scn.run.dt
     dt_ns = round(dt * 1e9)
     # run up to 10 s past the scenario's end if the coordinator is late to stop us
@@ -118,11 +132,11 @@ def _realtime(scn, lab, session, keys, endpoints, log, ready_timeout, log_state)
         session, keys, "specimen", endpoints.describe()
     ) as presence:
         presence.wait_for_peer(ready_timeout, [link.publisher])
-        sys.setswitchinterval(50e-6)  # as the coordinator (rths.runner.REALTIME_SWITCH_INTERVAL)
+        sys.setswitchinterval(SWITCH_INTERVAL)
         pacer = WallClock(dt, horizon)
         command = 0.0
         pacer.start()
-        k = 0
+        served = 0
         for k in range(horizon):
             if presence.stop.is_set():
                 break
@@ -136,7 +150,7 @@ def _realtime(scn, lab, session, keys, endpoints, log, ready_timeout, log_state)
             if log_state:
                 log.put(t_ns, lab.truth())
             pacer.done(k)
+            served = k + 1
         stats = pacer.stats()
-        log.put((k + 1) * dt_ns, {"overruns": stats.overruns, "steps": stats.steps,
-                                  "jitter_p99": stats.jitter_p99})  # fmt: skip
-        return k
+        summary.put(served * dt_ns, {"overruns": stats.overruns, "jitter_p99": stats.jitter_p99})
+        return served

@@ -134,3 +134,56 @@ def test_clipped_force_is_counted_and_reported(tmp_path):
         reader = make_reader(f)
         events = [json.loads(m.data) for _, _, m in reader.iter_messages(topics=["rths/events"])]
     assert any(e["kind"] == "saturation" for e in events)
+
+
+def test_seed_reaches_the_specimen_process_and_the_log(tmp_path):
+    """--seed changes the lab's noise on every clock, lockstep reproduces fast with the same
+    seed, and the log records the seed actually used."""
+    scn = parse_scenario(short(0.25))
+    fast7 = run_scenario(scn, RunOptions(clock="fast", out=tmp_path / "f7.mcap", seed=7))
+    lock7 = run_scenario(scn, RunOptions(out=tmp_path / "l7.mcap", seed=7))
+    fast0 = run_scenario(scn, RunOptions(clock="fast", out=tmp_path / "f0.mcap"))
+    rows = {k: _plain_loop(tmp_path / f"{k}.mcap") for k in ("f7", "l7", "f0")}
+    measured = {k: [r["measured"] for r in v[0]] for k, v in rows.items()}
+    assert measured["f7"] == measured["l7"] != measured["f0"]
+    assert rows["l7"][1]["run"]["seed"] == "7" and rows["f0"][1]["run"]["seed"] == "2019"
+    assert fast7.result.steps == lock7.result.steps == fast0.result.steps
+
+
+def test_check_fails_a_run_that_stopped_early_or_was_cut_off(tmp_path, capsys):
+    scn_path = tmp_path / "s.toml"
+    scn_path.write_text(short(1.0, **{r"^stroke = 0.05": "stroke = 1e-4"}))
+    log = tmp_path / "stopped.mcap"
+    assert main(["run", str(scn_path), "--clock", "fast", "--out", str(log), "--no-progress"]) == 1
+    capsys.readouterr()
+    assert main(["check", str(log), "--max-rmse", "1000"]) == 1
+    assert "run stopped early" in capsys.readouterr().out
+    cut = tmp_path / "cut.mcap"
+    whole = _fast_log_bytes(tmp_path)
+    cut.write_bytes(whole[: int(0.6 * len(whole))])  # a crash mid-run: loop chunks, no footer
+    assert main(["check", str(cut), "--max-rmse", "1000"]) == 1
+    assert "log not finished" in capsys.readouterr().out
+
+
+def _fast_log_bytes(tmp_path) -> bytes:
+    scn_path = tmp_path / "whole.toml"
+    scn_path.write_text(short(1.0))
+    log = tmp_path / "whole.mcap"
+    assert main(["run", str(scn_path), "--clock", "fast", "--out", str(log), "--no-progress"]) == 0
+    return log.read_bytes()
+
+
+@pytest.mark.parametrize(
+    "argv, match",
+    [
+        (["--out", "/proc/no/such/dir/x.mcap"], "rths run: error:"),
+        (["--run-id", "../escape"], "run id must be"),
+        (["--seed", "-5"], "seed must be an integer >= 0"),
+    ],
+)
+def test_bad_run_options_are_one_line(argv, match, tmp_path, capsys):
+    scn_path = tmp_path / "s.toml"
+    scn_path.write_text(short(0.1))
+    assert main(["run", str(scn_path), "--clock", "fast", "--no-progress", *argv]) == 2
+    err = capsys.readouterr().err
+    assert match in err and err.count("\n") == 1 and "Traceback" not in err

@@ -1,7 +1,8 @@
 """``rths check run.mcap --max-rmse PCT``: gate a CI job on a run's synchronisation error.
 
-Exit codes: 0 the sync-subspace RMSE is within the bound (and the log has no gaps unless
-``--allow-gaps``); 1 it is not; 2 the log cannot be used (missing file, not an RTHS log).
+Exit codes: 0 the sync-subspace RMSE is within the bound and the run is whole (it ran all its
+steps, the log is finished, no sample is missing -- gaps are allowed with ``--allow-gaps``); 1 it
+is not; 2 the log cannot be used (missing file, not an RTHS log).
 """
 
 from __future__ import annotations
@@ -32,13 +33,16 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
+    import math
+
     from rths.errors import DataError
-    from rths.mcap_io import read_topic
+    from rths.mcap_io import is_complete, read_metadata, read_topic
     from rths.metrics import sync_subspace_rmse
 
-    if args.max_rmse <= 0:
+    if not (math.isfinite(args.max_rmse) and args.max_rmse > 0):
         raise DataError(f"--max-rmse must be a positive percentage; got {args.max_rmse!r}")
     loop = read_topic(args.log, "rths/loop")
+    meta = read_metadata(args.log)
     for name in ("t", "target", "measured"):
         if name not in loop:
             raise DataError(f"'{args.log}': topic rths/loop has no field {name!r}; "
@@ -49,8 +53,20 @@ def run(args: argparse.Namespace) -> int:
     if np.count_nonzero(keep) < 16:
         raise DataError(f"'{args.log}': fewer than 16 loop samples after t = {args.start} s")
     rmse = 100.0 * sync_subspace_rmse(loop["target"][keep], loop["measured"][keep])
-    ok = rmse <= args.max_rmse and (gaps == 0 or args.allow_gaps)
-    verdict = "PASS" if ok else "FAIL"
-    print(f"{verdict}: sync-subspace RMSE {rmse:.3f} % (bound {args.max_rmse:g} %), "
+    problems = []
+    if rmse > args.max_rmse:
+        problems.append(f"RMSE above {args.max_rmse:g} %")
+    if gaps and not args.allow_gaps:
+        problems.append(f"{gaps} missing samples")
+    stopped = meta.get("rths.summary", {}).get("stopped")
+    if stopped:
+        problems.append(f"run stopped early ({stopped})")
+    expected = meta.get("run", {}).get("steps")
+    if expected is not None and loop["t"].size + gaps < int(expected):
+        problems.append(f"{loop['t'].size} of {expected} steps recorded")
+    if not is_complete(args.log):
+        problems.append("log not finished (the run was cut off)")
+    verdict = "FAIL: " + "; ".join(problems) if problems else "PASS"
+    print(f"{verdict} -- sync-subspace RMSE {rmse:.3f} % (bound {args.max_rmse:g} %), "
           f"{int(np.count_nonzero(keep))} samples, {gaps} gaps -- {args.log}")  # fmt: skip
-    return 0 if ok else 1
+    return 1 if problems else 0

@@ -40,6 +40,8 @@ def run(args: argparse.Namespace) -> int:
 
     if not args.speed > 0:
         raise DataError(f"--speed must be positive; got {args.speed!r}")
+    if not args.wait >= 0:
+        raise DataError(f"--wait must be >= 0; got {args.wait!r}")
     listen = tuple(args.listen) or (() if args.connect else (DEFAULT_LISTEN,))
     endpoints = ZenohEndpoints(listen=listen, connect=tuple(args.connect))
     count = replay(args.log, endpoints, speed=args.speed, run_id=args.run_id, topics=args.topic,

@@ -23,6 +23,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    help="endpoint to listen on instead")  # fmt: skip
     p.add_argument("--clock", choices=("lockstep", "realtime"), default="lockstep")
     p.add_argument("--ready-timeout", type=float, default=30.0, metavar="S")
+    p.add_argument("--seed", type=int, help="noise seed (default: the scenario's; 'rths run' "
+                   "passes its own)")  # fmt: skip
     return p
 
 
@@ -36,5 +38,8 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("give the coordinator's endpoint with --connect (or --listen)")
     scn = load_scenario(args.scenario)
     endpoints = ZenohEndpoints(listen=tuple(args.listen), connect=tuple(args.connect))
-    serve(scn, args.run_id, endpoints, args.clock, ready_timeout=args.ready_timeout)
+    if args.seed is not None and args.seed < 0:
+        raise ConfigError(f"--seed must be >= 0; got {args.seed}")
+    serve(scn, args.run_id, endpoints, args.clock, ready_timeout=args.ready_timeout,
+          seed=args.seed)  # fmt: skip
     return 0
