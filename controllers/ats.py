@@ -35,9 +35,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter
 
 from controllers.base import Compensator
+from rths.filters import LowPass
 from plants.base import Kinematics
 from rths.errors import ParameterError, check_finite, check_nonnegative, check_positive
 
@@ -106,22 +106,6 @@ class ATSSettings:
             )
 
 
-class _Biquads:
-    """Causal second-order-section filter advanced one sample at a time (direct form II T)."""
-
-    def __init__(self, sos: np.ndarray) -> None:
-        self._sos = [tuple(map(float, row)) for row in sos]
-        self._z = [[0.0, 0.0] for _ in self._sos]
-
-    def __call__(self, x: float) -> float:
-        for (b0, b1, b2, _, a1, a2), z in zip(self._sos, self._z):
-            y = b0 * x + z[0]
-            z[0] = b1 * x - a1 * y + z[1]
-            z[1] = b2 * x - a2 * y
-            x = y
-        return x
-
-
 class AdaptiveTimeSeries(Compensator):
     """ATS compensator ``u = a0 r + a1 r' + a2 r''`` with online least squares (see module doc).
 
@@ -151,9 +135,6 @@ class AdaptiveTimeSeries(Compensator):
                 f"ATS cutoff_hz must be below the Nyquist frequency {0.5 / self.dt}; "
                 f"got {s.cutoff_hz!r}"
             )
-        self._sos = None
-        if s.cutoff_hz is not None:
-            self._sos = butter(s.filter_order, s.cutoff_hz, fs=1.0 / self.dt, output="sos")
         self._lo = np.array([b[0] for b in s.bounds])
         self._hi = np.array([b[1] for b in s.bounds])
         self._step_limit = np.asarray(s.max_rate) * s.update_every * self.dt
@@ -168,8 +149,9 @@ class AdaptiveTimeSeries(Compensator):
         self._count = 0
         self._updates = 0
         self._u_prev = 0.0
-        self._filt_u = None if self._sos is None else _Biquads(self._sos)
-        self._filt_y = None if self._sos is None else _Biquads(self._sos)
+        s = self.settings  # the same Butterworth on command and measurement: its lag cancels
+        self._filt_u = None if s.cutoff_hz is None else LowPass(s.cutoff_hz, self.dt, s.filter_order)
+        self._filt_y = None if s.cutoff_hz is None else LowPass(s.cutoff_hz, self.dt, s.filter_order)
 
     def _record(self, u_prev: float, y: float) -> None:
         if self._filt_u is not None:

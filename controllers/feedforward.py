@@ -41,7 +41,6 @@ __all__ = [
     "LowOrderModel",
     "fit_low_order",
     "low_order_from_nominal",
-    "static_gain_inverse",
 ]
 
 #: Highest model order the feedforward inverts (derivatives beyond the 5th from differences of
@@ -267,9 +266,3 @@ class FeedforwardCompensator(Compensator):
     def state(self) -> dict[str, float]:
         """``feedforward`` command [m] of the last step."""
         return {"feedforward": self._u}
-
-
-def static_gain_inverse(nominal: object) -> float:
-    """``1/G(0)`` of the nominal model (command per unit target, m/m)."""
-    num, den = siso_polynomials(nominal)
-    return 1.0 / dc_gain(num, den)

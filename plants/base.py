@@ -69,8 +69,9 @@ class Substructure(ABC):
       force ``F`` [N] (prototype scale) acting on the interface for that step (held over the
       step), and returns the interface kinematics at ``t_{k+1}``.  When the substructure carries a
       nominal interface device (``device_force``), ``F`` is the *correction* on top of it.
-    * ``predict(F)`` returns what ``step(F)`` would return without changing any state; the
-      feedforward compensator uses it to look one step further ahead.
+    * ``predict(F)`` returns what ``step(F)`` would return without changing any state (for
+      look-ahead compensators and checks; the runner also calls it once before the clock starts
+      so that compiled kernels are built outside the timed loop).
     * ``reset()`` returns to the initial state (rest, ``t = 0``).
     """
 

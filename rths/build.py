@@ -47,14 +47,19 @@ from rths.filters import LowPass
 from rths.scenario import CableSpec, Scenario, TMDISpec
 
 __all__ = [
+    "actuator",
     "cable",
-    "substructure",
+    "cable_properties",
     "compensator",
+    "converters",
     "correction_filter",
     "lab",
+    "model_stiffness",
     "nominal_device",
     "nominal_plant",
     "specimen",
+    "substructure",
+    "tmdi",
 ]
 
 _ACTUATOR_PRESETS = {"benchmark": BENCHMARK, "heavy_inertial_load": HEAVY_INERTIAL_LOAD}

@@ -9,7 +9,7 @@ alone.  Layouts (byte offsets)::
     Measurement  (40 bytes)  0 seq u64 | 8 t_ns i64 | 16 displacement f64 | 24 force f64
                              | 32 sample_ns i64
 
-``seq`` is the loop step ``k``; ``t_ns`` is the simulated time of the step [ns] (``k * dt``);
+``seq`` is the loop step ``k``; ``t_ns`` is the simulated time the step ends at [ns] (``(k + 1) * dt``);
 ``sample_ns`` is the specimen's monotonic clock [ns] when it sampled the measurement, so the
 realtime clock can tell how old the newest sample is.
 

@@ -22,6 +22,7 @@ __all__ = [
     "check_nonnegative",
     "check_positive",
     "check_positive_int",
+    "format_choices",
 ]
 
 

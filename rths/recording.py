@@ -9,8 +9,9 @@ file -- footer and summary -- when the recorder is closed, also when the ``with`
 
 Log contract (read it with ``mcap.reader.make_reader``, no project code needed):
 
-* every message is UTF-8 JSON; its channel's schema (encoding ``jsonschema``) documents each
-  field with its unit; ``Message.sequence`` is the producer's step counter (mod 2**32);
+* every message is UTF-8 JSON; its channel's schema (encoding ``jsonschema``) documents the
+  required fields with their units (further fields, e.g. ``ctrl_*`` and ``sub_*`` on
+  ``rths/loop``, are allowed and described in the README's log contract); ``Message.sequence`` is the producer's step counter (mod 2**32);
   ``log_time`` and ``publish_time`` are simulated time [ns] unless the producer passed another
   ``publish_time``;
 * ``rths/loop`` (:data:`LOOP_SCHEMA`) carries one record per loop step; ``rths/events``

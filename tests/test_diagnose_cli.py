@@ -85,3 +85,16 @@ def test_errors_are_one_line_with_exit_code_2(case_dir, tmp_path, capsys):
                     "non-uniform sampling")  # fmt: skip
     _one_line_error(capsys, _args(case_dir, "--effects", "wobble"), "unknown effect 'wobble'")
     _one_line_error(capsys, _args(case_dir, "--cutoff", "300"), "smoothing cutoff must lie in")
+
+
+def test_non_positive_cutoff_is_one_line(tmp_path, capsys):
+    from rths.cli import main
+
+    nominal = tmp_path / "n.toml"
+    nominal.write_text("[actuator]\nnum = [1.0]\nden = [0.01, 1.0]\n[specimen]\ninertance = 1.0\n")
+    csv = tmp_path / "r.csv"
+    csv.write_text("time,command,measured,force\n" + "".join(
+        f"{k / 1000},{0.0},{0.0},{0.0}\n" for k in range(3000)))  # fmt: skip
+    assert main(["diagnose", str(csv), "--nominal", str(nominal), "--cutoff", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "smoothing cutoff [Hz] must be positive" in err and "Traceback" not in err

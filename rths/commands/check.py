@@ -14,6 +14,7 @@ __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Register ``rths check``."""
     p = subparsers.add_parser(
         "check",
         help="exit non-zero when a run's sync-subspace RMSE exceeds a bound (for CI)",
@@ -31,6 +32,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 def run(args: argparse.Namespace) -> int:
+    """Compare the log's sync-subspace RMSE with the bound; 0 pass, 1 fail."""
     import numpy as np
 
     import math

@@ -12,6 +12,7 @@ DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Register ``rths replay``."""
     p = subparsers.add_parser(
         "replay",
         help="republish a recorded run on zenoh at its recorded pace",
@@ -34,6 +35,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 def run(args: argparse.Namespace) -> int:
+    """Republish the log; returns 0."""
     from rths.errors import DataError
     from rths.replay import replay
     from rths.transport import ZenohEndpoints

@@ -9,6 +9,7 @@ __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Register ``rths report``."""
     p = subparsers.add_parser(
         "report",
         help="write metrics.json and figures (time history, sync subspace, RTHS vs mock)",
@@ -24,6 +25,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 def run(args: argparse.Namespace) -> int:
+    """Write metrics.json and the figures; returns 0."""
     from rths.errors import DataError
     from rths.report import write_report
 

@@ -11,6 +11,7 @@ __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Register ``rths run``."""
     p = subparsers.add_parser(
         "run",
         help="run a scenario (RTHS over zenoh, or in process) and record it to MCAP",
@@ -43,6 +44,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run the scenario (or its Monte Carlo); 0 when it ran to the end, 1 if stopped early."""
     from rths.scenario import load_scenario
 
     scn = load_scenario(args.scenario)

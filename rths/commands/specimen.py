@@ -9,6 +9,7 @@ __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Register ``rths specimen``."""
     p = subparsers.add_parser(
         "specimen",
         help="serve the emulated lab (actuator + specimen + converters) over zenoh",
@@ -29,6 +30,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 def run(args: argparse.Namespace) -> int:
+    """Serve the lab until the coordinator stops; returns 0."""
     from rths.errors import ConfigError
     from rths.scenario import load_scenario
     from rths.specimen_process import serve

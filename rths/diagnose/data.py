@@ -119,7 +119,7 @@ def _check_arrays(name: str, time: NDArray, columns: dict[str, NDArray]) -> floa
             f"{worst} and {worst + 1} (t = {time[worst]!r} s) departs from the median step "
             f"{dt!r} s by more than {SAMPLING_TOLERANCE:.0%}"
         )
-    if time.size * dt < MIN_DURATION:
+    if time.size * dt < MIN_DURATION - 0.5 * dt:  # half a sample: t is rounded to whole ns
         raise DataError(
             f"{name}: record too short for a diagnosis: {time.size * dt:.3g} s; need at least "
             f"{MIN_DURATION} s"

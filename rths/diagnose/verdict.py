@@ -29,7 +29,7 @@ from rths.diagnose.identify import Fit, fit_model, noise_floor
 from rths.diagnose.nominal import NominalModel
 from rths.diagnose.residuals import FLOOR_MARGIN, Decomposition, decompose
 from rths.diagnose.structure import StructureGap, structure_gap
-from rths.errors import ParameterError, format_choices
+from rths.errors import ParameterError, check_positive, format_choices
 
 __all__ = [
     "DRIVES",
@@ -79,6 +79,7 @@ class Options:
     drive: str = "auto"
 
     def __post_init__(self) -> None:
+        check_positive(self.cutoff, "specimen smoothing cutoff [Hz]")
         if self.drive not in DRIVES:
             raise ParameterError(f"drive must be one of {format_choices(DRIVES)}; got "
                                  f"{self.drive!r}")  # fmt: skip
