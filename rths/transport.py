@@ -30,8 +30,10 @@ so one thread wake-up per message instead of two for a Python callback feeding a
 benchmark runs on a loaded 2-core machine; a bare FifoChannel without the timeout machinery:
 92 / 147 µs).  ``recv()`` cannot time out, so a watchdog thread
 wakes an overdue wait with a session-local alarm sample.  The realtime receive side
-(:class:`Mailbox`) is a direct callback (``indirect=False``, no extra Python thread) that
-stamps each arrival, so the loop can read the newest sample and its age without blocking.
+(:class:`Mailbox`) is a FIFO channel too, drained with ``try_recv`` when the loop reads it: no
+Python callback per message competes with the loop for the GIL.  The loop's logged measurement
+``age`` is the coordinator's monotonic clock minus the specimen's sample stamp, so it is exact
+when both processes run on one host (the default) and meaningless across hosts.
 """
 
 from __future__ import annotations
