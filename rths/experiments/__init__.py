@@ -1,0 +1,1 @@
+"""Experiments built on the framework: benchmark reproductions and comparisons."""
