@@ -37,9 +37,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from controllers.base import Compensator
-from rths.filters import LowPass
+from rths.core.filters import LowPass
 from plants.base import Kinematics
-from rths.errors import ParameterError, check_finite, check_nonnegative, check_positive
+from rths.core.errors import ParameterError, check_finite, check_nonnegative, check_positive
 
 __all__ = ["ATSSettings", "AdaptiveTimeSeries"]
 

@@ -15,7 +15,7 @@ from abc import ABC, abstractmethod
 from typing import ClassVar
 
 from plants.base import Kinematics
-from rths.errors import ParameterError, check_positive
+from rths.core.errors import ParameterError, check_positive
 
 __all__ = ["Compensator"]
 

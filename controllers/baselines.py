@@ -11,7 +11,7 @@ import numpy as np
 
 from controllers.base import Compensator
 from plants.base import Kinematics
-from rths.errors import ParameterError, check_nonnegative, check_positive_int
+from rths.core.errors import ParameterError, check_nonnegative, check_positive_int
 
 __all__ = ["NoCompensation", "PolynomialExtrapolation", "extrapolation_weights"]
 

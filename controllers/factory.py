@@ -43,7 +43,7 @@ from controllers.feedforward import (
 )
 from controllers.ff_lqg import FFLQGCompensator
 from controllers.lqg import LQGCompensator, LQGWeights, design_lqg
-from rths.errors import ParameterError, check_nonnegative, format_choices
+from rths.core.errors import ParameterError, check_nonnegative, format_choices
 
 __all__ = ["KINDS", "make_compensator"]
 

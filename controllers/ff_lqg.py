@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from controllers.feedforward import FeedforwardCompensator
 from controllers.lqg import LQGCompensator, LQGDesign
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 __all__ = ["FFLQGCompensator"]
 

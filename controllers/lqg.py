@@ -42,7 +42,7 @@ from controllers._lti import FloatArray, balanced_realization, dc_gain, siso_pol
 from controllers.base import Compensator
 from controllers.feedforward import FeedforwardCompensator
 from plants.base import Kinematics
-from rths.errors import ParameterError, check_nonnegative, check_positive, check_positive_int
+from rths.core.errors import ParameterError, check_nonnegative, check_positive, check_positive_int
 
 __all__ = ["LQGCompensator", "LQGDesign", "LQGWeights", "design_lqg", "discrete_nominal"]
 

@@ -1,7 +1,7 @@
 """Interfaces shared by every plant: numerical substructures, specimens and actuators.
 
 A plant is a fixed-step model of a physical thing.  It knows nothing of zenoh, MCAP, clocks or the
-loop: the loop (``rths.loop``) holds plants through these three interfaces only, so a new damper
+loop: the loop (``rths.runtime.loop``) holds plants through these three interfaces only, so a new damper
 model or a new structure is one new module that subclasses one of them.
 
 Time alignment used throughout (loop step ``k`` covers ``[t_k, t_k+1]``)::
@@ -28,7 +28,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rths.errors import ParameterError, check_positive
+from rths.core.errors import ParameterError, check_positive
 
 __all__ = ["Actuator", "Kinematics", "Specimen", "Substructure", "drive"]
 
@@ -111,7 +111,7 @@ class Substructure(ABC):
 
         The loop feeds back only the correction ``measured force - device_force``: the nominal
         device is integrated with the structure (unconditionally stable) and the physical
-        specimen supplies its departure from it (see :mod:`rths.loop`).
+        specimen supplies its departure from it (see :mod:`rths.runtime.loop`).
         """
         return 0.0
 

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from plants.base import Actuator, Kinematics
-from rths.errors import (
+from rths.core.errors import (
     ParameterError,
     check_finite,
     check_nonnegative,

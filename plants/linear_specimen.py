@@ -29,7 +29,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from plants.base import Specimen
-from rths.errors import check_nonnegative, check_positive
+from rths.core.errors import check_nonnegative, check_positive
 
 __all__ = ["BenchmarkSpecimenParameters", "LinearSpecimen", "benchmark_specimen"]
 

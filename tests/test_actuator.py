@@ -1,4 +1,4 @@
-"""Oracles for plants.actuator: vRTHS benchmark plant, CSI, Delta-P preset, delay, rate limit."""
+"""Oracles for plants.actuator.models: vRTHS benchmark plant, CSI, Delta-P preset, delay, rate limit."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from numpy.typing import ArrayLike, NDArray
 
-from plants.actuator import (
+from plants.actuator.models import (
     BENCHMARK,
     HEAVY_INERTIAL_LOAD,
     BenchmarkParameters,
@@ -22,9 +22,9 @@ from plants.actuator import (
     rate_limited,
 )
 from plants.base import Actuator, Specimen
-from plants.imd import IMDParameters, InternalStiffnessIMD
+from plants.imd.models import IMDParameters, InternalStiffnessIMD
 from plants.linear_specimen import LinearSpecimen, benchmark_specimen
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 FloatArray = NDArray[np.float64]
 
@@ -230,7 +230,7 @@ def test_heavy_preset_with_series_imd_steps_like_its_linear_model() -> None:
 
 
 def test_heavy_preset_drives_the_type_ii_imd_model() -> None:
-    # plants.imd's S0 Eq.12 model (RK4 flywheel, amplitude-law damping S0 Eq.18) behind the
+    # plants.imd.models's S0 Eq.12 model (RK4 flywheel, amplitude-law damping S0 Eq.18) behind the
     # heavy preset: steady state as the linear model with the damping the IMD settled on
     imd = InternalStiffnessIMD(IMDParameters.preset("type_ii"))
     act = ServoHydraulicActuator(imd, DT, HEAVY_INERTIAL_LOAD)
@@ -554,7 +554,7 @@ def test_mts_identified_preset_reproduces_its_documented_delays():
     provenance states: 26.6 ms at 1 Hz and 19.5 ms at 10 Hz (rounded to 0.1 ms), DC 1.0143."""
     import control as ct
 
-    from plants.actuator import MTS_IDENTIFIED
+    from plants.actuator.models import MTS_IDENTIFIED
 
     g = ct.tf(list(MTS_IDENTIFIED.num), list(MTS_IDENTIFIED.den))
     assert ct.dcgain(g) == pytest.approx(1.0143, rel=1e-12)

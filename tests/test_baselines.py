@@ -11,7 +11,7 @@ from controllers.ats import ATSSettings, AdaptiveTimeSeries
 from controllers.baselines import NoCompensation, PolynomialExtrapolation, extrapolation_weights
 from controllers.base import Compensator
 from plants.base import Kinematics
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 DT = 1.0 / 4096.0
 

@@ -7,9 +7,9 @@ import pytest
 import scipy.integrate as si
 import scipy.linalg as sla
 
-from plants._cable_device import SeriesCondensation, augmented_matrices
-from plants._cable_fe import Tridiagonal, mesh_nodes, sine_load_shape
-from plants.cable import (
+from plants.cable.device import SeriesCondensation, augmented_matrices
+from plants.cable.fe import Tridiagonal, mesh_nodes, sine_load_shape
+from plants.cable.model import (
     Cable,
     CableProperties,
     DistributedLoad,
@@ -24,7 +24,7 @@ from plants.cable import (
     physical_damper,
     physical_stiffness,
 )
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 PROPS = CableProperties(length=100.0, tension=1.0e6, mass_per_length=50.0)  # c = 141 m/s, f1 = 0.71 Hz
 
@@ -326,8 +326,8 @@ def test_forced_response_matches_the_modal_closed_form(ratio):
 def test_mock_rths_with_an_internal_imd_follows_its_complex_mode():
     # Non-classical damping (IMD inside the model, seed optimum): u(t) = Re(phi exp(lam t)) from the
     # state-space eigenproblem; Newmark-AA must give Re(phi z^k), z = (1 + lam h/2)/(1 - lam h/2),
-    # and lam L/c must be the normalised root of plants.cable_damper for the same mesh.
-    from plants.cable_damper import fe_roots
+    # and lam L/c must be the normalised root of plants.cable.frequency_equation for the same mesh.
+    from plants.cable.frequency_equation import fe_roots
 
     n_el, h = 40, 0.01
     damper = PointDamper(*physical_damper(PROPS, 0.53, 0.75))

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import scipy.optimize as so
 
-import plants.cable_damper as cd_module
-from plants.cable import (
+import plants.cable.frequency_equation as cd_module
+from plants.cable.model import (
     CableProperties,
     InterfaceDevice,
     PointDamper,
@@ -17,7 +17,7 @@ from plants.cable import (
     physical_damper,
     physical_stiffness,
 )
-from plants.cable_damper import (
+from plants.cable.frequency_equation import (
     DamperRoot,
     asymptotic_damping,
     device_impedance,
@@ -26,7 +26,7 @@ from plants.cable_damper import (
     frequency_function,
     normalised_impedance,
 )
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 X_D = 0.02  # seed RTHS damper position (S0 §5.3)
 C_VISCOUS = 1.0 / (math.pi**2 * X_D)  # kappa = n pi^2 c_d x_d = 1 for n = 1

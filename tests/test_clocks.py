@@ -2,8 +2,8 @@
 
 import pytest
 
-from rths.clocks import FreeRunning, RealtimeOverrun, WallClock
-from rths.errors import ParameterError
+from rths.runtime.clocks import FreeRunning, RealtimeOverrun, WallClock
+from rths.core.errors import ParameterError
 
 
 class FakeClock:

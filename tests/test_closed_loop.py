@@ -15,7 +15,7 @@ from controllers.feedforward import FeedforwardCompensator
 from controllers.ff_lqg import FFLQGCompensator
 from controllers.lqg import LQGCompensator
 from plants.base import Kinematics
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 DT = 1.0 / 4096.0
 NOISE = 2.0e-5  # sensor noise RMS [m], 0.6 % of the 3.2 mm target RMS

@@ -14,10 +14,10 @@ import pytest
 from _scenarios import short
 from mcap.reader import make_reader
 
-from rths.errors import TransportError
-from rths.runner import RunOptions, run_scenario
-from rths.scenario import parse_scenario
-from rths.transport import loopback_endpoint
+from rths.core.errors import TransportError
+from rths.session.runner import RunOptions, run_scenario
+from rths.config.scenario import parse_scenario
+from rths.wire.transport import loopback_endpoint
 
 
 def test_killed_specimen_leaves_a_finished_readable_log(tmp_path):

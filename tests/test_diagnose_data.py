@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from plants.actuator import MTS_IDENTIFIED
+from plants.actuator.models import MTS_IDENTIFIED
 from rths.diagnose.data import MIN_DURATION, load_record, read_csv, write_csv
 from rths.diagnose.nominal import (
     ActuatorNominal,
@@ -17,7 +17,7 @@ from rths.diagnose.nominal import (
     nominal_toml,
     parse_nominal,
 )
-from rths.errors import ConfigError, DataError, ParameterError
+from rths.core.errors import ConfigError, DataError, ParameterError
 
 DT = 1.0 / 256.0
 
@@ -100,7 +100,7 @@ def test_write_csv_rejects_bad_columns(tmp_path):
 
 
 def test_mcap_log_is_read_from_rths_loop(tmp_path):
-    from rths.recording import LOOP_TOPIC, Recorder
+    from rths.log.recorder import LOOP_TOPIC, Recorder
 
     t, u, x, f = _columns()
     path = tmp_path / "run.mcap"

@@ -17,7 +17,7 @@ from controllers.feedforward import (
     low_order_from_nominal,
 )
 from plants.base import Kinematics
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 DT = 1.0 / 4096.0
 FREQS = (1.0, 2.0, 3.0, 4.0, 5.0)

@@ -1,4 +1,4 @@
-"""Oracles for rths.frf: steady-state amplitudes and S1 Eq.7 FRFs from stepped-sine records."""
+"""Oracles for rths.experiments.s1_shake_table.frf: steady-state amplitudes and S1 Eq.7 FRFs from stepped-sine records."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from plants.tmdi import EQ7_QUANTITIES, linear_frf, s1_configuration
-from rths.errors import ParameterError
-from rths.frf import (
+from plants.tmdi.structure import EQ7_QUANTITIES, linear_frf, s1_configuration
+from rths.core.errors import ParameterError
+from rths.experiments.s1_shake_table.frf import (
     FRF,
     Resonance,
     estimate_frf,
@@ -19,7 +19,7 @@ from rths.frf import (
     steady_state_amplitude,
     steady_state_windows,
 )
-from rths.sweep import IdealTable, SteppedSine, command_amplitudes, sweep_structure
+from rths.experiments.s1_shake_table.sweep import IdealTable, SteppedSine, command_amplitudes, sweep_structure
 
 DT = 1e-3
 

@@ -1,4 +1,4 @@
-"""Oracles for the HDRB isolator of S1 Eq.8 (plants.hdrb)."""
+"""Oracles for the HDRB isolator of S1 Eq.8 (plants.tmdi.hdrb)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from plants.hdrb import (
+from plants.tmdi.hdrb import (
     AMPLITUDE_EXPONENT,
     AMPLITUDE_RANGE,
     HDRB,
@@ -25,7 +25,7 @@ from plants.hdrb import (
     UNCONTROLLED_STIFFNESS_SCALE,
     AmplitudeDamping,
 )
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 PRESETS = [S1_PRIMARY, S1_SECONDARY]
 

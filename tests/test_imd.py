@@ -1,4 +1,4 @@
-"""Oracles for the inertial mass damper models (plants.imd): S0 Eq.1, Eq.3-5, Eq.12, Eq.18-21,
+"""Oracles for the inertial mass damper models (plants.imd.models): S0 Eq.1, Eq.3-5, Eq.12, Eq.18-21,
 Table 4/6 presets, backlash kinematics, friction and energy balances."""
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from plants._imd_amplitude import AmplitudeTracker
+from plants.imd.amplitude import AmplitudeTracker
 from plants.base import Specimen, drive
-from plants.imd import (
+from plants.imd.models import (
     CONTACT_FREQUENCY_HZ,
     IMD_MODELS,
     MAX_STEP_PHASE,
@@ -25,7 +25,7 @@ from plants.imd import (
     imd_from_parameters,
     screw_series_stiffness,
 )
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 FS = 4096.0  # drive rate [Hz] (the vRTHS benchmark loop rate)
 DT = 1.0 / FS
@@ -608,7 +608,7 @@ def test_amplitude_estimate_ignores_wiggles_small_against_the_motion():
     """A 2 mm, 2 Hz sine with a 10 µm, 150 Hz ripple (command jitter): the load amplitude stays
     2 mm (relative hysteresis 10 %); with the hysteresis absolute only, the ripple's reversals
     collapse it to the ripple's size."""
-    from plants._imd_amplitude import AmplitudeTracker
+    from plants.imd.amplitude import AmplitudeTracker
 
     t = np.arange(0, 3.0, 1 / 4096)
     u = 2e-3 * np.sin(2 * np.pi * 2 * t) + 10e-6 * np.sin(2 * np.pi * 150 * t)

@@ -1,4 +1,4 @@
-"""Oracles for the ideal and rack-and-pinion inerters (plants.inerter, S1 Eq.9-11)."""
+"""Oracles for the ideal and rack-and-pinion inerters (plants.tmdi.inerter, S1 Eq.9-11)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from plants.base import drive
-from plants.inerter import (
+from plants.tmdi.inerter import (
     FLYWHEELS,
     S1_IDEAL_INERTANCE,
     S1_RACK_PINION,
@@ -19,7 +19,7 @@ from plants.inerter import (
     ideal_inerter_preset,
     rack_pinion_preset,
 )
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 J_B, R_P = S1_RACK_PINION.flywheel_inertia, S1_RACK_PINION.pinion_radius
 

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from plants.actuator import ServoHydraulicActuator, TransferFunctionActuator
+from plants.actuator.models import ServoHydraulicActuator, TransferFunctionActuator
 from plants.lab import Converter, EmulatedLab, LabConverters
 from plants.linear_specimen import LinearSpecimen, benchmark_specimen
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 DT = 1.0 / 4096.0
 QUIET = LabConverters(

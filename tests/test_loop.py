@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from controllers.factory import make_compensator
-from rths import build
-from rths.errors import ParameterError, RTHSError
-from rths.loop import InProcessLink, LinkSample, Loop, Scaling
-from rths.mock import numerical_run
-from rths.scenario import parse_scenario
+from rths.config import build
+from rths.core.errors import ParameterError, RTHSError
+from rths.runtime.loop import InProcessLink, LinkSample, Loop, Scaling
+from rths.session.mock import numerical_run
+from rths.config.scenario import parse_scenario
 from _scenarios import PERFECT_ACTUATOR, QUIET, SAME_AS_MODEL, short
 
 

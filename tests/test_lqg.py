@@ -13,7 +13,7 @@ from controllers.feedforward import FeedforwardCompensator, LowOrderModel
 from controllers.ff_lqg import FFLQGCompensator
 from controllers.lqg import LQGCompensator, LQGDesign, LQGWeights, design_lqg, discrete_nominal
 from plants.base import Kinematics
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 DT = 1.0 / 4096.0
 

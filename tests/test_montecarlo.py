@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from rths.cli import main
-from rths.montecarlo import run_draws
-from rths.scenario import parse_scenario
+from rths.analysis.montecarlo import run_draws
+from rths.config.scenario import parse_scenario
 
 SCENARIO = Path(__file__).resolve().parent.parent / "scenarios" / "benchmark_mc.toml"
 

@@ -1,7 +1,7 @@
-"""Oracles for rths.recording and rths.mcap_io.
+"""Oracles for rths.log.recorder and rths.log.reader.
 
 The log is read back with the *plain* ``mcap`` reader (no project code) to hold the log contract
-of design.md §4; :mod:`rths.mcap_io` is then checked against the same file.  Floats survive JSON
+of design.md §4; :mod:`rths.log.reader` is then checked against the same file.  Floats survive JSON
 exactly (Python writes the shortest repr that round-trips), so equality checks are exact.
 """
 
@@ -19,18 +19,18 @@ import pytest
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
-import rths._mcap_writer
+import rths.log.mcap_writer
 from rths import __version__
-from rths.errors import DataError, ParameterError
-from rths.mcap_io import is_complete, list_topics, read_metadata, read_topic
-from rths.recording import (
+from rths.core.errors import DataError, ParameterError
+from rths.log.reader import is_complete, list_topics, read_metadata, read_topic
+from rths.log.recorder import (
     EVENTS_TOPIC,
     LOOP_SCHEMA,
     LOOP_TOPIC,
     Recorder,
     object_schema,
 )
-from rths.transport import LogBridge, LogPublisher, RunKeys, ZenohEndpoints, open_session
+from rths.wire.transport import LogBridge, LogPublisher, RunKeys, ZenohEndpoints, open_session
 
 PATIENCE = 10.0  # upper bound for asynchronous deliveries; reached only if the code is broken
 DT_NS = 250_000  # 4 kHz loop step [ns]
@@ -92,8 +92,8 @@ def test_plain_mcap_reader_sees_every_field_count_order_and_metadata(tmp_path: P
     assert by_name["scenario"] == {"text": "[cable]\nT = 1.0e6\n"}
     assert by_name["units"] == {"force": "N"}
     assert by_name["rths"] == {"version": __version__}
-    assert by_name["rths.recording"]["complete"] == "true"
-    assert by_name["rths.recording"]["rths/loop.written"] == str(n)
+    assert by_name["rths.log.recorder"]["complete"] == "true"
+    assert by_name["rths.log.recorder"]["rths/loop.written"] == str(n)
     assert summary.statistics.chunk_count >= 1 and summary.chunk_indexes[0].compression == "zstd"
 
 
@@ -109,7 +109,7 @@ def test_gaps_and_reordering_are_counted_and_logged(tmp_path: Path) -> None:
     events = [json.loads(m.data) for topic, _, _, m in messages if topic == EVENTS_TOPIC]
     assert [e["kind"] for e in events] == ["gap", "reordered"]
     assert events[0]["message"] == "rths/loop: expected seq 3, got 5" and events[0]["missing"] == 2
-    meta = {m.name: m.metadata for m in metadata}["rths.recording"]
+    meta = {m.name: m.metadata for m in metadata}["rths.log.recorder"]
     assert meta["complete"] == "false" and meta["rths/loop.missing"] == "2"
     # A stream that does not start at 0 has lost its beginning: that is a gap too.
     with Recorder(tmp_path / "late.mcap") as rec:
@@ -119,13 +119,13 @@ def test_gaps_and_reordering_are_counted_and_logged(tmp_path: Path) -> None:
 
 def test_producer_never_waits_for_the_writer(tmp_path: Path, monkeypatch) -> None:
     gate = threading.Event()
-    original = rths._mcap_writer.Writer.add_message
+    original = rths.log.mcap_writer.Writer.add_message
 
     def stuck(self, *args, **kwargs):
         gate.wait()  # the writer thread is stuck (think: chunk compression, slow disk)
         return original(self, *args, **kwargs)
 
-    monkeypatch.setattr(rths._mcap_writer.Writer, "add_message", stuck)
+    monkeypatch.setattr(rths.log.mcap_writer.Writer, "add_message", stuck)
     rec = Recorder(tmp_path / "stuck.mcap").start()
 
     def produce() -> None:
@@ -162,7 +162,7 @@ def test_writer_failure_surfaces_on_the_callers_thread(tmp_path: Path, monkeypat
     def broken(self, *args, **kwargs):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(rths._mcap_writer.Writer, "add_message", broken)
+    monkeypatch.setattr(rths.log.mcap_writer.Writer, "add_message", broken)
     rec = Recorder(tmp_path / "full.mcap").start()
     rec.put(LOOP_TOPIC, 0, 0, loop_row(0))
     rec._writer.join(PATIENCE)  # the thread ends after the failure (file finished)
@@ -260,7 +260,7 @@ def test_mcap_io_reads_what_was_written(tmp_path: Path) -> None:
         assert np.array_equal(loop[name], [loop_row(k)[name] for k in ks])
     assert np.array_equal(loop["log_time_ns"], [(k + 1) * DT_NS for k in ks])
     meta = read_metadata(path)
-    assert meta["scenario"]["text"].startswith("[cable]") and meta["rths.recording"]["rths/loop.missing"] == "1"
+    assert meta["scenario"]["text"].startswith("[cable]") and meta["rths.log.recorder"]["rths/loop.missing"] == "1"
     assert list_topics(path) == {EVENTS_TOPIC: 1, LOOP_TOPIC: 499} and is_complete(path)
 
 
@@ -385,7 +385,7 @@ def test_metadata_added_at_the_end_is_readable_by_the_plain_reader(tmp_path: Pat
 
 
 def test_records_from_another_process_are_written_as_received_unless_non_finite(tmp_path):
-    from rths.codec import LogRecord
+    from rths.wire.codec import LogRecord
 
     path = tmp_path / "records.mcap"
     with Recorder(path) as rec:

@@ -10,9 +10,9 @@ import zenoh
 from _scenarios import short
 
 from rths.cli import main
-from rths.codec import LogRecord
-from rths.replay import paced
-from rths.transport import RunKeys, ZenohEndpoints, loopback_endpoint, open_session
+from rths.wire.codec import LogRecord
+from rths.log.replay import paced
+from rths.wire.transport import RunKeys, ZenohEndpoints, loopback_endpoint, open_session
 
 
 def test_replay_publishes_every_record_in_order_at_the_recorded_pace(tmp_path):

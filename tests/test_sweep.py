@@ -1,4 +1,4 @@
-"""Stepped-sine shake-table emulation (rths.sweep): signal, tables, scenario file, runs, CLI."""
+"""Stepped-sine shake-table emulation (rths.experiments.s1_shake_table.sweep): signal, tables, scenario file, runs, CLI."""
 
 from __future__ import annotations
 
@@ -9,13 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from plants.actuator import MTS_IDENTIFIED, TransferFunctionActuator
+from plants.actuator.models import MTS_IDENTIFIED, TransferFunctionActuator
 from plants.base import Specimen
-from plants.inerter import IdealInerter
-from plants.tmdi import NominalInerter, TMDIStructure, TMDISubstructure, s1_configuration
+from plants.tmdi.inerter import IdealInerter
+from plants.tmdi.structure import NominalInerter, TMDIStructure, TMDISubstructure, s1_configuration
 from rths.cli import main
-from rths.errors import ConfigError, ParameterError
-from rths.sweep import (
+from rths.core.errors import ConfigError, ParameterError
+from rths.experiments.s1_shake_table.sweep import (
     STANDARD_GRAVITY,
     IdealTable,
     SteppedSine,
@@ -29,7 +29,7 @@ from rths.sweep import (
     step_frequencies,
     stepped_sine_acceleration,
 )
-from rths.tmdi_report import frf_table, loops_figure, summarise
+from rths.experiments.s1_shake_table.report import frf_table, loops_figure, summarise
 
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "tmdi_shake_table.toml"
 DT = 1e-3

@@ -1,4 +1,4 @@
-"""Oracles for the TMDI structure of S1 Eq.12 (plants.tmdi): full model and RTHS substructure."""
+"""Oracles for the TMDI structure of S1 Eq.12 (plants.tmdi.structure): full model and RTHS substructure."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ import pytest
 from scipy.integrate import cumulative_trapezoid
 
 from controllers.baselines import NoCompensation
-from plants._imd_amplitude import AmplitudeTracker
+from plants.imd.amplitude import AmplitudeTracker
 from plants.base import Specimen
-from plants.hdrb import (
+from plants.tmdi.hdrb import (
     HDRB,
     S1_PRIMARY,
     S1_PRIMARY_AMPLITUDE,
@@ -21,13 +21,13 @@ from plants.hdrb import (
     S1_SECONDARY_AMPLITUDE,
     AmplitudeDamping,
 )
-from plants.inerter import (
+from plants.tmdi.inerter import (
     S1_RACK_PINION,
     IdealInerter,
     RackPinionInerter,
     rack_pinion_preset,
 )
-from plants.tmdi import (
+from plants.tmdi.structure import (
     EQ7_QUANTITIES,
     IntegrationError,
     NominalInerter,
@@ -38,8 +38,8 @@ from plants.tmdi import (
     linearised_frequencies,
     s1_configuration,
 )
-from rths.errors import ParameterError
-from rths.loop import LinkSample, Loop, Scaling
+from rths.core.errors import ParameterError
+from rths.runtime.loop import LinkSample, Loop, Scaling
 
 G = 9.81
 J_B, R_P = S1_RACK_PINION.flywheel_inertia, S1_RACK_PINION.pinion_radius
@@ -206,7 +206,7 @@ def test_energy_balance_with_the_rack_and_pinion_inerter(flywheel: str) -> None:
 # --- amplitude-dependent HDRB damping ---------------------------------------------------------
 def test_kernel_amplitude_estimate_is_the_imd_tracker_rule() -> None:
     """Two implementations of one rule: the numba kernel's per-step tracker on ``u_I`` and
-    ``u_TI`` against :class:`plants._imd_amplitude.AmplitudeTracker` fed the same samples."""
+    ``u_TI`` against :class:`plants.imd.amplitude.AmplitudeTracker` fed the same samples."""
     law = AmplitudeDamping(0.5, 0.005, (0.0005, 0.03))  # wide range: both dashpots vary
     par = TMDIParameters(125.0, S1_PRIMARY.with_damping_law(law), 10.0,
                          S1_SECONDARY.with_damping_law(law))
@@ -402,7 +402,7 @@ class ExactKinematicsLink:
 
 def partitioned_run(specimen: Specimen, device: NominalInerter | None, ag: np.ndarray,
                     dt: float, par: TMDIParameters | None = None) -> dict[str, np.ndarray]:
-    """RTHS through rths.loop.Loop: TMDISubstructure + specimen, correction fed one step late."""
+    """RTHS through rths.runtime.loop.Loop: TMDISubstructure + specimen, correction fed one step late."""
     par = par or s1_configuration("IM", "IF")[0]
     sub = TMDISubstructure(par, ag, dt, device=device)
     specimen.reset()

@@ -6,8 +6,8 @@ frequency than up-sweep peaks), f1 < f0 < f2, and a peak PS displacement reducti
 37 % at 0.05 g and 25 % at 0.15 g.  S1 §4.2: the ideal-inerter model matches the PS FRFs near f1
 but not the secondary-mass and inerter accelerations.
 
-The specimens are the ``hdrb = "amplitude"`` models of :func:`rths.sweep.model_configuration`:
-the uncontrolled PS calibrated on the numbers S1 reports for it (:mod:`plants._tmdi_calibration`:
+The specimens are the ``hdrb = "amplitude"`` models of :func:`rths.experiments.s1_shake_table.sweep.model_configuration`:
+the uncontrolled PS calibrated on the numbers S1 reports for it (:mod:`plants.tmdi.calibration`:
 5 mm at 0.05 g, 38 mm at 0.15 g, f0 = 2.25 Hz at 0.10 g), the TMDIs with the S1 §4.2 bearings
 and the same amplitude law anchored at S1's dashpots.  Each test states our numbers next to the
 seed's; where the model departs from a seed observation the test says so and checks what holds.
@@ -18,23 +18,23 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from plants.actuator import MTS_IDENTIFIED
-from plants.hdrb import (
+from plants.actuator.models import MTS_IDENTIFIED
+from plants.tmdi.hdrb import (
     AMPLITUDE_EXPONENT,
     HDRB,
     S1_PRIMARY,
     S1_PRIMARY_UNCONTROLLED,
     UNCONTROLLED_STIFFNESS_SCALE,
 )
-from plants.tmdi import (
+from plants.tmdi.structure import (
     S1_UNCONTROLLED,
     calibrate_uncontrolled_ps,
     harmonic_balance_crest,
     stepped_sine_crest,
 )
-from rths.errors import NumericalError, ParameterError
-from rths.frf import FRF, frf_nrmse, resonance, second_resonance
-from rths.sweep import (
+from rths.core.errors import NumericalError, ParameterError
+from rths.experiments.s1_shake_table.frf import FRF, frf_nrmse, resonance, second_resonance
+from rths.experiments.s1_shake_table.sweep import (
     STANDARD_GRAVITY,
     SteppedSine,
     TransferFunctionTable,

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rths.metrics import normalised_rms_error
-from rths.mock import numerical_run
-from rths.runner import RunOptions, run_scenario
-from rths.scenario import parse_scenario
+from rths.analysis.metrics import normalised_rms_error
+from rths.session.mock import numerical_run
+from rths.session.runner import RunOptions, run_scenario
+from rths.config.scenario import parse_scenario
 
 SCENARIO = Path(__file__).resolve().parent.parent / "scenarios" / "tmdi_rths.toml"
 
@@ -24,7 +24,7 @@ def test_tmdi_rths_reproduces_the_monolithic_model(tmp_path):
     text = SCENARIO.read_text().replace("duration = 15.3", "duration = 5.1").replace(
         "frequencies = [1.9, 2.0, 2.1]", "frequencies = [2.0]")  # fmt: skip
     scn = parse_scenario(text, str(SCENARIO))
-    from rths.mcap_io import read_topic
+    from rths.log.reader import read_topic
 
     outcome = run_scenario(scn, RunOptions(clock="fast", out=tmp_path / "t.mcap"))
     assert outcome.result.stopped is None
@@ -39,8 +39,8 @@ def test_tmdi_rths_reproduces_the_monolithic_model(tmp_path):
 
 
 def test_model_kind_must_suit_the_substructure():
-    from rths import build
-    from rths.errors import ConfigError
+    from rths.config import build
+    from rths.core.errors import ConfigError
 
     text = SCENARIO.read_text().replace('kind = "inerter"', 'kind = "linear"\nmass = 1.0').replace(
         "inertance = 47.84\n", "").replace("damping = 92.6\n", "damping = 0.0\n")  # fmt: skip

@@ -1,4 +1,4 @@
-"""Oracles for rths.codec and rths.transport: exact round trips, the lockstep protocol against an
+"""Oracles for rths.wire.codec and rths.wire.transport: exact round trips, the lockstep protocol against an
 echo specimen (in-process and in a child process), timeouts and the readiness handshake.
 
 Every wait in these tests is a *timeout* (an upper bound that only matters when something is
@@ -19,10 +19,10 @@ from collections.abc import Iterator
 import pytest
 import zenoh
 
-from rths._inbox import _ALARM
-from rths.codec import Command, LogRecord, Measurement
-from rths.errors import DataError, ParameterError, TransportError
-from rths.transport import (
+from rths.wire.inbox import _ALARM
+from rths.wire.codec import Command, LogRecord, Measurement
+from rths.core.errors import DataError, ParameterError, TransportError
+from rths.wire.transport import (
     Inbox,
     LockstepClient,
     LockstepServer,
@@ -368,8 +368,8 @@ def test_peer_going_away_sets_stop(pair) -> None:
 
 ECHO_SPECIMEN = """
 import sys
-from rths.codec import Measurement
-from rths.transport import LockstepServer, Presence, RunKeys, ZenohEndpoints, open_session
+from rths.wire.codec import Measurement
+from rths.wire.transport import LockstepServer, Presence, RunKeys, ZenohEndpoints, open_session
 ep = ZenohEndpoints(connect=(sys.argv[1],))
 keys = RunKeys(sys.argv[2])
 with open_session(ep) as session, LockstepServer(session, keys) as server:

@@ -27,7 +27,7 @@ from collections.abc import Callable
 import control
 import numpy as np
 
-from plants.actuator import (
+from plants.actuator.models import (
     BENCHMARK,
     HEAVY_INERTIAL_LOAD,
     ServoHydraulicActuator,
@@ -35,7 +35,7 @@ from plants.actuator import (
 )
 from plants.lab import EmulatedLab
 from plants.linear_specimen import LinearSpecimen, benchmark_specimen
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 DT = 1.0 / 4096.0
 IMD_MASS, IMD_K0 = 1589.0, 1.2e7  # S0 Table 4, Type II

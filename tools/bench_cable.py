@@ -1,4 +1,4 @@
-"""Benchmark of ``plants.cable.Cable.step`` (and the mass-matrix convergence study).
+"""Benchmark of ``plants.cable.model.Cable.step`` (and the mass-matrix convergence study).
 
 Usage::
 
@@ -21,7 +21,7 @@ import math
 import statistics
 import time
 
-from plants.cable import (
+from plants.cable.model import (
     Cable,
     CableProperties,
     DistributedLoad,
@@ -59,7 +59,7 @@ def time_per_step(
 
 def mass_study() -> None:
     """Relative damping-ratio error of the FE model vs the exact frequency equation."""
-    from plants.cable_damper import _state_space_eigenvalues, exact_roots
+    from plants.cable.frequency_equation import _state_space_eigenvalues, exact_roots
 
     unit = CableProperties(1.0, 1.0, 1.0)
     cases = {

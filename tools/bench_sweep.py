@@ -12,7 +12,7 @@ loads the numba kernels):
   it -- in seconds, with the simulated seconds and microseconds per simulated sample and model;
 * its parts for the up sweep: table motion (python-control ZOH model through ``lfilter``), each
   model's ``TMDIStructure.run``, and the FRF/last-cycle reduction of all nine S1 Eq.7
-  quantities (``rths.frf``).
+  quantities (``rths.experiments.s1_shake_table.frf``).
 """
 
 from __future__ import annotations
@@ -23,9 +23,9 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from plants.tmdi import TMDIStructure
-from rths.frf import estimate_frf, steady_state_windows
-from rths.sweep import (
+from plants.tmdi.structure import TMDIStructure
+from rths.experiments.s1_shake_table.frf import estimate_frf, steady_state_windows
+from rths.experiments.s1_shake_table.sweep import (
     SteppedSine,
     build_table,
     command_amplitudes,

@@ -8,7 +8,7 @@ Round trip: the parent (coordinator) listens on a free loopback port and spawns 
 echo specimen (``--echo``) that connects; after the readiness handshake the parent sends a
 24-byte command and waits for the 40-byte measurement with the same seq, ``--steps`` times after
 a warm-up, and reports the median (p50) and 99th percentile (p99) of the round trip [µs],
-pooled over ``--rounds`` interleaved rounds.  Mechanisms (``*`` = what rths.transport uses):
+pooled over ``--rounds`` interleaved rounds.  Mechanisms (``*`` = what rths.wire.transport uses):
 
 * ``rths*``          LockstepClient/LockstepServer: publisher.put(bytes), reliable + express +
   BLOCK; FifoChannel ``recv()`` with the watchdog that implements the timeout
@@ -44,9 +44,9 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
-from rths.codec import Command, Measurement
-from rths.recording import LOOP_TOPIC, Recorder
-from rths.transport import (
+from rths.wire.codec import Command, Measurement
+from rths.log.recorder import LOOP_TOPIC, Recorder
+from rths.wire.transport import (
     LockstepClient,
     LockstepServer,
     Presence,

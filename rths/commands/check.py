@@ -37,9 +37,9 @@ def run(args: argparse.Namespace) -> int:
 
     import math
 
-    from rths.errors import DataError
-    from rths.mcap_io import is_complete, read_metadata, read_topic
-    from rths.metrics import sync_subspace_rmse
+    from rths.core.errors import DataError
+    from rths.log.reader import is_complete, read_metadata, read_topic
+    from rths.analysis.metrics import sync_subspace_rmse
 
     if not (math.isfinite(args.max_rmse) and args.max_rmse > 0):
         raise DataError(f"--max-rmse must be a positive percentage; got {args.max_rmse!r}")

@@ -36,9 +36,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 def run(args: argparse.Namespace) -> int:
     """Republish the log; returns 0."""
-    from rths.errors import DataError
-    from rths.replay import replay
-    from rths.transport import ZenohEndpoints
+    from rths.core.errors import DataError
+    from rths.log.replay import replay
+    from rths.wire.transport import ZenohEndpoints
 
     if not args.speed > 0:
         raise DataError(f"--speed must be positive; got {args.speed!r}")

@@ -45,16 +45,16 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 def run(args: argparse.Namespace) -> int:
     """Run the scenario (or its Monte Carlo); 0 when it ran to the end, 1 if stopped early."""
-    from rths.scenario import load_scenario
+    from rths.config.scenario import load_scenario
 
     scn = load_scenario(args.scenario)
     if args.monte_carlo is not None:
-        from rths.montecarlo import main as monte_carlo
+        from rths.analysis.montecarlo import main as monte_carlo
 
         return monte_carlo(scn, args)
     from tqdm import tqdm
 
-    from rths.runner import RunOptions, run_scenario
+    from rths.session.runner import RunOptions, run_scenario
 
     bar = None if args.no_progress else tqdm(total=scn.run.steps, unit="step", leave=False,
                                              desc=scn.run.name, file=sys.stderr)  # fmt: skip

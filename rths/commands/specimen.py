@@ -31,10 +31,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 def run(args: argparse.Namespace) -> int:
     """Serve the lab until the coordinator stops; returns 0."""
-    from rths.errors import ConfigError
-    from rths.scenario import load_scenario
-    from rths.specimen_process import serve
-    from rths.transport import ZenohEndpoints
+    from rths.core.errors import ConfigError
+    from rths.config.scenario import load_scenario
+    from rths.session.specimen import serve
+    from rths.wire.transport import ZenohEndpoints
 
     if not args.connect and not args.listen:
         raise ConfigError("give the coordinator's endpoint with --connect (or --listen)")

@@ -5,14 +5,14 @@ Examples::
     rths sweep scenarios/tmdi_shake_table.toml
     rths sweep scenarios/tmdi_shake_table.toml --pga 0.1 --out out/ --json
 
-Runs every model of the scenario up and down at each PGA in process (:mod:`rths.sweep`) and writes
+Runs every model of the scenario up and down at each PGA in process (:mod:`rths.experiments.s1_shake_table.sweep`) and writes
 into ``--out`` (default ``<scenario name>_sweep``):
 
-``frf.csv``       the normalised FRFs of every run (:func:`rths.tmdi_report.frf_table`);
-``frf.json``      the same as JSON arrays per run (:func:`rths.tmdi_report.frf_records`);
+``frf.csv``       the normalised FRFs of every run (:func:`rths.experiments.s1_shake_table.report.frf_table`);
+``frf.json``      the same as JSON arrays per run (:func:`rths.experiments.s1_shake_table.report.frf_records`);
 ``summary.json``  resonance frequencies, peak-displacement changes, ideal-vs-rack NRMSE and the
-                  wall time (:func:`rths.tmdi_report.summarise`);
-``*.png``         the figures of :mod:`rths.tmdi_report` (unless ``--no-figures``).
+                  wall time (:func:`rths.experiments.s1_shake_table.report.summarise`);
+``*.png``         the figures of :mod:`rths.experiments.s1_shake_table.report` (unless ``--no-figures``).
 
 It prints a short table, or with ``--json`` the summary as JSON on stdout.
 """
@@ -85,8 +85,8 @@ def _print_table(summary: dict[str, Any]) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sweep, write the outputs, print the summary; returns 0."""
-    from rths.sweep import load_sweep, run_sweep
-    from rths.tmdi_report import frf_records, frf_table, summarise, write_figures
+    from rths.experiments.s1_shake_table.sweep import load_sweep, run_sweep
+    from rths.experiments.s1_shake_table.report import frf_records, frf_table, summarise, write_figures
 
     config = load_sweep(args.scenario)
     result = run_sweep(config, pga=args.pga, progress=not args.quiet and sys.stderr.isatty())

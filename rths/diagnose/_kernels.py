@@ -1,7 +1,7 @@
 """Whole-record simulation kernels of the nonlinear candidate effects (numba).
 
 The per-interval integrator is the project's own IMD kernel,
-:func:`plants._imd_kernels.advance_flywheel` (S0 Eq.12 with a backlash dead zone in series, RK4
+:func:`plants.imd.kernels.advance_flywheel` (S0 Eq.12 with a backlash dead zone in series, RK4
 on a Hermite drive), so the candidate is exactly the emulated lab's model; this module only loops
 it over a record inside numba, which removes the per-sample Python call (~1 us each).
 """
@@ -14,11 +14,11 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from plants._imd_kernels import advance_flywheel, advance_flywheel_jit
+from plants.imd.kernels import advance_flywheel, advance_flywheel_jit
 
 __all__ = ["series_force_per_mass", "series_force_per_mass_py"]
 
-#: Largest ``omega * dt_sub`` [rad] per RK4 sub-step (as plants.imd.MAX_STEP_PHASE).
+#: Largest ``omega * dt_sub`` [rad] per RK4 sub-step (as plants.imd.models.MAX_STEP_PHASE).
 _MAX_STEP_PHASE = 0.2
 
 

@@ -53,12 +53,12 @@ AMPLITUDE_SCALE: float = 0.153e-3
 def _amplitude_weight(channel: Channel, seg: Segment) -> NDArray:
     """``A_0/(A + A_0)`` per sample, ``A`` the load amplitude of S0 Eq.17-18 on the drive.
 
-    ``A`` is tracked as the emulated IMD does (:class:`plants._imd_amplitude.AmplitudeTracker`:
+    ``A`` is tracked as the emulated IMD does (:class:`plants.imd.amplitude.AmplitudeTracker`:
     half the peak-to-peak between the last two reversals, 0 until two reversals), with a
     hysteresis of five times the smoothed drive noise so that noise makes no reversals.
     """
     if "amplitude_weight" not in seg.cache:
-        from plants._imd_amplitude import AmplitudeTracker
+        from plants.imd.amplitude import AmplitudeTracker
         from rths.diagnose._signals import impulse_kernel
 
         assert seg.sos is not None

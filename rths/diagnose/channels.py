@@ -37,7 +37,7 @@ from rths.diagnose._signals import (
 )
 from rths.diagnose.data import Record
 from rths.diagnose.nominal import NominalModel
-from rths.errors import DataError
+from rths.core.errors import DataError
 
 __all__ = [
     "DEFAULT_CUTOFF",

@@ -20,7 +20,7 @@ from scipy import optimize
 
 from rths.diagnose.channels import Channel, Segment
 from rths.diagnose.effects import Model
-from rths.errors import NumericalError
+from rths.core.errors import NumericalError
 
 __all__ = ["RIDGE", "Fit", "fit_model", "noise_floor", "stride_for"]
 

@@ -14,7 +14,7 @@ Format (design.md section 7; every key below is required except ``delay``, ``dam
     friction = 0.0        # N
 
 The specimen form is the simplified IMD of S0 Eq.1 plus a parallel spring.  Errors are
-:class:`rths.errors.ConfigError` naming the file, the table, the key and the value.
+:class:`rths.core.errors.ConfigError` naming the file, the table, the key and the value.
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rths._toml import Table, load_toml, parse_toml
-from rths.errors import ParameterError
+from rths.config.toml import Table, load_toml, parse_toml
+from rths.core.errors import ParameterError
 
 __all__ = [
     "ActuatorNominal",

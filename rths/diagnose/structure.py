@@ -1,7 +1,7 @@
 """The structure channel of an ``rths run`` log: the RTHS against the fully numerical run.
 
 For an MCAP log that carries the scenario text in its metadata (``scenario.text``), the
-scenario is re-run with :func:`rths.mock.numerical_run` (variant ``"model"``: the scenario's own
+scenario is re-run with :func:`rths.session.mock.numerical_run` (variant ``"model"``: the scenario's own
 ``[model]`` device, no specimen) for as many steps as the log holds, and the logged ``target``
 (the interface displacement of the numerical substructure) is compared with the mock's.  This
 channel says how far the specimen's departure from the model moved the structure; it has no
@@ -16,7 +16,7 @@ import numpy as np
 
 from rths.diagnose.data import Record
 from rths.diagnose.residuals import nrmse
-from rths.errors import RTHSError
+from rths.core.errors import RTHSError
 
 __all__ = ["StructureGap", "structure_gap"]
 
@@ -50,8 +50,8 @@ def structure_gap(records: list[Record]) -> StructureGap:
             notes[r.name] = "no target/scenario in the record (CSV or bare log)"
             continue
         try:
-            from rths.mock import numerical_run
-            from rths.scenario import parse_scenario
+            from rths.session.mock import numerical_run
+            from rths.config.scenario import parse_scenario
 
             scn = parse_scenario(r.scenario_text, f"{r.name}:scenario")
             mock = numerical_run(scn, "model", steps=r.n)

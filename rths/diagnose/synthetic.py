@@ -2,8 +2,8 @@
 
 Used by the blind suite (``tools/blind_suite.py``), the tests and the benchmark.  A record is the
 loop ``command -> DAC -> TransferFunctionActuator (+ delay, rate limit) -> IMD specimen -> ADCs``
-of :class:`plants.lab.EmulatedLab`; the specimen is :class:`plants.imd.SimplifiedIMD` (S0 Eq.1),
-or :class:`plants.imd.InternalStiffnessIMD` (S0 Eq.12) when a series element is switched on.
+of :class:`plants.lab.EmulatedLab`; the specimen is :class:`plants.imd.models.SimplifiedIMD` (S0 Eq.1),
+or :class:`plants.imd.models.InternalStiffnessIMD` (S0 Eq.12) when a series element is switched on.
 Nothing here is visible to the diagnosis, which sees only the CSV columns and the nominal file.
 """
 
@@ -16,12 +16,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import signal
 
-from plants.actuator import MTS_IDENTIFIED, TransferFunctionActuator
-from plants.imd import IMDParameters, imd_from_parameters
+from plants.actuator.models import MTS_IDENTIFIED, TransferFunctionActuator
+from plants.imd.models import IMDParameters, imd_from_parameters
 from plants.lab import Converter, EmulatedLab, LabConverters
 from rths.diagnose.data import Record
 from rths.diagnose.nominal import ActuatorNominal, NominalModel, SpecimenNominal
-from rths.errors import ParameterError, check_positive, format_choices
+from rths.core.errors import ParameterError, check_positive, format_choices
 
 __all__ = ["CLASSES", "LabCase", "band_limited_command", "lab_record", "seed_converters"]
 
@@ -67,7 +67,7 @@ class LabCase:
     gain
         True actuator gain on top of the TF ``num/den`` [-].
     num, den
-        Actuator TF (default :data:`plants.actuator.MTS_IDENTIFIED`).
+        Actuator TF (default :data:`plants.actuator.models.MTS_IDENTIFIED`).
     contact_frequency
         Backlash contact ``sqrt(k_c/m)/2pi`` [Hz].
     converters

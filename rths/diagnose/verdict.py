@@ -29,7 +29,7 @@ from rths.diagnose.identify import Fit, fit_model, noise_floor
 from rths.diagnose.nominal import NominalModel
 from rths.diagnose.residuals import FLOOR_MARGIN, Decomposition, decompose
 from rths.diagnose.structure import StructureGap, structure_gap
-from rths.errors import ParameterError, check_positive, format_choices
+from rths.core.errors import ParameterError, check_positive, format_choices
 
 __all__ = [
     "DRIVES",

@@ -1,0 +1,413 @@
+"""Servo-hydraulic actuators: the vRTHS benchmark plant with CSI, and a generic transfer function.
+
+:class:`ServoHydraulicActuator`
+    The benchmark plant of Silva et al. (2020) (design.md section 5) built around the specimen it
+    drives -- control-structure interaction (CSI) -- with an optional differential-pressure
+    (Delta-P) loop for heavy inertial specimens::
+
+        servo-valve   q   = a1b0/(s^2 + b1 s + b2) e,    e = gain*command - x - K_dp*F_a
+        hydraulics    (s + a3) F_a = q - a2 xdot
+        mechanics     (m_p + m_r) xddot + (c_p + c_r) xdot = F_a - F_rest
+
+    ``m_r``, ``c_r`` are the specimen's rigid part (integrated implicitly with the piston);
+    ``F_rest = F - m_r a - c_r v`` is the specimen's remaining force (stiffness, internal
+    dynamics, friction ...), fed back one *sub-step* late.  With ``LinearSpecimen(29.13, c,
+    1.19e6)`` this reproduces the benchmark ``G_plant = gain*feedback(Gs*G0, 1)``,
+    ``G0 = feedback(Ga*Gest, a2*s)``: DC gain 0.982 (x1.0261 = 1.0075), phase delay 25.0 ms at
+    1 Hz and 19.0 ms at 10 Hz.
+:class:`TransferFunctionActuator`
+    ``num(s)/den(s)`` from command to displacement, identified with the specimen attached (no
+    CSI): the form of the diagnosis contract's ``NOMINAL.toml [actuator]`` (design.md section 7).
+
+Both take an optional pure delay on the command path (:class:`DelayLine`, at the loop rate) and
+an optional velocity (flow) limit ``v_max = Q_max/A`` applied to the displacement after the
+linear dynamics (:class:`RateLimiter`, Simulink Rate Limiter semantics).  The specimen is driven
+by the limited displacement; its velocity is the model's clipped to ``+/- v_max`` (exactly
+``+/- v_max`` on the ramp) and its acceleration is 0 whenever the velocity is clipped
+(:meth:`RateLimiter.clip`).  The linear dynamics (including the CSI loop) run on unaware of the
+limit: this is exactly the model the diagnosis fits as ``rate_limit``.
+
+References
+----------
+.. [1] Silva, C. E., Gomez, D., Maghareh, A., Dyke, S. J., Spencer, B. F. Jr. (2020).
+   Benchmark control problem for real-time hybrid simulation. Mech. Syst. Signal Process. 135.
+"""
+
+from __future__ import annotations
+
+import math
+
+import control
+import numpy as np
+from numpy.typing import ArrayLike
+
+from plants.actuator.lines import DelayLine, RateLimiter, delayed, rate_limited
+from plants.actuator.linear import (
+    check_stable,
+    close_remainder,
+    derivative_model,
+    discretise,
+    servo_hydraulic_model,
+    siso_transfer_function,
+)
+from plants.actuator.parameters import (
+    BENCHMARK,
+    HEAVY_INERTIAL_LOAD,
+    MTS_IDENTIFIED,
+    BenchmarkParameters,
+    IdentifiedTransferFunction,
+)
+from plants.base import Actuator, Kinematics, Specimen
+from plants.linear_specimen import LinearSpecimen
+from rths.core.errors import ParameterError, check_nonnegative, check_positive, check_positive_int
+
+__all__ = [
+    "BENCHMARK",
+    "HEAVY_INERTIAL_LOAD",
+    "MAX_SUBSTEP",
+    "MTS_IDENTIFIED",
+    "BenchmarkParameters",
+    "DelayLine",
+    "IdentifiedTransferFunction",
+    "RateLimiter",
+    "ServoHydraulicActuator",
+    "TransferFunctionActuator",
+    "default_substeps",
+    "delayed",
+    "rate_limited",
+]
+
+#: Longest internal sub-step [s] of :class:`ServoHydraulicActuator` by default.  The explicit
+#: (ZOH-held) remainder force lowers the damping of the benchmark's lightly damped oil-column
+#: mode (-8 +/- 422j rad/s, zeta 0.019): at 1/16384 s (omega*h = 0.026) to zeta 0.0173 (-8 %),
+#: against 0.0126 (-34 %) at 1/4096 s, while the response below 10 Hz changes by < 0.1 %.
+MAX_SUBSTEP = 1.0 / 16384.0
+
+
+def default_substeps(dt: float) -> int:
+    """Fewest sub-steps per loop step ``dt`` [s] keeping the sub-step <= :data:`MAX_SUBSTEP`."""
+    dt = check_positive(dt, "time step dt")
+    return max(1, math.ceil(dt / MAX_SUBSTEP - 1e-9))
+
+
+def _check_specimen(specimen: object) -> Specimen:
+    if not isinstance(specimen, Specimen):
+        raise ParameterError(f"specimen must be a plants.base.Specimen; got {specimen!r}")
+    return specimen
+
+
+def _specimen_state(specimen: Specimen) -> dict[str, float]:
+    return {f"specimen.{name}": value for name, value in specimen.state().items()}
+
+
+def _optional_limiter(velocity_limit: float | None, step: float) -> RateLimiter | None:
+    return None if velocity_limit is None else RateLimiter(velocity_limit, step)
+
+
+def _optional_delay(delay: float, dt: float) -> DelayLine | None:
+    return DelayLine(delay, dt) if check_nonnegative(delay, "delay") > 0.0 else None
+
+
+class ServoHydraulicActuator(Actuator):
+    """The vRTHS benchmark servo-hydraulic actuator coupled to its specimen (CSI).
+
+    The linear loop is built with python-control (``interconnect``), with inputs
+    ``[command, F_rest]`` and outputs ``[x, xdot, xddot, F_a]``, and discretised by zero-order
+    hold (``control.c2d``) over ``substeps`` sub-steps per loop step.  Each sub-step advances
+    the linear state with the (delayed) command and the remainder force of the previous
+    sub-step, drives the specimen to the new ``(x, xdot, xddot)`` and computes the new remainder
+    ``F_rest = F - m_r xddot - c_r xdot``.  The linear loop is exact for a command held over the
+    step; only ``F_rest`` lags (a zero-order hold over one sub-step).
+
+    Parameters
+    ----------
+    specimen
+        The specimen driven by the piston; its ``rigid_inertance`` [kg] and ``rigid_damping``
+        [N s/m] are read once here.
+    dt
+        Loop step [s].
+    parameters
+        Actuator parameters (:data:`BENCHMARK` for light specimens,
+        :data:`HEAVY_INERTIAL_LOAD` for inerters of ~1.6 t).
+    substeps
+        Internal sub-steps per loop step; default :func:`default_substeps` (sub-step <=
+        :data:`MAX_SUBSTEP`).
+    delay
+        Pure delay [s] on the command path (linear interpolation between loop samples), >= 0.
+    velocity_limit
+        Flow limit ``v_max = Q_max / A`` [m/s] of the displacement, applied per sub-step after
+        the linear dynamics; ``None`` for none.
+
+    Attributes
+    ----------
+    substep : float
+        Internal sub-step [s] (``dt / substeps``).
+    rigid_mass, rigid_damping : float
+        The specimen's rigid part [kg], [N s/m] integrated with the piston.
+    open_loop : control.StateSpace
+        The continuous model, inputs ``[command, remainder_force]``, outputs
+        ``[displacement, velocity, acceleration, hydraulic_force]``.
+
+    Raises
+    ------
+    ParameterError
+        If the moving mass ``m_p + m_r`` is not positive, or the linear loop (with the
+        stiffness of a :class:`LinearSpecimen`, and for that case also its sub-stepped
+        discretisation) is unstable; the message lists the offending poles.
+    """
+
+    def __init__(
+        self,
+        specimen: Specimen,
+        dt: float,
+        parameters: BenchmarkParameters = BENCHMARK,
+        *,
+        substeps: int | None = None,
+        delay: float = 0.0,
+        velocity_limit: float | None = None,
+    ) -> None:
+        super().__init__(dt)
+        if not isinstance(parameters, BenchmarkParameters):
+            raise ParameterError(f"parameters must be BenchmarkParameters; got {parameters!r}")
+        self.specimen: Specimen = _check_specimen(specimen)
+        self.parameters: BenchmarkParameters = parameters
+        if substeps is None:
+            substeps = default_substeps(self.dt)
+        self.substeps: int = check_positive_int(substeps, "substeps")
+        self.substep: float = self.dt / self.substeps
+        self.delay: float = check_nonnegative(delay, "delay")
+        self.rigid_mass: float = check_nonnegative(
+            specimen.rigid_inertance, "specimen rigid_inertance"
+        )
+        self.rigid_damping: float = check_nonnegative(
+            specimen.rigid_damping, "specimen rigid_damping"
+        )
+        mass = parameters.piston_mass + self.rigid_mass
+        if mass <= 0.0:
+            raise ParameterError(
+                "moving mass (piston_mass + specimen rigid_inertance) must be positive; got "
+                f"{parameters.piston_mass!r} + {self.rigid_mass!r} kg"
+            )
+        self.open_loop: control.StateSpace = servo_hydraulic_model(
+            parameters, mass, parameters.piston_damping + self.rigid_damping
+        )
+        what = f"servo-hydraulic loop with moving mass {mass:.6g} kg"
+        stiffness = specimen.stiffness if isinstance(specimen, LinearSpecimen) else 0.0
+        check_stable(close_remainder(self.open_loop, stiffness).poles(), what)
+        self._model = discretise(self.open_loop, self.substep)
+        if stiffness > 0.0:
+            self._check_substeps(stiffness, what)
+        m = self._model
+        # Stacked update: [z+; y] = [A; CA] z + [B; CB + D] w, w = [command, F_rest].
+        self._advance = np.vstack([m.A, m.C @ m.A])
+        gain = np.vstack([m.B, m.C @ m.B + m.D])
+        self._by_command = np.ascontiguousarray(gain[:, 0])
+        self._by_remainder = np.ascontiguousarray(gain[:, 1])
+        self._n_states = m.A.shape[0]
+        self._delay_line = _optional_delay(self.delay, self.dt)
+        self._limiter = _optional_limiter(velocity_limit, self.substep)
+        self.velocity_limit: float | None = velocity_limit
+        self.reset()
+
+    def _check_substeps(self, stiffness: float, what: str) -> None:
+        """Stability of the sub-stepped loop with ``F_rest = k x`` held over each sub-step."""
+        m = self._model
+        z = np.linalg.eigvals(m.A + np.outer(m.B[:, 1], m.C[0]) * stiffness)
+        if np.max(np.abs(z)) >= 1.0:
+            check_stable(
+                np.log(z.astype(complex)) / self.substep,
+                f"{what} stepped with {self.substeps} sub-steps of {self.substep:.3g} s "
+                "(increase substeps)",
+            )
+
+    def reset(self) -> None:
+        """Return to rest: linear state, delay line, rate limiter and specimen."""
+        self._z = np.zeros(self._n_states)
+        self._remainder = 0.0
+        self._command = 0.0
+        self._outputs = (0.0, 0.0, 0.0, 0.0)
+        self._kinematics = Kinematics(0.0, 0.0, 0.0)
+        self._force = 0.0
+        if self._delay_line is not None:
+            self._delay_line.reset()
+        if self._limiter is not None:
+            self._limiter.reset()
+        self.specimen.reset()
+
+    def _step_impl(self, command: float) -> tuple[Kinematics, float]:
+        u = command if self._delay_line is None else self._delay_line.step(command)
+        n, h = self._n_states, self.substep
+        m_r, c_r, limiter = self.rigid_mass, self.rigid_damping, self._limiter
+        advance, by_remainder = self._advance, self._by_remainder
+        held = self._by_command * u
+        z, remainder = self._z, self._remainder
+        for _ in range(self.substeps):
+            stacked = advance @ z + held + by_remainder * remainder
+            z = stacked[:n]
+            outputs = stacked[n:].tolist()
+            x, v, a, _ = outputs
+            if limiter is not None:
+                x = limiter.step(x)
+                v, a = limiter.clip(v, a)
+            force = self.specimen.step(x, v, a, h)
+            remainder = force - m_r * a - c_r * v
+        self._z, self._remainder, self._command = z, remainder, u
+        self._outputs = tuple(outputs)
+        self._kinematics, self._force = Kinematics(x, v, a), force
+        return self._kinematics, force
+
+    def closed_loop(self, remainder: float | control.LTI | None = None) -> control.StateSpace:
+        """The continuous loop with the specimen remainder closed, input ``command`` [m].
+
+        Parameters
+        ----------
+        remainder
+            Stiffness [N/m] or python-control LTI model of ``F_rest(s)/x(s)`` [N/m]; by default
+            the stiffness of a :class:`LinearSpecimen`, else 0 (rigid part only).
+
+        Returns
+        -------
+        control.StateSpace
+            Outputs ``[displacement, velocity, acceleration, hydraulic_force]``.
+        """
+        if remainder is None:
+            remainder = (
+                self.specimen.stiffness if isinstance(self.specimen, LinearSpecimen) else 0.0
+            )
+        return close_remainder(self.open_loop, remainder)
+
+    def transfer_function(
+        self, remainder: float | control.LTI | None = None
+    ) -> control.TransferFunction:
+        """Rational command→displacement model (the :attr:`delay` is not included).
+
+        Includes the specimen's rigid part and, by default, the stiffness of a
+        :class:`LinearSpecimen` (see :meth:`closed_loop` for ``remainder``).
+        """
+        return siso_transfer_function(self.closed_loop(remainder)[0, 0])
+
+    @property
+    def hydraulic_force(self) -> float:
+        """Hydraulic force ``F_a`` [N] at the end of the last step."""
+        return self._outputs[3]
+
+    def state(self) -> dict[str, float]:
+        """Named variables for logging (SI).
+
+        ``command_delayed`` [m], ``hydraulic_force`` [N], ``displacement_linear`` (before the
+        rate limiter) [m], ``rate_limiting`` (+1/-1/0) and the specimen's state as
+        ``specimen.<name>``.
+        """
+        x, _, _, f_a = self._outputs
+        limiting = 0.0 if self._limiter is None else float(self._limiter.limiting)
+        own = {
+            "command_delayed": self._command,
+            "hydraulic_force": f_a,
+            "displacement_linear": x,
+            "rate_limiting": limiting,
+        }
+        return own | _specimen_state(self.specimen)
+
+
+class TransferFunctionActuator(Actuator):
+    """Command→displacement transfer function ``num(s)/den(s)`` with optional delay/rate limit.
+
+    The TF is understood as identified with the specimen attached, so there is no CSI: the
+    specimen is driven by the actuator output and its force does not act back.  The model is
+    realised by python-control (``tf2ss``) and discretised exactly by zero-order hold at the
+    loop step ``dt`` (no sub-steps; the specimen interpolates internally).
+
+    Drive kinematics: with relative degree ``r = deg den - deg num`` the derivatives of order
+    ``i < r`` are the exact state outputs ``C A^i z`` (continuous across steps); those of order
+    ``i >= r`` would jump or carry impulses where the held command jumps, so they are backward
+    differences over ``dt`` of the next lower derivative sent to the specimen (lag ``dt/2``
+    each).  For ``r >= 3`` (e.g. the ``b0/(s^3 + a2 s^2 + a1 s + a0)`` of ``NOMINAL.toml``) all
+    three are exact.  With a rate limiter the displacement is limited first, differences are
+    taken of the limited signal, and :meth:`RateLimiter.clip` bounds the velocity.
+
+    Parameters
+    ----------
+    num, den
+        Coefficients in descending powers of ``s``; proper and stable.
+    specimen
+        The specimen driven by the displacement.
+    dt
+        Loop step [s].
+    delay
+        Pure delay [s] on the command path, >= 0 (:class:`DelayLine`).
+    velocity_limit
+        Rate limit ``v_max`` [m/s] on the displacement (:class:`RateLimiter`), ``None`` for none.
+    """
+
+    def __init__(
+        self,
+        num: ArrayLike,
+        den: ArrayLike,
+        specimen: Specimen,
+        dt: float,
+        *,
+        delay: float = 0.0,
+        velocity_limit: float | None = None,
+    ) -> None:
+        super().__init__(dt)
+        self.specimen: Specimen = _check_specimen(specimen)
+        model, self._tf, self.relative_degree = derivative_model(num, den)
+        self._model = discretise(model, self.dt)
+        self.delay: float = check_nonnegative(delay, "delay")
+        self.velocity_limit: float | None = velocity_limit
+        self._delay_line = _optional_delay(self.delay, self.dt)
+        self._limiter = _optional_limiter(velocity_limit, self.dt)
+        m = self._model
+        self._A, self._B = m.A, m.B[:, 0].copy()
+        self._C, self._D = m.C, m.D[:, 0].copy()
+        self.reset()
+
+    def reset(self) -> None:
+        """Return to rest: state, delay line, rate limiter and specimen."""
+        self._z = np.zeros(self._A.shape[0])
+        self._drive = (0.0, 0.0, 0.0)
+        self._command = 0.0
+        self._linear = 0.0
+        self._force = 0.0
+        if self._delay_line is not None:
+            self._delay_line.reset()
+        if self._limiter is not None:
+            self._limiter.reset()
+        self.specimen.reset()
+
+    def _step_impl(self, command: float) -> tuple[Kinematics, float]:
+        u = command if self._delay_line is None else self._delay_line.step(command)
+        self._z = self._A @ self._z + self._B * u
+        x, v, a = (self._C @ self._z + self._D * u).tolist()
+        self._linear = x
+        x_old, v_old, _ = self._drive
+        limiter = self._limiter
+        if limiter is not None:
+            x = limiter.step(x)
+        if self.relative_degree <= 1:
+            v = (x - x_old) / self.dt
+        if self.relative_degree <= 2:
+            a = (v - v_old) / self.dt
+        if limiter is not None:
+            v, a = limiter.clip(v, a)
+        self._drive, self._command = (x, v, a), u
+        self._force = self.specimen.step(x, v, a, self.dt)
+        return Kinematics(x, v, a), self._force
+
+    def transfer_function(self) -> control.TransferFunction:
+        """The rational part ``num(s)/den(s)``; the :attr:`delay` [s] is separate."""
+        return self._tf
+
+    def state(self) -> dict[str, float]:
+        """Named variables for logging (SI).
+
+        ``command_delayed`` [m], ``displacement_linear`` (before the rate limiter) [m],
+        ``rate_limiting`` (+1/-1/0) and the specimen's state as ``specimen.<name>``.
+        """
+        limiting = 0.0 if self._limiter is None else float(self._limiter.limiting)
+        own = {
+            "command_delayed": self._command,
+            "displacement_linear": self._linear,
+            "rate_limiting": limiting,
+        }
+        return own | _specimen_state(self.specimen)
