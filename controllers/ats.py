@@ -37,9 +37,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from controllers.base import Compensator
+from rths.core.errors import (
+    ParameterError,
+    check_finite,
+    check_nonnegative,
+    check_positive,
+)
 from rths.core.filters import LowPass
-from plants.base import Kinematics
-from rths.core.errors import ParameterError, check_finite, check_nonnegative, check_positive
+from rths.core.kinematics import Kinematics
 
 __all__ = ["ATSSettings", "AdaptiveTimeSeries"]
 

@@ -14,8 +14,8 @@ import math
 from abc import ABC, abstractmethod
 from typing import ClassVar
 
-from plants.base import Kinematics
 from rths.core.errors import ParameterError, check_positive
+from rths.core.kinematics import Kinematics
 
 __all__ = ["Compensator"]
 

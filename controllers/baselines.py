@@ -10,8 +10,8 @@ from collections import deque
 import numpy as np
 
 from controllers.base import Compensator
-from plants.base import Kinematics
 from rths.core.errors import ParameterError, check_nonnegative, check_positive_int
+from rths.core.kinematics import Kinematics
 
 __all__ = ["NoCompensation", "PolynomialExtrapolation", "extrapolation_weights"]
 

@@ -32,8 +32,13 @@ from scipy.optimize import least_squares
 
 from controllers._lti import FloatArray, dc_gain, inverse_taylor, siso_polynomials
 from controllers.base import Compensator
-from plants.base import Kinematics
-from rths.core.errors import ParameterError, check_finite, check_nonnegative, check_positive
+from rths.core.errors import (
+    ParameterError,
+    check_finite,
+    check_nonnegative,
+    check_positive,
+)
+from rths.core.kinematics import Kinematics
 
 __all__ = [
     "FeedforwardCompensator",

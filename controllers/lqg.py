@@ -41,8 +41,13 @@ import numpy as np
 from controllers._lti import FloatArray, balanced_realization, dc_gain, siso_polynomials
 from controllers.base import Compensator
 from controllers.feedforward import FeedforwardCompensator
-from plants.base import Kinematics
-from rths.core.errors import ParameterError, check_nonnegative, check_positive, check_positive_int
+from rths.core.errors import (
+    ParameterError,
+    check_nonnegative,
+    check_positive,
+    check_positive_int,
+)
+from rths.core.kinematics import Kinematics
 
 __all__ = ["LQGCompensator", "LQGDesign", "LQGWeights", "design_lqg", "discrete_nominal"]
 

@@ -22,30 +22,15 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from rths.core.errors import ParameterError, check_positive
+from rths.core.kinematics import Kinematics
 
 __all__ = ["Actuator", "Kinematics", "Specimen", "Substructure", "drive"]
-
-
-@dataclass(frozen=True, slots=True)
-class Kinematics:
-    """Displacement [m], velocity [m/s] and acceleration [m/s^2] of one point."""
-
-    displacement: float
-    velocity: float
-    acceleration: float
-
-    def scaled(self, factor: float) -> Kinematics:
-        """The same motion multiplied by ``factor`` (e.g. a prototype→specimen scale factor)."""
-        return Kinematics(
-            self.displacement * factor, self.velocity * factor, self.acceleration * factor
-        )
 
 
 def _check_force(value: float, what: str) -> float:

@@ -7,11 +7,15 @@ import pytest
 from _vrths import Target, benchmark_plant, closed_loop, discretize, j2, multisine
 from scipy.signal import butter, sosfreqz
 
-from controllers.ats import ATSSettings, AdaptiveTimeSeries
-from controllers.baselines import NoCompensation, PolynomialExtrapolation, extrapolation_weights
+from controllers.ats import AdaptiveTimeSeries, ATSSettings
 from controllers.base import Compensator
-from plants.base import Kinematics
+from controllers.baselines import (
+    NoCompensation,
+    PolynomialExtrapolation,
+    extrapolation_weights,
+)
 from rths.core.errors import ParameterError
+from rths.core.kinematics import Kinematics
 
 DT = 1.0 / 4096.0
 

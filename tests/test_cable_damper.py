@@ -7,6 +7,15 @@ import pytest
 import scipy.optimize as so
 
 import plants.cable.frequency_equation as cd_module
+from plants.cable.frequency_equation import (
+    DamperRoot,
+    asymptotic_damping,
+    device_impedance,
+    exact_roots,
+    fe_roots,
+    frequency_function,
+    normalised_impedance,
+)
 from plants.cable.model import (
     CableProperties,
     InterfaceDevice,
@@ -16,15 +25,6 @@ from plants.cable.model import (
     normalised_stiffness,
     physical_damper,
     physical_stiffness,
-)
-from plants.cable.frequency_equation import (
-    DamperRoot,
-    asymptotic_damping,
-    device_impedance,
-    exact_roots,
-    fe_roots,
-    frequency_function,
-    normalised_impedance,
 )
 from rths.core.errors import ParameterError
 

@@ -6,8 +6,8 @@ import re
 
 import pytest
 
-from plants.cable.model import CableProperties, normalised_stiffness, physical_damper
 from plants.cable.frequency_equation import exact_roots
+from plants.cable.model import CableProperties, normalised_stiffness, physical_damper
 from rths.cli import main
 
 SEED_ARGS = ["damping", "--mode", "3", "--xd", "0.02", "--me", "0.53", "--cd", "0.75", "--elements", "200"]

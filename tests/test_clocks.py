@@ -2,8 +2,8 @@
 
 import pytest
 
-from rths.runtime.clocks import FreeRunning, RealtimeOverrun, WallClock
 from rths.core.errors import ParameterError
+from rths.runtime.clocks import FreeRunning, RealtimeOverrun, WallClock
 
 
 class FakeClock:

@@ -6,7 +6,15 @@ from __future__ import annotations
 import control
 import numpy as np
 import pytest
-from _vrths import benchmark_plant, closed_loop, discretize, heavy_plant, j2, multisine, perturbed_plants
+from _vrths import (
+    benchmark_plant,
+    closed_loop,
+    discretize,
+    heavy_plant,
+    j2,
+    multisine,
+    perturbed_plants,
+)
 
 from controllers.ats import AdaptiveTimeSeries
 from controllers.baselines import NoCompensation, PolynomialExtrapolation
@@ -14,8 +22,8 @@ from controllers.factory import KINDS, make_compensator
 from controllers.feedforward import FeedforwardCompensator
 from controllers.ff_lqg import FFLQGCompensator
 from controllers.lqg import LQGCompensator
-from plants.base import Kinematics
 from rths.core.errors import ParameterError
+from rths.core.kinematics import Kinematics
 
 DT = 1.0 / 4096.0
 NOISE = 2.0e-5  # sensor noise RMS [m], 0.6 % of the 3.2 mm target RMS

@@ -14,9 +14,9 @@ import pytest
 from _scenarios import short
 from mcap.reader import make_reader
 
+from rths.config.scenario import parse_scenario
 from rths.core.errors import TransportError
 from rths.session.runner import RunOptions, run_scenario
-from rths.config.scenario import parse_scenario
 from rths.wire.transport import loopback_endpoint
 
 

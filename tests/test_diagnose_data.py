@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from plants.actuator.models import MTS_IDENTIFIED
+from rths.core.errors import ConfigError, DataError, ParameterError
 from rths.diagnose.data import MIN_DURATION, load_record, read_csv, write_csv
 from rths.diagnose.nominal import (
     ActuatorNominal,
@@ -17,7 +18,6 @@ from rths.diagnose.nominal import (
     nominal_toml,
     parse_nominal,
 )
-from rths.core.errors import ConfigError, DataError, ParameterError
 
 DT = 1.0 / 256.0
 

@@ -13,9 +13,9 @@ import math
 import numpy as np
 import pytest
 
+from rths.core.errors import ParameterError
 from rths.diagnose import Options, diagnose
 from rths.diagnose.synthetic import LabCase, band_limited_command, lab_record
-from rths.core.errors import ParameterError
 
 DT = 1.0 / 1024.0
 M, C = 1589.0, 2 * 0.15 * 1589.0 * 2 * math.pi * 20.0  # zeta 0.15 at 20 Hz (S0 Eq.18 range)

@@ -16,8 +16,8 @@ from controllers.feedforward import (
     fit_low_order,
     low_order_from_nominal,
 )
-from plants.base import Kinematics
 from rths.core.errors import ParameterError
+from rths.core.kinematics import Kinematics
 
 DT = 1.0 / 4096.0
 FREQS = (1.0, 2.0, 3.0, 4.0, 5.0)

@@ -19,7 +19,12 @@ from rths.experiments.s1_shake_table.frf import (
     steady_state_amplitude,
     steady_state_windows,
 )
-from rths.experiments.s1_shake_table.sweep import IdealTable, SteppedSine, command_amplitudes, sweep_structure
+from rths.experiments.s1_shake_table.sweep import (
+    IdealTable,
+    SteppedSine,
+    command_amplitudes,
+    sweep_structure,
+)
 
 DT = 1e-3
 

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from plants.imd.amplitude import AmplitudeTracker
 from plants.base import Specimen, drive
+from plants.imd.amplitude import AmplitudeTracker
 from plants.imd.models import (
     CONTACT_FREQUENCY_HZ,
     IMD_MODELS,

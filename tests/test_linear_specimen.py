@@ -8,7 +8,11 @@ import numpy as np
 import pytest
 
 from plants.base import drive
-from plants.linear_specimen import BenchmarkSpecimenParameters, LinearSpecimen, benchmark_specimen
+from plants.linear_specimen import (
+    BenchmarkSpecimenParameters,
+    LinearSpecimen,
+    benchmark_specimen,
+)
 from rths.core.errors import ParameterError
 
 

@@ -8,14 +8,15 @@ import threading
 
 import numpy as np
 import pytest
+from _scenarios import PERFECT_ACTUATOR, QUIET, SAME_AS_MODEL, short
 
 from controllers.factory import make_compensator
 from rths.config import build
-from rths.core.errors import ParameterError, RTHSError
-from rths.runtime.loop import InProcessLink, LinkSample, Loop, Scaling
-from rths.session.mock import numerical_run
 from rths.config.scenario import parse_scenario
-from _scenarios import PERFECT_ACTUATOR, QUIET, SAME_AS_MODEL, short
+from rths.core.errors import ParameterError, RTHSError
+from rths.core.scaling import Scaling
+from rths.runtime.loop import InProcessLink, LinkSample, Loop
+from rths.session.mock import numerical_run
 
 
 def _run(scn, link=None, n=None, **kw):

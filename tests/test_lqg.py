@@ -11,9 +11,15 @@ from filterpy.kalman import KalmanFilter
 
 from controllers.feedforward import FeedforwardCompensator, LowOrderModel
 from controllers.ff_lqg import FFLQGCompensator
-from controllers.lqg import LQGCompensator, LQGDesign, LQGWeights, design_lqg, discrete_nominal
-from plants.base import Kinematics
+from controllers.lqg import (
+    LQGCompensator,
+    LQGDesign,
+    LQGWeights,
+    design_lqg,
+    discrete_nominal,
+)
 from rths.core.errors import ParameterError
+from rths.core.kinematics import Kinematics
 
 DT = 1.0 / 4096.0
 

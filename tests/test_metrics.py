@@ -1,4 +1,4 @@
-"""Oracles for rths.analysis.metrics: closed forms for sines, exact discrete identities, noise bounds."""
+"""Oracles for rths.metrics: closed forms for sines, exact discrete identities, noise bounds."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from rths.analysis import metrics
+from rths import metrics
 from rths.core.errors import DataError, ParameterError
 
 FS = 1024.0  # sampling rate [Hz]

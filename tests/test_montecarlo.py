@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rths.cli import main
 from rths.analysis.montecarlo import run_draws
+from rths.cli import main
 from rths.config.scenario import parse_scenario
 
 SCENARIO = Path(__file__).resolve().parent.parent / "scenarios" / "benchmark_mc.toml"

@@ -30,7 +30,13 @@ from rths.log.recorder import (
     Recorder,
     object_schema,
 )
-from rths.wire.transport import LogBridge, LogPublisher, RunKeys, ZenohEndpoints, open_session
+from rths.wire.transport import (
+    LogBridge,
+    LogPublisher,
+    RunKeys,
+    ZenohEndpoints,
+    open_session,
+)
 
 PATIENCE = 10.0  # upper bound for asynchronous deliveries; reached only if the code is broken
 DT_NS = 250_000  # 4 kHz loop step [ns]

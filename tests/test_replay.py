@@ -10,8 +10,8 @@ import zenoh
 from _scenarios import short
 
 from rths.cli import main
-from rths.wire.codec import LogRecord
 from rths.log.replay import paced
+from rths.wire.codec import LogRecord
 from rths.wire.transport import RunKeys, ZenohEndpoints, loopback_endpoint, open_session
 
 

@@ -12,8 +12,8 @@ from _scenarios import short
 from mcap.reader import make_reader
 
 from rths.cli import main
-from rths.session.runner import RunOptions, run_scenario
 from rths.config.scenario import parse_scenario
+from rths.session.runner import RunOptions, run_scenario
 
 
 def _plain_loop(path: Path) -> tuple[list[dict], dict[str, dict[str, str]], dict[str, int]]:

@@ -9,8 +9,8 @@ import pytest
 from _scenarios import SEED, seed_text
 
 from rths.config import build
-from rths.core.errors import ConfigError
 from rths.config.scenario import load_scenario, parse_scenario
+from rths.core.errors import ConfigError
 
 SCENARIOS = sorted(
     p for p in (Path(__file__).resolve().parent.parent / "scenarios").glob("*.toml")

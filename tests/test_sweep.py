@@ -12,9 +12,15 @@ import pytest
 from plants.actuator.models import MTS_IDENTIFIED, TransferFunctionActuator
 from plants.base import Specimen
 from plants.tmdi.inerter import IdealInerter
-from plants.tmdi.structure import NominalInerter, TMDIStructure, TMDISubstructure, s1_configuration
+from plants.tmdi.structure import (
+    NominalInerter,
+    TMDIStructure,
+    TMDISubstructure,
+    s1_configuration,
+)
 from rths.cli import main
 from rths.core.errors import ConfigError, ParameterError
+from rths.experiments.s1_shake_table.report import frf_table, loops_figure, summarise
 from rths.experiments.s1_shake_table.sweep import (
     STANDARD_GRAVITY,
     IdealTable,
@@ -29,7 +35,6 @@ from rths.experiments.s1_shake_table.sweep import (
     step_frequencies,
     stepped_sine_acceleration,
 )
-from rths.experiments.s1_shake_table.report import frf_table, loops_figure, summarise
 
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "tmdi_shake_table.toml"
 DT = 1e-3

@@ -10,8 +10,8 @@ import pytest
 from scipy.integrate import cumulative_trapezoid
 
 from controllers.baselines import NoCompensation
-from plants.imd.amplitude import AmplitudeTracker
 from plants.base import Specimen
+from plants.imd.amplitude import AmplitudeTracker
 from plants.tmdi.hdrb import (
     HDRB,
     S1_PRIMARY,
@@ -39,7 +39,8 @@ from plants.tmdi.structure import (
     s1_configuration,
 )
 from rths.core.errors import ParameterError
-from rths.runtime.loop import LinkSample, Loop, Scaling
+from rths.core.scaling import Scaling
+from rths.runtime.loop import LinkSample, Loop
 
 G = 9.81
 J_B, R_P = S1_RACK_PINION.flywheel_inertia, S1_RACK_PINION.pinion_radius

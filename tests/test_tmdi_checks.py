@@ -33,7 +33,12 @@ from plants.tmdi.structure import (
     stepped_sine_crest,
 )
 from rths.core.errors import NumericalError, ParameterError
-from rths.experiments.s1_shake_table.frf import FRF, frf_nrmse, resonance, second_resonance
+from rths.experiments.s1_shake_table.frf import (
+    FRF,
+    frf_nrmse,
+    resonance,
+    second_resonance,
+)
 from rths.experiments.s1_shake_table.sweep import (
     STANDARD_GRAVITY,
     SteppedSine,

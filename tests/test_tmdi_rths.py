@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rths.analysis.metrics import normalised_rms_error
+from rths.config.scenario import parse_scenario
+from rths.metrics import normalised_rms_error
 from rths.session.mock import numerical_run
 from rths.session.runner import RunOptions, run_scenario
-from rths.config.scenario import parse_scenario
 
 SCENARIO = Path(__file__).resolve().parent.parent / "scenarios" / "tmdi_rths.toml"
 

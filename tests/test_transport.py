@@ -19,9 +19,9 @@ from collections.abc import Iterator
 import pytest
 import zenoh
 
-from rths.wire.inbox import _ALARM
-from rths.wire.codec import Command, LogRecord, Measurement
 from rths.core.errors import DataError, ParameterError, TransportError
+from rths.wire.codec import Command, LogRecord, Measurement
+from rths.wire.inbox import _ALARM
 from rths.wire.transport import (
     Inbox,
     LockstepClient,
@@ -330,7 +330,7 @@ def test_handshake_timeout_names_peer_and_endpoint(pair) -> None:
     with Presence(co, RunKeys("alone"), "coordinator", ep.describe()) as presence:
         with pytest.raises(
             TransportError,
-            match=rf"specimen process did not come up within 0.2 s on listen tcp/127.0.0.1:\d+",
+            match=r"specimen process did not come up within 0.2 s on listen tcp/127.0.0.1:\d+",
         ):
             presence.wait_for_peer(0.2)
         with pytest.raises(ParameterError, match=r"handshake timeout must be positive; got 0"):

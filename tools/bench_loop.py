@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
+from rths.config.scenario import parse_scenario
 from rths.log.reader import read_metadata, read_topic
 from rths.session.runner import RunOptions, run_scenario
-from rths.config.scenario import parse_scenario
 
 SEED = Path(__file__).resolve().parent.parent / "scenarios" / "cable_imd_mode3.toml"
 

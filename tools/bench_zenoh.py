@@ -44,8 +44,8 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
-from rths.wire.codec import Command, Measurement
 from rths.log.recorder import LOOP_TOPIC, Recorder
+from rths.wire.codec import Command, Measurement
 from rths.wire.transport import (
     LockstepClient,
     LockstepServer,

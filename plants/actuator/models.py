@@ -41,7 +41,6 @@ import control
 import numpy as np
 from numpy.typing import ArrayLike
 
-from plants.actuator.lines import DelayLine, RateLimiter, delayed, rate_limited
 from plants.actuator.linear import (
     check_stable,
     close_remainder,
@@ -50,6 +49,7 @@ from plants.actuator.linear import (
     servo_hydraulic_model,
     siso_transfer_function,
 )
+from plants.actuator.lines import DelayLine, RateLimiter, delayed, rate_limited
 from plants.actuator.parameters import (
     BENCHMARK,
     HEAVY_INERTIAL_LOAD,
@@ -59,7 +59,12 @@ from plants.actuator.parameters import (
 )
 from plants.base import Actuator, Kinematics, Specimen
 from plants.linear_specimen import LinearSpecimen
-from rths.core.errors import ParameterError, check_nonnegative, check_positive, check_positive_int
+from rths.core.errors import (
+    ParameterError,
+    check_nonnegative,
+    check_positive,
+    check_positive_int,
+)
 
 __all__ = [
     "BENCHMARK",

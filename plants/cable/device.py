@@ -46,7 +46,12 @@ from numpy.typing import NDArray
 
 from plants.cable.fe import MassKind, Tridiagonal, assemble, check_mesh, mesh_nodes
 from plants.cable.properties import CableProperties, InterfaceDevice, RayleighDamping
-from rths.core.errors import ParameterError, check_finite, check_positive, check_positive_int
+from rths.core.errors import (
+    ParameterError,
+    check_finite,
+    check_positive,
+    check_positive_int,
+)
 
 __all__ = [
     "FEMatrices",

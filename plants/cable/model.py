@@ -60,6 +60,7 @@ import numpy as np
 import scipy.linalg as sla
 from numpy.typing import ArrayLike, NDArray
 
+from plants.base import Kinematics, Substructure
 from plants.cable.device import (
     FEMatrices,
     SeriesCondensation,
@@ -81,8 +82,12 @@ from plants.cable.properties import (
     physical_damper,
     physical_stiffness,
 )
-from plants.base import Kinematics, Substructure
-from rths.core.errors import ParameterError, check_finite, check_in_range, check_positive_int
+from rths.core.errors import (
+    ParameterError,
+    check_finite,
+    check_in_range,
+    check_positive_int,
+)
 
 #: nodal displacement, velocity, acceleration and the flywheel's ``(x, x', x'')``
 _State = tuple[

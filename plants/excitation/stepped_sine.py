@@ -15,13 +15,17 @@ import bisect
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Final
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from rths.core.errors import ParameterError, check_positive, check_positive_int
 
-__all__ = ["SteppedSine", "frequency_grid"]
+__all__ = ["STANDARD_GRAVITY", "SteppedSine", "frequency_grid", "stepped_sine_acceleration"]
+
+#: Standard gravity [m/s²], the unit of a PGA given in g.
+STANDARD_GRAVITY: Final[float] = 9.80665
 
 _DIGITS = 9  # grid frequencies are rounded to 1 nHz so that lattice points compare equal
 
@@ -183,3 +187,30 @@ class SteppedSine:
             return values[k] * math.sin(2.0 * math.pi * freqs[k] * (t - bounds[k]))
 
         return value
+
+
+def stepped_sine_acceleration(
+    frequencies: ArrayLike, pga: float, cycles: int = 20, direction: str | None = None
+) -> Callable[[float], float]:
+    """Ground acceleration ``ü_G(t)`` [m/s²] of a stepped sine at ``pga`` [g] (perfect table).
+
+    ``PGA g sin(2π f_k (t - t_k))`` during step ``k`` and 0 after the sweep: the excitation a
+    :class:`plants.tmdi.structure.TMDISubstructure` owns in an RTHS of the S1 shake-table test.
+
+    Parameters
+    ----------
+    frequencies
+        Step frequencies [Hz] in playing order, or the grid when ``direction`` is given.
+    pga
+        Peak acceleration [g], > 0.
+    cycles
+        Whole cycles per step.
+    direction
+        ``"up"`` or ``"down"`` to sort ``frequencies``; None plays them as given.
+    """
+    amplitude = check_positive(pga, "PGA") * STANDARD_GRAVITY
+    if direction is None:
+        sine = SteppedSine(np.asarray(frequencies, dtype=float), cycles)
+    else:
+        sine = SteppedSine.sweep(frequencies, direction, cycles)
+    return sine.function(amplitude)

@@ -44,6 +44,7 @@ from __future__ import annotations
 import math
 from typing import ClassVar
 
+from plants.base import Specimen
 from plants.imd.amplitude import AmplitudeTracker
 from plants.imd.kernels import advance_flywheel, advance_flywheel_jit, regularised_sign
 from plants.imd.parameters import (
@@ -54,7 +55,6 @@ from plants.imd.parameters import (
     damping_from_ratio,
     screw_series_stiffness,
 )
-from plants.base import Specimen
 from rths.core.errors import ParameterError, check_positive, format_choices
 
 __all__ = [

@@ -52,8 +52,9 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import brentq
 
 from plants.tmdi import kernel as kern
-from plants.tmdi.parameters import TMDIParameters
+from plants.tmdi import layout
 from plants.tmdi.hdrb import AMPLITUDE_RANGE, HDRB, S1_PRIMARY, AmplitudeDamping
+from plants.tmdi.parameters import TMDIParameters
 from rths.core.errors import NumericalError, ParameterError, check_positive
 
 __all__ = [
@@ -202,11 +203,11 @@ def stepped_sine_crest(
     t = np.arange(math.ceil(bounds[-1] / dt - 1e-9) + 1) * dt
     k = np.clip(np.searchsorted(bounds, t, side="right") - 1, 0, freqs.size - 1)
     ag = np.where(t < bounds[-1], a_g * np.sin(2.0 * np.pi * freqs[k] * (t - bounds[k])), 0.0)
-    params = kern.pack_parameters(TMDIParameters(mass, isolator))
-    out, failures = kern.simulate(ag, dt, 1, params, np.zeros(kern.N_STATE))
+    params = layout.pack_parameters(TMDIParameters(mass, isolator))
+    out, failures = kern.simulate(ag, dt, 1, params, np.zeros(layout.N_STATE))
     if failures or not np.all(np.isfinite(out)):
         raise NumericalError(f"PS time integration failed at PGA {pga!r} g")
-    u = np.abs(out[:, kern.O_U_I])
+    u = np.abs(out[:, layout.O_U_I])
     peaks = np.array([
         np.max(u[math.ceil((b - _STEADY / f) / dt - 1e-9):math.ceil(b / dt - 1e-9)])
         for f, b in zip(freqs, bounds[1:])

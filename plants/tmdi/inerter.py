@@ -36,14 +36,25 @@ The Coulomb friction is regularised, ``f_y tanh(u̇_T / v_eps)``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
 from typing import Final
 
 import numpy as np
 
-from plants.tmdi import kernel as kern
 from plants.base import Specimen
-from rths.core.errors import ParameterError, check_nonnegative, check_positive, format_choices
+from plants.tmdi import kernel as kern
+from plants.tmdi import layout
+from plants.tmdi.parameters import (
+    FLYWHEELS,
+    S1_IDEAL_INERTANCE,
+    S1_RACK_PINION,
+    RackPinionParameters,
+    ideal_inerter_preset,
+    rack_pinion_preset,
+)
+from rths.core.errors import (
+    ParameterError,
+    check_positive,
+)
 
 __all__ = [
     "FLYWHEELS",
@@ -55,124 +66,6 @@ __all__ = [
     "ideal_inerter_preset",
     "rack_pinion_preset",
 ]
-
-#: Nominal inertance [kg] of the S1 flywheel variants, S1 §2.2 and Table 1 (β = b / 125 kg):
-#: no flywheel (NF, β = 0.001), intermediate (IF, β = 0.383), large (LF, β = 0.765).
-FLYWHEELS: Final[dict[str, float]] = {"NF": 0.1, "IF": 47.9, "LF": 95.6}
-
-#: Inertance [kg] of the ideal-inerter variant of the S1 model (IF specimen), S1 §4.2.
-S1_IDEAL_INERTANCE: Final[float] = 48.7
-
-#: Fraction of the shortest model time scale used as the largest internal sub-step.
-SUBSTEP_FRACTION: Final[float] = 0.25
-
-
-@dataclass(frozen=True, slots=True)
-class RackPinionParameters:
-    """Parameters of the rack-and-pinion flywheel inerter, S1 Eq.9-11 and Fig.16.
-
-    Defaults are the S1 §4.2 values of the IF device.
-
-    Parameters
-    ----------
-    pinion_radius
-        ``r_P`` [m]; ``θ_P = u_T / r_P``.
-    flywheel_inertia
-        ``J_B`` [kg m^2], as seen at the pinion shaft (gearbox included).
-    series_stiffness
-        ``k_S`` [N m/rad] of the visco-elastic element between pinion and gap.
-    series_damping
-        ``c_S`` [N m s/rad] of that element (0 makes the node follow the pinion rigidly while
-        the gap is open).
-    clearance_forward
-        ``ε1`` [rad]: play before the node drives the flywheel forward.
-    clearance_backward
-        ``ε2`` [rad]: play before the node drives the flywheel backward.
-    flywheel_damping
-        ``c_B`` [N m s/rad], parasitic viscous damping of the flywheel.
-    friction_force
-        ``f_y`` [N], Coulomb friction of the rack.
-    friction_velocity
-        ``v_eps`` [m/s] of the regularisation ``f_y tanh(u̇_T / v_eps)``; below it the
-        friction grows linearly.  The hysteresis loop of a sinusoid of amplitude ``A`` and
-        frequency ``ω`` loses a fraction ``(π²/24)(v_eps/(Aω))²`` of ``4 f_y A``.
-    """
-
-    pinion_radius: float = 0.018
-    flywheel_inertia: float = 1.55e-2
-    series_stiffness: float = 187.16
-    series_damping: float = 0.85
-    clearance_forward: float = 0.0084
-    clearance_backward: float = 0.0056
-    flywheel_damping: float = 0.03
-    friction_force: float = 7.3
-    friction_velocity: float = 1e-3
-
-    def __post_init__(self) -> None:
-        check_positive(self.pinion_radius, "pinion radius r_P")
-        check_positive(self.flywheel_inertia, "flywheel inertia J_B")
-        check_positive(self.series_stiffness, "series stiffness k_S")
-        check_nonnegative(self.series_damping, "series damping c_S")
-        check_nonnegative(self.clearance_forward, "forward clearance eps1")
-        check_nonnegative(self.clearance_backward, "backward clearance eps2")
-        check_nonnegative(self.flywheel_damping, "flywheel damping c_B")
-        check_nonnegative(self.friction_force, "friction force f_y")
-        check_positive(self.friction_velocity, "friction regularisation velocity v_eps")
-
-    @property
-    def nominal_inertance(self) -> float:
-        """Rigid-limit inertance ``b = J_B / r_P²`` [kg]."""
-        return self.flywheel_inertia / self.pinion_radius**2
-
-    @property
-    def total_clearance(self) -> float:
-        """Total play ``ε1 + ε2`` [rad]."""
-        return self.clearance_forward + self.clearance_backward
-
-    def max_substep(self) -> float:
-        """Largest internal sub-step [s]: a quarter of the shortest time scale of the device.
-
-        The scales are the node relaxation ``c_S/k_S``, the flywheel's viscous time
-        ``J_B/(c_S + c_B)`` and the inverse contact frequency ``sqrt(J_B/k_S)``.
-        """
-        scales = [math.sqrt(self.flywheel_inertia / self.series_stiffness)]
-        if self.series_damping > 0.0:
-            scales.append(self.series_damping / self.series_stiffness)
-        if self.series_damping + self.flywheel_damping > 0.0:
-            scales.append(self.flywheel_inertia / (self.series_damping + self.flywheel_damping))
-        return SUBSTEP_FRACTION * min(scales)
-
-
-#: The identified IF device of S1 §4.2 (``J_B / r_P² = 47.8 kg``).
-S1_RACK_PINION: Final[RackPinionParameters] = RackPinionParameters()
-
-
-def _check_flywheel(flywheel: str) -> float:
-    if flywheel not in FLYWHEELS:
-        raise ParameterError(
-            f"flywheel must be one of {format_choices(list(FLYWHEELS))}; got {flywheel!r}"
-        )
-    return FLYWHEELS[flywheel] / FLYWHEELS["IF"]
-
-
-def rack_pinion_preset(flywheel: str = "IF") -> RackPinionParameters:
-    """The S1 §4.2 device with the flywheel of S1 Table 1 (``"NF"``, ``"IF"``, ``"LF"``).
-
-    Only the IF device was identified (S1 §4.2); NF and LF scale ``J_B`` by the ratio of
-    nominal inertances (0.1 / 47.9 and 95.6 / 47.9), keeping the transmission parameters.
-    """
-    return replace(
-        S1_RACK_PINION, flywheel_inertia=S1_RACK_PINION.flywheel_inertia * _check_flywheel(flywheel)
-    )
-
-
-def ideal_inerter_preset(flywheel: str = "IF") -> float:
-    """Inertance [kg] of the ideal-inerter model for an S1 flywheel variant.
-
-    48.7 kg for IF (S1 §4.2), scaled by the nominal ratio of S1 Table 1 for NF and LF.
-    """
-    return S1_IDEAL_INERTANCE * _check_flywheel(flywheel)
-
 
 class IdealInerter(Specimen):
     """Ideal linear inerter ``F = b ü`` (S1 Fig.1a) with one end grounded.
@@ -219,10 +112,10 @@ class RackPinionInerter(Specimen):
                 f"parameters must be RackPinionParameters; got {type(parameters).__name__}"
             )
         self.parameters: Final[RackPinionParameters] = parameters
-        self._p = kern.pack_parameters(device=parameters)
-        self._state = np.zeros(kern.N_STATE)
-        self._input = np.zeros(kern.N_INPUT)
-        self._input[kern.I_DRIVEN] = 1.0
+        self._p = layout.pack_parameters(device=parameters)
+        self._state = np.zeros(layout.N_STATE)
+        self._input = np.zeros(layout.N_INPUT)
+        self._input[layout.I_DRIVEN] = 1.0
         self._substeps: dict[float, int] = {}
         self.reset()
 
@@ -231,7 +124,7 @@ class RackPinionInerter(Specimen):
         closed if there is no play)."""
         self._state[:] = 0.0
         no_play = self.parameters.total_clearance == 0.0
-        self._state[kern.S_MODE] = kern.FORWARD if no_play else kern.OPEN
+        self._state[layout.S_MODE] = layout.FORWARD if no_play else layout.OPEN
         self._torque = 0.0
 
     def substeps(self, dt: float) -> int:
@@ -248,15 +141,15 @@ class RackPinionInerter(Specimen):
         if not (math.isfinite(u) and math.isfinite(v)):
             raise ParameterError(f"drive state must be finite; got u={u!r}, v={v!r}")
         inp = self._input
-        inp[kern.I_U0] = self._state[kern.S_U_T]
-        inp[kern.I_V0] = self._state[kern.S_V_T]
-        inp[kern.I_U1] = u
-        inp[kern.I_V1] = v
+        inp[layout.I_U0] = self._state[layout.S_U_T]
+        inp[layout.I_V0] = self._state[layout.S_V_T]
+        inp[layout.I_U1] = u
+        inp[layout.I_V1] = v
         if kern.step(self._state, dt, self.substeps(dt), inp, self._p):
             raise kern.IntegrationError(
                 f"rack-and-pinion step failed to converge with dt={dt!r}, u={u!r}, v={v!r}"
             )
-        mode = int(self._state[kern.S_MODE])
+        mode = int(self._state[layout.S_MODE])
         self._torque = kern.torque(self._state, mode, self._p)
         return kern.friction(v, self._p) + self._torque / self.parameters.pinion_radius
 
@@ -265,11 +158,11 @@ class RackPinionInerter(Specimen):
         contact (-1 backward, 0 open, +1 forward) and friction force [N]."""
         s = self._state
         return {
-            "theta_S": float(s[kern.S_TH_S]),
-            "theta_G": float(s[kern.S_TH_G]),
-            "omega_G": float(s[kern.S_OM_G]),
-            "gap": float(s[kern.S_TH_S] - s[kern.S_TH_G]),
+            "theta_S": float(s[layout.S_TH_S]),
+            "theta_G": float(s[layout.S_TH_G]),
+            "omega_G": float(s[layout.S_OM_G]),
+            "gap": float(s[layout.S_TH_S] - s[layout.S_TH_G]),
             "torque": float(self._torque),
-            "contact": float(s[kern.S_MODE]),
-            "friction": float(kern.friction(s[kern.S_V_T], self._p)),
+            "contact": float(s[layout.S_MODE]),
+            "friction": float(kern.friction(s[layout.S_V_T], self._p)),
         }

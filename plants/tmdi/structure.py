@@ -44,7 +44,9 @@ from typing import Final
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from plants.base import Specimen
 from plants.tmdi import kernel as kern
+from plants.tmdi import layout
 from plants.tmdi.calibration import (
     S1_UNCONTROLLED,
     PSCalibration,
@@ -53,11 +55,6 @@ from plants.tmdi.calibration import (
     harmonic_balance_crest,
     stepped_sine_crest,
 )
-from plants.tmdi.kernel import IntegrationError
-from plants.tmdi.linear import EQ7_QUANTITIES, linear_frf, linearised_frequencies
-from plants.tmdi.parameters import PRIMARY_MASS, SECONDARY_MASSES, TMDIParameters
-from plants.tmdi.substructure import NominalInerter, TMDISubstructure
-from plants.base import Specimen
 from plants.tmdi.hdrb import (
     S1_PRIMARY,
     S1_PRIMARY_AMPLITUDE,
@@ -70,12 +67,20 @@ from plants.tmdi.hdrb import (
     S1_SECONDARY_IDEAL_INERTER_AMPLITUDE,
 )
 from plants.tmdi.inerter import (
-    SUBSTEP_FRACTION,
     IdealInerter,
     RackPinionInerter,
     ideal_inerter_preset,
     rack_pinion_preset,
 )
+from plants.tmdi.kernel import IntegrationError
+from plants.tmdi.linear import EQ7_QUANTITIES, linear_frf, linearised_frequencies
+from plants.tmdi.parameters import (
+    PRIMARY_MASS,
+    SECONDARY_MASSES,
+    SUBSTEP_FRACTION,
+    TMDIParameters,
+)
+from plants.tmdi.substructure import NominalInerter, TMDISubstructure
 from rths.core.errors import (
     ParameterError,
     check_positive,
@@ -213,9 +218,9 @@ _SECONDARY_KINEMATICS: Final[tuple[str, ...]] = ("u_TI", "a_T_tot", "u_T", "a_T"
 
 
 def _initial_state(rack: RackPinionInerter | None) -> NDArray[np.float64]:
-    s = np.zeros(kern.N_STATE)
+    s = np.zeros(layout.N_STATE)
     if rack is not None and rack.parameters.total_clearance == 0.0:
-        s[kern.S_MODE] = kern.FORWARD
+        s[layout.S_MODE] = layout.FORWARD
     return s
 
 
@@ -247,12 +252,12 @@ class TMDIStructure:
         if inerter is not None and not parameters.has_tmd:
             raise ParameterError("an inerter needs a secondary mass; got secondary mass 0.0")
         if isinstance(inerter, IdealInerter):
-            self._p = kern.pack_parameters(parameters, inertance=inerter.inertance)
+            self._p = layout.pack_parameters(parameters, inertance=inerter.inertance)
         elif isinstance(inerter, RackPinionInerter):
             self._rack = inerter
-            self._p = kern.pack_parameters(parameters, device=inerter.parameters)
+            self._p = layout.pack_parameters(parameters, device=inerter.parameters)
         elif inerter is None:
-            self._p = kern.pack_parameters(parameters)
+            self._p = layout.pack_parameters(parameters)
         else:
             raise ParameterError(
                 "inerter must be IdealInerter, RackPinionInerter or None; got "
@@ -294,7 +299,7 @@ class TMDIStructure:
             raise IntegrationError(
                 f"TMDI integration failed to converge in {failures} segments with dt={self.dt!r}"
             )
-        fields = {name: out[:, col].copy() for name, col in kern.OUTPUT_FIELDS.items()}
+        fields = {name: out[:, col].copy() for name, col in layout.OUTPUT_FIELDS.items()}
         if not self.parameters.has_tmd:
             for name in _SECONDARY_KINEMATICS:
                 fields[name][:] = np.nan

@@ -11,11 +11,12 @@ from typing import TYPE_CHECKING, Final
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from plants.base import Kinematics, Specimen, Substructure
 from plants.tmdi import kernel as kern
+from plants.tmdi import layout
+from plants.tmdi.inerter import IdealInerter, RackPinionInerter
 from plants.tmdi.kernel import IntegrationError
 from plants.tmdi.linear import EQ7_QUANTITIES
-from plants.base import Kinematics, Specimen, Substructure
-from plants.tmdi.inerter import IdealInerter, RackPinionInerter
 from rths.core.errors import ParameterError, check_nonnegative, check_positive
 
 if TYPE_CHECKING:
@@ -119,12 +120,12 @@ class TMDISubstructure(Substructure):
         spacing = self.dt if excitation_dt is None else excitation_dt
         self._ground = _ground_motion(ground_acceleration, spacing)
         nominal = device or NominalInerter(0.0)
-        self._p = kern.pack_parameters(
+        self._p = layout.pack_parameters(
             parameters, inertance=nominal.inertance, grounded_damping=nominal.damping
         )
-        self._state = np.zeros(kern.N_STATE)
-        self._input = np.zeros(kern.N_INPUT)
-        self._out = np.zeros(kern.N_OUTPUT)
+        self._state = np.zeros(layout.N_STATE)
+        self._input = np.zeros(layout.N_INPUT)
+        self._out = np.zeros(layout.N_OUTPUT)
         self.reset()
 
     def reset(self) -> None:
@@ -155,14 +156,14 @@ class TMDISubstructure(Substructure):
 
     def _kinematics(self, s: NDArray[np.float64], ag: float, force: float) -> Kinematics:
         a_t = kern.accelerations(s, ag, force, self._p)[1]
-        return Kinematics(float(s[kern.S_U_T]), float(s[kern.S_V_T]), float(a_t))
+        return Kinematics(float(s[layout.S_U_T]), float(s[layout.S_V_T]), float(a_t))
 
     def _advance(self, s: NDArray[np.float64], force: float) -> float:
         ag1 = self._ground((self._k + 1) * self.dt)
         inp = self._input
-        inp[kern.I_AG0] = self._ag_now
-        inp[kern.I_AG1] = ag1
-        inp[kern.I_FEXT] = force
+        inp[layout.I_AG0] = self._ag_now
+        inp[layout.I_AG1] = ag1
+        inp[layout.I_FEXT] = force
         if kern.step(s, self.dt, 1, inp, self._p) or not np.all(np.isfinite(s)):
             raise IntegrationError(
                 f"TMDI substructure step failed at t={self.time!r} s with force {force!r} N"
@@ -186,7 +187,7 @@ class TMDISubstructure(Substructure):
         """S1 Eq.7 quantities now, plus ``a_G``; ``F_B`` is the last interface force (with a
         nominal device: :attr:`device_force` plus the last correction)."""
         kern.outputs(self._state, self._ag_now, self._force, self._p, self._out)
-        result = {name: float(self._out[kern.OUTPUT_FIELDS[name]]) for name in EQ7_QUANTITIES}
+        result = {name: float(self._out[layout.OUTPUT_FIELDS[name]]) for name in EQ7_QUANTITIES}
         result["a_G"] = float(self._ag_now)
         return result
 

@@ -20,10 +20,10 @@ from tqdm import tqdm
 
 from controllers.factory import KINDS
 from rths.config import build
-from rths.core.errors import ConfigError
-from rths.runtime.loop import InProcessLink, Loop
-from rths.analysis.metrics import normalised_rms_error
 from rths.config.scenario import Scenario
+from rths.core.errors import ConfigError
+from rths.metrics import normalised_rms_error
+from rths.runtime.loop import InProcessLink, Loop
 
 __all__ = ["MonteCarloResult", "main", "run_draws"]
 

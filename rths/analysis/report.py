@@ -2,7 +2,7 @@
 
 Written to the output directory:
 
-``metrics.json``        tracking metrics (rths.analysis.metrics.summarize), timing and recording counts,
+``metrics.json``        tracking metrics (rths.metrics.summarize), timing and recording counts,
                         and the RTHS-vs-mock comparison of the structure's response;
 ``time_history.png``    target, command and measured displacement (S0 Fig.32);
 ``sync_subspace.png``   measured vs. target with the perfect-tracking line (S0 Fig.33);
@@ -24,7 +24,7 @@ import numpy as np
 
 from rths.core.errors import DataError
 from rths.log.reader import read_metadata, read_topic
-from rths.analysis.metrics import normalised_rms_error, summarize
+from rths.metrics import normalised_rms_error, summarize
 
 __all__ = ["write_report"]
 

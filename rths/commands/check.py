@@ -33,13 +33,13 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 def run(args: argparse.Namespace) -> int:
     """Compare the log's sync-subspace RMSE with the bound; 0 pass, 1 fail."""
-    import numpy as np
-
     import math
+
+    import numpy as np
 
     from rths.core.errors import DataError
     from rths.log.reader import is_complete, read_metadata, read_topic
-    from rths.analysis.metrics import sync_subspace_rmse
+    from rths.metrics import sync_subspace_rmse
 
     if not (math.isfinite(args.max_rmse) and args.max_rmse > 0):
         raise DataError(f"--max-rmse must be a positive percentage; got {args.max_rmse!r}")

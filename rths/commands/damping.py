@@ -66,7 +66,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def _normalised_parameters(args: argparse.Namespace) -> tuple[float, float, float | None]:
     """``(m_e, c_d, k_e)`` from exactly one of the two parameter sets (``k_e`` None: rigid)."""
-    from plants.cable.model import CableProperties, normalised_damper, normalised_stiffness
+    from plants.cable.model import (
+        CableProperties,
+        normalised_damper,
+        normalised_stiffness,
+    )
 
     normalised = [v for v in (args.me, args.cd, args.ke) if v is not None]
     physical = [
@@ -131,7 +135,11 @@ def _pairs(exact: tuple[Any, ...], fe: tuple[Any, ...]) -> list[tuple[Any | None
 
 def run(args: argparse.Namespace) -> int:
     """Compute and print the roots; returns 0."""
-    from plants.cable.frequency_equation import asymptotic_damping, exact_roots, fe_roots
+    from plants.cable.frequency_equation import (
+        asymptotic_damping,
+        exact_roots,
+        fe_roots,
+    )
 
     m_e, c_d, k_e = _normalised_parameters(args)
     exact = exact_roots(args.mode, args.xd, m_e, c_d, k_e=k_e)

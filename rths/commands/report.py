@@ -26,8 +26,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 def run(args: argparse.Namespace) -> int:
     """Write metrics.json and the figures; returns 0."""
-    from rths.core.errors import DataError
     from rths.analysis.report import write_report
+    from rths.core.errors import DataError
 
     if not args.cycles > 0:
         raise DataError(f"--cycles must be positive; got {args.cycles!r}")

@@ -31,8 +31,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 def run(args: argparse.Namespace) -> int:
     """Serve the lab until the coordinator stops; returns 0."""
-    from rths.core.errors import ConfigError
     from rths.config.scenario import load_scenario
+    from rths.core.errors import ConfigError
     from rths.session.specimen import serve
     from rths.wire.transport import ZenohEndpoints
 

@@ -85,8 +85,13 @@ def _print_table(summary: dict[str, Any]) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sweep, write the outputs, print the summary; returns 0."""
+    from rths.experiments.s1_shake_table.report import (
+        frf_records,
+        frf_table,
+        summarise,
+        write_figures,
+    )
     from rths.experiments.s1_shake_table.sweep import load_sweep, run_sweep
-    from rths.experiments.s1_shake_table.report import frf_records, frf_table, summarise, write_figures
 
     config = load_sweep(args.scenario)
     result = run_sweep(config, pga=args.pga, progress=not args.quiet and sys.stderr.isatty())

@@ -37,14 +37,15 @@ from plants.cable.model import (
     RayleighDamping,
     elements_for,
 )
+from plants.excitation.stepped_sine import stepped_sine_acceleration
 from plants.imd.models import IMDParameters, imd_from_parameters
-from plants.tmdi.inerter import IdealInerter, RackPinionInerter, rack_pinion_preset
-from plants.tmdi.structure import NominalInerter, TMDISubstructure, s1_configuration
 from plants.lab import Converter, EmulatedLab, LabConverters
 from plants.linear_specimen import BenchmarkSpecimenParameters, LinearSpecimen
+from plants.tmdi.inerter import IdealInerter, RackPinionInerter, rack_pinion_preset
+from plants.tmdi.structure import NominalInerter, TMDISubstructure, s1_configuration
+from rths.config.scenario import CableSpec, Scenario, TMDISpec
 from rths.core.errors import ConfigError, ParameterError
 from rths.core.filters import LowPass
-from rths.config.scenario import CableSpec, Scenario, TMDISpec
 
 __all__ = [
     "actuator",
@@ -143,8 +144,6 @@ def cable(scn: Scenario, device: InterfaceDevice | None | str = "model") -> Cabl
 
 def tmdi(scn: Scenario, device: NominalInerter | None | str = "model") -> TMDISubstructure:
     """The S1 primary structure + TMD under the stepped-sine excitation, carrying ``device``."""
-    from rths.experiments.s1_shake_table.sweep import stepped_sine_acceleration
-
     s = scn.substructure
     assert isinstance(s, TMDISpec)
     dev = nominal_device(scn) if device == "model" else device

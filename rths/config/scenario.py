@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from rths.config.toml import Table, load_toml, parse_toml
-from rths.runtime.loop import Scaling
+from rths.core.scaling import Scaling
 
 __all__ = [
     "CLOCKS",

@@ -27,6 +27,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from rths.core.errors import DataError
 from rths.diagnose._signals import (
     actuator_replay,
     derivatives,
@@ -37,7 +38,6 @@ from rths.diagnose._signals import (
 )
 from rths.diagnose.data import Record
 from rths.diagnose.nominal import NominalModel
-from rths.core.errors import DataError
 
 __all__ = [
     "DEFAULT_CUTOFF",

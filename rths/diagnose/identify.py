@@ -18,9 +18,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import optimize
 
+from rths.core.errors import NumericalError
 from rths.diagnose.channels import Channel, Segment
 from rths.diagnose.effects import Model
-from rths.core.errors import NumericalError
 
 __all__ = ["RIDGE", "Fit", "fit_model", "noise_floor", "stride_for"]
 

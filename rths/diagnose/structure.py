@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rths.core.errors import RTHSError
 from rths.diagnose.data import Record
 from rths.diagnose.residuals import nrmse
-from rths.core.errors import RTHSError
 
 __all__ = ["StructureGap", "structure_gap"]
 
@@ -50,8 +50,8 @@ def structure_gap(records: list[Record]) -> StructureGap:
             notes[r.name] = "no target/scenario in the record (CSV or bare log)"
             continue
         try:
-            from rths.session.mock import numerical_run
             from rths.config.scenario import parse_scenario
+            from rths.session.mock import numerical_run
 
             scn = parse_scenario(r.scenario_text, f"{r.name}:scenario")
             mock = numerical_run(scn, "model", steps=r.n)

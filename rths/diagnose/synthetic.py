@@ -19,9 +19,9 @@ from scipy import signal
 from plants.actuator.models import MTS_IDENTIFIED, TransferFunctionActuator
 from plants.imd.models import IMDParameters, imd_from_parameters
 from plants.lab import Converter, EmulatedLab, LabConverters
+from rths.core.errors import ParameterError, check_positive, format_choices
 from rths.diagnose.data import Record
 from rths.diagnose.nominal import ActuatorNominal, NominalModel, SpecimenNominal
-from rths.core.errors import ParameterError, check_positive, format_choices
 
 __all__ = ["CLASSES", "LabCase", "band_limited_command", "lab_record", "seed_converters"]
 

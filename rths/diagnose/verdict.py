@@ -22,14 +22,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rths.diagnose.channels import DEFAULT_CUTOFF, Channel, actuator_channel, specimen_channel
+from rths.core.errors import ParameterError, check_positive, format_choices
+from rths.diagnose.channels import (
+    DEFAULT_CUTOFF,
+    Channel,
+    actuator_channel,
+    specimen_channel,
+)
 from rths.diagnose.data import Record
 from rths.diagnose.effects import EFFECTS, baseline_for
 from rths.diagnose.identify import Fit, fit_model, noise_floor
 from rths.diagnose.nominal import NominalModel
 from rths.diagnose.residuals import FLOOR_MARGIN, Decomposition, decompose
 from rths.diagnose.structure import StructureGap, structure_gap
-from rths.core.errors import ParameterError, check_positive, format_choices
 
 __all__ = [
     "DRIVES",

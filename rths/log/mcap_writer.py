@@ -26,8 +26,8 @@ from typing import IO, Any
 from mcap.writer import CompressionType, Writer
 
 from rths import __version__
-from rths.wire.codec import LogRecord
 from rths.core.errors import DataError
+from rths.wire.codec import LogRecord
 
 __all__ = ["EVENTS_TOPIC", "STOP", "RecordingSummary", "TopicStats", "WriterThread", "open_schema"]
 

@@ -37,8 +37,19 @@ from pathlib import Path
 from typing import Any, Literal
 
 from rths import __version__
-from rths.log.mcap_writer import EVENTS_TOPIC, STOP, RecordingSummary, TopicStats, WriterThread
-from rths.core.errors import DataError, ParameterError, check_positive, check_positive_int
+from rths.core.errors import (
+    DataError,
+    ParameterError,
+    check_positive,
+    check_positive_int,
+)
+from rths.log.mcap_writer import (
+    EVENTS_TOPIC,
+    STOP,
+    RecordingSummary,
+    TopicStats,
+    WriterThread,
+)
 
 __all__ = [
     "EVENTS_SCHEMA",

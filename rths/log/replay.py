@@ -14,9 +14,9 @@ import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 
-from rths.wire.codec import LogRecord
 from rths.core.errors import DataError
 from rths.log.reader import iter_messages, list_topics, read_metadata
+from rths.wire.codec import LogRecord
 from rths.wire.transport import RunKeys, ZenohEndpoints, new_run_id, open_session
 
 __all__ = ["paced", "replay", "replay_records"]

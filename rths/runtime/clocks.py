@@ -24,7 +24,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rths.core.errors import RTHSError, check_nonnegative, check_positive, check_positive_int
+from rths.core.errors import (
+    RTHSError,
+    check_nonnegative,
+    check_positive,
+    check_positive_int,
+)
 
 __all__ = [
     "SWITCH_INTERVAL",

@@ -47,8 +47,9 @@ from typing import Protocol
 
 from controllers.base import Compensator
 from plants.base import Substructure
+from rths.core.errors import ParameterError, RTHSError, check_positive_int
+from rths.core.scaling import Scaling
 from rths.runtime.clocks import FreeRunning, Pacer, TimingStats
-from rths.core.errors import ParameterError, RTHSError, check_positive, check_positive_int
 
 __all__ = [
     "InProcessLink",
@@ -56,7 +57,6 @@ __all__ = [
     "LinkSample",
     "Loop",
     "LoopResult",
-    "Scaling",
     "SpecimenLink",
 ]
 
@@ -98,32 +98,6 @@ class InProcessLink:
     def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
         displacement, force = self.lab.step(command)
         return LinkSample(displacement, force, 0, seq)
-
-
-@dataclass(frozen=True)
-class Scaling:
-    """Prototype↔specimen scale factors (both logged with every run).
-
-    Attributes
-    ----------
-    displacement : float
-        Specimen displacement / prototype displacement [-].
-    force : float
-        Prototype force / specimen force [-].
-    """
-
-    displacement: float = 1.0
-    force: float = 1.0
-
-    def __post_init__(self) -> None:
-        check_positive(self.displacement, "displacement scale factor")
-        check_positive(self.force, "force scale factor")
-
-    @property
-    def impedance(self) -> float:
-        """Factor by which a specimen impedance (inertance, damping, stiffness) acts on the
-        prototype: ``force * displacement``."""
-        return self.force * self.displacement
 
 
 @dataclass(frozen=True)

@@ -19,9 +19,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from plants.cable.model import InterfaceDevice
+from plants.excitation.stepped_sine import stepped_sine_acceleration
 from rths.config import build
-from rths.core.errors import ConfigError
 from rths.config.scenario import Scenario, TMDISpec
+from rths.core.errors import ConfigError
 
 __all__ = ["VARIANTS", "numerical_run"]
 
@@ -88,8 +89,6 @@ def numerical_run(
 def _monolithic(scn: Scenario, n: int) -> dict[str, NDArray[np.float64]]:
     """The TMDI with the physical inerter model inside (S1 Eq.12), same excitation and step."""
     from plants.tmdi.structure import TMDIStructure, s1_configuration
-    from rths.experiments.s1_shake_table.sweep import stepped_sine_acceleration
-
     s = scn.substructure
     assert isinstance(s, TMDISpec)
     dt = scn.run.dt

@@ -18,7 +18,6 @@ of what was recorded.
 
 from __future__ import annotations
 
-import re
 import sys
 import threading
 import time
@@ -30,14 +29,20 @@ from typing import Any
 import numpy as np
 
 from rths import __version__
-
 from rths.config import build
-from rths.runtime.clocks import SWITCH_INTERVAL, FreeRunning, Pacer, WallClock
-from rths.core.errors import ConfigError, DataError, ParameterError, check_positive
-from rths.runtime.loop import InProcessLink, LinkSample, Loop, LoopResult
-from rths.analysis.metrics import TrackingSummary, summarize
-from rths.log.recorder import LOOP_SCHEMA, LOOP_TOPIC, Recorder, RecordingSummary, object_schema
 from rths.config.scenario import Scenario
+from rths.core.errors import ConfigError, DataError, check_positive
+from rths.log.recorder import (
+    LOOP_SCHEMA,
+    LOOP_TOPIC,
+    Recorder,
+    RecordingSummary,
+    object_schema,
+)
+from rths.metrics import TrackingSummary, summarize
+from rths.runtime.clocks import SWITCH_INTERVAL, FreeRunning, Pacer, WallClock
+from rths.runtime.loop import InProcessLink, LinkSample, Loop, LoopResult
+from rths.wire.keys import check_run_id, new_run_id
 
 __all__ = ["RunOptions", "RunOutcome", "run_scenario"]
 
@@ -217,21 +222,7 @@ def _metadata(
     }
 
 
-_RUN_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
-
-
-def _check_run_id(run_id: str) -> None:
-    """The rule of :class:`rths.wire.transport.RunKeys` (without importing zenoh for ``fast``)."""
-    if not isinstance(run_id, str) or not _RUN_ID.fullmatch(run_id):
-        raise ParameterError(
-            f"run id must be 1-64 characters of [A-Za-z0-9_.-] starting with a letter or digit; "
-            f"got {run_id!r}"
-        )
-
-
 def _new_run_id(name: str) -> str:
-    from rths.wire.transport import new_run_id
-
     safe = "".join(c if c.isalnum() or c in "-_." else "-" for c in name)[:32].strip("-.") or "run"
     return f"{safe}-{new_run_id()}"[:64]
 
@@ -242,7 +233,7 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
     clock = opts.clock or scn.run.clock
     comp_kind = opts.compensator or scn.compensator_kind
     run_id = _new_run_id(scn.run.name) if opts.run_id is None else opts.run_id
-    _check_run_id(run_id)  # before anything is built: it names the keys and the log file
+    check_run_id(run_id)  # before anything is built: it names the keys and the log file
     seed = scn.run.seed if opts.seed is None else opts.seed
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ConfigError(f"seed must be an integer >= 0; got {seed!r}")
@@ -291,7 +282,9 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
                 )
                 outcome.result = loop.run(on_progress)
             else:
-                from rths.session.zenoh_run import run_over_zenoh  # zenoh is imported only here
+                from rths.session.zenoh_run import (
+                    run_over_zenoh,  # zenoh is imported only here
+                )
 
                 outcome.result = run_over_zenoh(
                     scn, opts, clock, run_id, rec, make_loop, on_progress,

@@ -23,10 +23,10 @@ import traceback
 
 from plants.lab import EmulatedLab
 from rths.config import build
+from rths.config.scenario import Scenario
+from rths.core.errors import TransportError
 from rths.runtime.clocks import SWITCH_INTERVAL, WallClock
 from rths.wire.codec import Measurement
-from rths.core.errors import TransportError
-from rths.config.scenario import Scenario
 from rths.wire.transport import (
     BackgroundPublisher,
     LockstepServer,

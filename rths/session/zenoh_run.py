@@ -16,11 +16,11 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from rths.wire.codec import Command
-from rths.core.errors import RTHSError, TransportError
-from rths.runtime.loop import LinkSample, Loop, LoopResult
-from rths.log.recorder import LOOP_TOPIC, Recorder
 from rths.config.scenario import Scenario
+from rths.core.errors import RTHSError, TransportError
+from rths.log.recorder import LOOP_TOPIC, Recorder
+from rths.runtime.loop import LinkSample, Loop, LoopResult
+from rths.wire.codec import Command
 from rths.wire.transport import (
     BackgroundPublisher,
     LockstepClient,

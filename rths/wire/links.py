@@ -12,9 +12,9 @@ from typing import Any, Protocol
 
 import zenoh
 
-from rths.wire.inbox import Inbox, Latest, Mailbox, declare_hot_publisher
-from rths.wire.codec import Command, Measurement
 from rths.core.errors import TransportError, check_positive
+from rths.wire.codec import Command, Measurement
+from rths.wire.inbox import Inbox, Latest, Mailbox, declare_hot_publisher
 
 __all__ = ["LockstepClient", "LockstepServer", "RealtimeClient", "RealtimeServer"]
 

@@ -9,16 +9,15 @@ import os
 import threading
 import time
 from collections.abc import Sequence
-from typing import Literal, Protocol
+from typing import Protocol
 
 import zenoh
 
 from rths.core.errors import ParameterError, TransportError, check_positive
+from rths.wire.keys import ROLES, Role
 
 __all__ = ["ROLES", "Presence", "Role"]
 
-Role = Literal["coordinator", "specimen"]
-ROLES: tuple[Role, Role] = ("coordinator", "specimen")
 
 
 class _ControlKeys(Protocol):

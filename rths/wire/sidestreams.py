@@ -6,15 +6,13 @@ process publishes (:class:`LogPublisher`, :class:`BackgroundPublisher`) and the 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any, Protocol
 
 import zenoh
 
-from rths.wire.codec import LogRecord
 from rths.core.errors import DataError
-
-if TYPE_CHECKING:
-    from rths.wire.transport import RunKeys
+from rths.wire.codec import LogRecord
+from rths.wire.keys import RunKeys
 
 __all__ = ["BackgroundPublisher", "LogBridge", "LogPublisher", "RecordSink"]
 

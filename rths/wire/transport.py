@@ -40,20 +40,29 @@ from __future__ import annotations
 
 import json
 import re
-import secrets
 import socket
-import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 
 import zenoh
 
-from rths.wire.inbox import Inbox, Latest, Mailbox, declare_hot_publisher
-from rths.wire.links import LockstepClient, LockstepServer, RealtimeClient, RealtimeServer
-from rths.wire.presence import ROLES, Presence, Role
-from rths.wire.sidestreams import BackgroundPublisher, LogBridge, LogPublisher, RecordSink
 from rths.core.errors import ParameterError, TransportError
+from rths.wire.inbox import Inbox, Latest, Mailbox, declare_hot_publisher
+from rths.wire.keys import RunKeys, new_run_id
+from rths.wire.links import (
+    LockstepClient,
+    LockstepServer,
+    RealtimeClient,
+    RealtimeServer,
+)
+from rths.wire.presence import Presence, Role
+from rths.wire.sidestreams import (
+    BackgroundPublisher,
+    LogBridge,
+    LogPublisher,
+    RecordSink,
+)
 
 __all__ = [
     "BackgroundPublisher",
@@ -80,8 +89,6 @@ __all__ = [
 ]
 
 _ENDPOINT = re.compile(r"^[a-z][a-z0-9+-]*/\S+$")
-_RUN_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
-_LOG_NAME = re.compile(r"^[A-Za-z0-9_.-]+(/[A-Za-z0-9_.-]+)*$")
 
 
 # --------------------------------------------------------------------------- session
@@ -201,89 +208,3 @@ def open_session(endpoints: ZenohEndpoints) -> Iterator[zenoh.Session]:
         yield session
     finally:
         session.close()
-
-
-# --------------------------------------------------------------------------- keys
-
-
-def new_run_id() -> str:
-    """A fresh run id: UTC time stamp and 6 random hex digits, e.g. ``20250101T120000Z-3fa2c1``."""
-    return time.strftime("%Y%m%dT%H%M%SZ", time.gmtime()) + "-" + secrets.token_hex(3)
-
-
-@dataclass(frozen=True, slots=True)
-class RunKeys:
-    """The zenoh key expressions of one run, all under ``rths/<run_id>/``.
-
-    ``run_id`` is 1-64 characters from ``[A-Za-z0-9_.-]`` starting with a letter or digit (no
-    ``/``, ``*``, ``$``, so it can never widen a key expression to another run).
-    """
-
-    run_id: str
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.run_id, str) or not _RUN_ID.match(self.run_id):
-            raise ParameterError(
-                f"run id must be 1-64 characters of [A-Za-z0-9_.-] starting with a letter or "
-                f"digit; got {self.run_id!r}"
-            )
-
-    @property
-    def root(self) -> str:
-        """``rths/<run_id>``."""
-        return f"rths/{self.run_id}"
-
-    @property
-    def command(self) -> str:
-        """Actuator commands, coordinator → specimen (:class:`rths.wire.codec.Command`)."""
-        return f"{self.root}/command"
-
-    @property
-    def measurement(self) -> str:
-        """Measurements, specimen → coordinator (:class:`rths.wire.codec.Measurement`)."""
-        return f"{self.root}/measurement"
-
-    @property
-    def loop(self) -> str:
-        """Live copy of the loop record (:class:`rths.wire.codec.LogRecord`) for monitors; the MCAP
-        log is written directly (not from this key)."""
-        return f"{self.root}/loop"
-
-    @property
-    def events(self) -> str:
-        """Run events (JSON): start, overruns, errors, stop."""
-        return f"{self.root}/events"
-
-    @property
-    def stop(self) -> str:
-        """Stop request (JSON ``{"reason": ...}``), coordinator → specimen."""
-        return f"{self.root}/control/stop"
-
-    def ready(self, role: Role) -> str:
-        """Liveliness token of a process that is up and subscribed: ``control/ready/<role>``."""
-        if role not in ROLES:
-            raise ParameterError(f"role must be one of {ROLES}; got {role!r}")
-        return f"{self.root}/control/ready/{role}"
-
-    @property
-    def log_all(self) -> str:
-        """``rths/<run_id>/log/**``: JSON log records any process may publish for the recorder."""
-        return f"{self.root}/log/**"
-
-    def log(self, name: str) -> str:
-        """Key of the log stream ``name`` (recorded as MCAP topic ``rths/<name>``)."""
-        if not isinstance(name, str) or not _LOG_NAME.match(name):
-            raise ParameterError(f"log stream name must be like 'specimen' or 'a/b'; got {name!r}")
-        return f"{self.root}/log/{name}"
-
-    @property
-    def specimen_state(self) -> str:
-        """Internal state of the emulated specimen (JSON log records)."""
-        return self.log("specimen")
-
-    def topic_of(self, key: str) -> str:
-        """MCAP topic of a log key: ``rths/<run>/log/<name>`` → ``rths/<name>``."""
-        prefix = f"{self.root}/log/"
-        if not key.startswith(prefix) or len(key) == len(prefix):
-            raise ParameterError(f"key must start with {prefix!r}; got {key!r}")
-        return "rths/" + key[len(prefix) :]

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Final
 
+from plants.excitation.stepped_sine import STANDARD_GRAVITY
 from rths.config.toml import Table, load_toml, parse_toml
 
 __all__ = [
@@ -50,8 +51,6 @@ __all__ = [
     "parse_sweep",
 ]
 
-#: Standard gravity [m/s²]: the unit of the PGA.
-STANDARD_GRAVITY: Final[float] = 9.80665
 #: Sweep directions: increasing and decreasing frequency.
 DIRECTIONS: Final[tuple[str, ...]] = ("up", "down")
 #: Specimens: the uncontrolled PS, the TMDI with the S1 Eq.9-11 rack-and-pinion inerter, and the

@@ -15,7 +15,7 @@ amplitude measures over the last ``steady_cycles`` cycles of each step are offer
 
 Resonance frequencies are read off the normalised FRFs (:func:`resonance`,
 :func:`second_resonance`) and two FRFs on the same grid are compared by the normalised RMS error of
-their moduli (:func:`frf_nrmse`, the J2 definition of :mod:`rths.analysis.metrics`).
+their moduli (:func:`frf_nrmse`, the J2 definition of :mod:`rths.metrics`).
 """
 
 from __future__ import annotations
@@ -286,7 +286,7 @@ def frf_nrmse(
 ) -> float:
     """``RMS(|Ĥ_other| - |Ĥ_ref|) / RMS(|Ĥ_ref|)`` over the common grid (inside ``band`` [Hz]).
 
-    The definition is J2 of :mod:`rths.analysis.metrics` with the FRF moduli in place of displacement
+    The definition is J2 of :mod:`rths.metrics` with the FRF moduli in place of displacement
     histories (computed here: a band may hold fewer points than the metrics' minimum record
     length).
 

@@ -30,8 +30,17 @@ from typing import Any, Final
 import numpy as np
 
 from rths.core.errors import ParameterError
-from rths.experiments.s1_shake_table.frf import FRF, frf_nrmse, resonance, second_resonance
-from rths.experiments.s1_shake_table.sweep import STANDARD_GRAVITY, SweepResult, SweepRun
+from rths.experiments.s1_shake_table.frf import (
+    FRF,
+    frf_nrmse,
+    resonance,
+    second_resonance,
+)
+from rths.experiments.s1_shake_table.sweep import (
+    STANDARD_GRAVITY,
+    SweepResult,
+    SweepRun,
+)
 
 __all__ = [
     "FRF_UNITS",

@@ -16,20 +16,25 @@ Per PGA and direction::
 The table signal does not depend on the specimen (no control-structure interaction: the table
 transfer function is understood as identified with the specimen on it), so it is computed once
 per PGA and direction and shared by the specimens.  The scenario file is described in
-:mod:`rths.experiments.s1_shake_table.config`.  :func:`stepped_sine_acceleration` gives the same excitation as a
+:mod:`rths.experiments.s1_shake_table.config`.  :func:`plants.excitation.stepped_sine.stepped_sine_acceleration` gives the same excitation as a
 function of time for an RTHS substructure (:class:`plants.tmdi.structure.TMDISubstructure`).
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from plants.base import Specimen
+from plants.excitation.stepped_sine import (
+    SteppedSine,
+    frequency_grid,
+    stepped_sine_acceleration,
+)
 from plants.tmdi.structure import (
     EQ7_QUANTITIES,
     NominalInerter,
@@ -38,8 +43,7 @@ from plants.tmdi.structure import (
     linearised_frequencies,
     s1_configuration,
 )
-from rths.experiments.s1_shake_table.shake_table import IdealTable, ShakeTable, TableMotion, TransferFunctionTable
-from plants.excitation.stepped_sine import SteppedSine, frequency_grid
+from rths.core.errors import ParameterError, check_positive, format_choices
 from rths.experiments.s1_shake_table.config import (
     DIRECTIONS,
     MODELS,
@@ -50,8 +54,13 @@ from rths.experiments.s1_shake_table.config import (
     load_sweep,
     parse_sweep,
 )
-from rths.core.errors import ParameterError, check_positive, format_choices
 from rths.experiments.s1_shake_table.frf import FRF, estimate_frf, steady_state_windows
+from rths.experiments.s1_shake_table.shake_table import (
+    IdealTable,
+    ShakeTable,
+    TableMotion,
+    TransferFunctionTable,
+)
 
 __all__ = [
     "DIRECTIONS",
@@ -182,33 +191,6 @@ def command_amplitudes(
     if correction:
         return target / table.acceleration_gain(f, dt)
     return target / (2.0 * np.pi * f) ** 2
-
-
-def stepped_sine_acceleration(
-    frequencies: ArrayLike, pga: float, cycles: int = 20, direction: str | None = None
-) -> Callable[[float], float]:
-    """Ground acceleration ``ü_G(t)`` [m/s²] of a stepped sine at ``pga`` [g] (perfect table).
-
-    ``PGA g sin(2π f_k (t - t_k))`` during step ``k`` and 0 after the sweep: the excitation a
-    :class:`plants.tmdi.structure.TMDISubstructure` owns in an RTHS of the S1 shake-table test.
-
-    Parameters
-    ----------
-    frequencies
-        Step frequencies [Hz] in playing order, or the grid when ``direction`` is given.
-    pga
-        Peak acceleration [g], > 0.
-    cycles
-        Whole cycles per step.
-    direction
-        ``"up"`` or ``"down"`` to sort ``frequencies``; None plays them as given.
-    """
-    amplitude = check_positive(pga, "PGA") * STANDARD_GRAVITY
-    if direction is None:
-        sine = SteppedSine(np.asarray(frequencies, dtype=float), cycles)
-    else:
-        sine = SteppedSine.sweep(frequencies, direction, cycles)
-    return sine.function(amplitude)
 
 
 @dataclass(frozen=True)
