@@ -145,7 +145,7 @@ class AdaptiveTimeSeries(Compensator):
         self._step_limit = np.asarray(s.max_rate) * s.update_every * self.dt
         self.reset()
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         """Return to rest with the initial coefficients and empty history."""
         self.coefficients = np.asarray(self.settings.initial, dtype=float)
         self._u_buf = np.zeros(self._n_window)

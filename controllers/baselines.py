@@ -21,7 +21,7 @@ class NoCompensation(Compensator):
 
     kind = "none"
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         """Nothing to reset."""
 
     def _step_impl(self, target: Kinematics, measured: float) -> float:
@@ -84,7 +84,7 @@ class PolynomialExtrapolation(Compensator):
         self.weights = extrapolation_weights(order, self.delay / self.dt)
         self.reset()
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         """Return to rest: the target history is zero."""
         self._history: deque[float] = deque([0.0] * (self.order + 1), maxlen=self.order + 1)
 

@@ -234,7 +234,7 @@ class FeedforwardCompensator(Compensator):
         self._n_diff = max(0, model.order - 2)  # derivatives from differences of acceleration
         self.reset()
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         """Return to rest: previous target and acceleration history are zero."""
         self._prev = (0.0, 0.0, 0.0)
         self._acc: deque[float] = deque([0.0] * (self._n_diff + 1), maxlen=self._n_diff + 1)

@@ -256,7 +256,7 @@ class LQGCompensator(Compensator):
         self._inv_gain = 1.0 / design.static_gain
         self.reset()
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         """Return to rest: error estimate, integral and previous target are zero."""
         self._e_hat = np.zeros(self.design.order)  # predicted error state e_{k|k-1}
         self._z = 0.0  # integrated tracking error [m s]

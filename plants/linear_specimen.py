@@ -53,6 +53,7 @@ class LinearSpecimen(Specimen):
     kind = "linear"
 
     def __init__(self, mass: float, damping: float, stiffness: float) -> None:
+        super().__init__()
         self.mass: float = check_nonnegative(mass, "specimen mass")
         self.damping: float = check_nonnegative(damping, "specimen damping")
         self.stiffness: float = check_nonnegative(stiffness, "specimen stiffness")
@@ -88,7 +89,7 @@ class LinearSpecimen(Specimen):
         """The dashpot ``c`` [N s/m]: all of it acts rigidly at the driven end."""
         return self.damping
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         """Return to rest (the model has no state besides the last displacement for logging)."""
         self._displacement = 0.0
 

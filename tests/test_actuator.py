@@ -89,10 +89,11 @@ class SeriesInerter(Specimen):
     """
 
     def __init__(self, inertance: float, stiffness: float, damping: float) -> None:
+        super().__init__()
         self.m, self.k, self.c = inertance, stiffness, damping
         self.reset()
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         self.x = self.v = self.a = 0.0
 
     def _step_impl(self, u: float, v: float, a: float, dt: float) -> float:
@@ -525,6 +526,7 @@ class BadRigidPart(Specimen):
     """A specimen reporting an unphysical rigid part."""
 
     def __init__(self, inertance: float, damping: float) -> None:
+        super().__init__()
         self._m, self._c = inertance, damping
 
     @property
@@ -535,7 +537,7 @@ class BadRigidPart(Specimen):
     def rigid_damping(self) -> float:
         return self._c
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         pass
 
     def _step_impl(self, u: float, v: float, a: float, dt: float) -> float:

@@ -110,7 +110,7 @@ def test_stepped_sine_drives_an_rths_substructure() -> None:
 
 # --- table models -------------------------------------------------------------------------------
 class _Rigid(Specimen):
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         pass
 
     def _step_impl(self, u: float, v: float, a: float, dt: float) -> float:

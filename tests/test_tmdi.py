@@ -536,7 +536,7 @@ def test_bad_parameters_are_rejected() -> None:
 
 
 class _OtherSpecimen(Specimen):
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         pass
 
     def _step_impl(self, u: float, v: float, a: float, dt: float) -> float:

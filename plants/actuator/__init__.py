@@ -1,6 +1,6 @@
 """Servo-hydraulic transfer systems: the vRTHS benchmark plant with control--structure interaction
 and a generic transfer function with delay and rate limit (:mod:`~.models`), their linear models
-(:mod:`~.linear`), delay lines and rate limiters (:mod:`~.lines`) and parameters/presets
+(:mod:`~.linear`), delay lines and rate limiters (:mod:`plants.lines`) and parameters/presets
 (:mod:`~.parameters`).
 """
 

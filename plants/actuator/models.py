@@ -49,7 +49,7 @@ from plants.actuator.linear import (
     servo_hydraulic_model,
     siso_transfer_function,
 )
-from plants.actuator.lines import DelayLine, RateLimiter, delayed, rate_limited
+from plants.lines import DelayLine, RateLimiter, delayed, rate_limited
 from plants.actuator.parameters import (
     BENCHMARK,
     HEAVY_INERTIAL_LOAD,
@@ -93,24 +93,6 @@ def default_substeps(dt: float) -> int:
     """Fewest sub-steps per loop step ``dt`` [s] keeping the sub-step <= :data:`MAX_SUBSTEP`."""
     dt = check_positive(dt, "time step dt")
     return max(1, math.ceil(dt / MAX_SUBSTEP - 1e-9))
-
-
-def _check_specimen(specimen: object) -> Specimen:
-    if not isinstance(specimen, Specimen):
-        raise ParameterError(f"specimen must be a plants.base.Specimen; got {specimen!r}")
-    return specimen
-
-
-def _specimen_state(specimen: Specimen) -> dict[str, float]:
-    return {f"specimen.{name}": value for name, value in specimen.state().items()}
-
-
-def _optional_limiter(velocity_limit: float | None, step: float) -> RateLimiter | None:
-    return None if velocity_limit is None else RateLimiter(velocity_limit, step)
-
-
-def _optional_delay(delay: float, dt: float) -> DelayLine | None:
-    return DelayLine(delay, dt) if check_nonnegative(delay, "delay") > 0.0 else None
 
 
 class ServoHydraulicActuator(Actuator):
@@ -171,16 +153,17 @@ class ServoHydraulicActuator(Actuator):
         delay: float = 0.0,
         velocity_limit: float | None = None,
     ) -> None:
-        super().__init__(dt)
         if not isinstance(parameters, BenchmarkParameters):
             raise ParameterError(f"parameters must be BenchmarkParameters; got {parameters!r}")
-        self.specimen: Specimen = _check_specimen(specimen)
-        self.parameters: BenchmarkParameters = parameters
         if substeps is None:
-            substeps = default_substeps(self.dt)
+            substeps = default_substeps(check_positive(dt, "time step dt"))
         self.substeps: int = check_positive_int(substeps, "substeps")
+        super().__init__(
+            specimen, dt, delay=delay, velocity_limit=velocity_limit,
+            limiter_step=dt / self.substeps,
+        )
+        self.parameters: BenchmarkParameters = parameters
         self.substep: float = self.dt / self.substeps
-        self.delay: float = check_nonnegative(delay, "delay")
         self.rigid_mass: float = check_nonnegative(
             specimen.rigid_inertance, "specimen rigid_inertance"
         )
@@ -209,9 +192,6 @@ class ServoHydraulicActuator(Actuator):
         self._by_command = np.ascontiguousarray(gain[:, 0])
         self._by_remainder = np.ascontiguousarray(gain[:, 1])
         self._n_states = m.A.shape[0]
-        self._delay_line = _optional_delay(self.delay, self.dt)
-        self._limiter = _optional_limiter(velocity_limit, self.substep)
-        self.velocity_limit: float | None = velocity_limit
         self.reset()
 
     def _check_substeps(self, stiffness: float, what: str) -> None:
@@ -225,24 +205,18 @@ class ServoHydraulicActuator(Actuator):
                 "(increase substeps)",
             )
 
-    def reset(self) -> None:
-        """Return to rest: linear state, delay line, rate limiter and specimen."""
+    def _reset_impl(self) -> None:
+        """Return the linear state and the remainder force to rest."""
         self._z = np.zeros(self._n_states)
         self._remainder = 0.0
-        self._command = 0.0
         self._outputs = (0.0, 0.0, 0.0, 0.0)
         self._kinematics = Kinematics(0.0, 0.0, 0.0)
         self._force = 0.0
-        if self._delay_line is not None:
-            self._delay_line.reset()
-        if self._limiter is not None:
-            self._limiter.reset()
-        self.specimen.reset()
 
     def _step_impl(self, command: float) -> tuple[Kinematics, float]:
-        u = command if self._delay_line is None else self._delay_line.step(command)
+        u = command
         n, h = self._n_states, self.substep
-        m_r, c_r, limiter = self.rigid_mass, self.rigid_damping, self._limiter
+        m_r, c_r, limiter = self.rigid_mass, self.rigid_damping, self.limiter
         advance, by_remainder = self._advance, self._by_remainder
         held = self._by_command * u
         z, remainder = self._z, self._remainder
@@ -256,7 +230,7 @@ class ServoHydraulicActuator(Actuator):
                 v, a = limiter.clip(v, a)
             force = self.specimen.step(x, v, a, h)
             remainder = force - m_r * a - c_r * v
-        self._z, self._remainder, self._command = z, remainder, u
+        self._z, self._remainder = z, remainder
         self._outputs = tuple(outputs)
         self._kinematics, self._force = Kinematics(x, v, a), force
         return self._kinematics, force
@@ -296,22 +270,10 @@ class ServoHydraulicActuator(Actuator):
         """Hydraulic force ``F_a`` [N] at the end of the last step."""
         return self._outputs[3]
 
-    def state(self) -> dict[str, float]:
-        """Named variables for logging (SI).
-
-        ``command_delayed`` [m], ``hydraulic_force`` [N], ``displacement_linear`` (before the
-        rate limiter) [m], ``rate_limiting`` (+1/-1/0) and the specimen's state as
-        ``specimen.<name>``.
-        """
+    def _state_impl(self) -> dict[str, float]:
+        """``hydraulic_force`` [N] and ``displacement_linear`` (before the rate limiter) [m]."""
         x, _, _, f_a = self._outputs
-        limiting = 0.0 if self._limiter is None else float(self._limiter.limiting)
-        own = {
-            "command_delayed": self._command,
-            "hydraulic_force": f_a,
-            "displacement_linear": x,
-            "rate_limiting": limiting,
-        }
-        return own | _specimen_state(self.specimen)
+        return {"hydraulic_force": f_a, "displacement_linear": x}
 
 
 class TransferFunctionActuator(Actuator):
@@ -354,39 +316,28 @@ class TransferFunctionActuator(Actuator):
         delay: float = 0.0,
         velocity_limit: float | None = None,
     ) -> None:
-        super().__init__(dt)
-        self.specimen: Specimen = _check_specimen(specimen)
+        super().__init__(specimen, dt, delay=delay, velocity_limit=velocity_limit)
         model, self._tf, self.relative_degree = derivative_model(num, den)
         self._model = discretise(model, self.dt)
-        self.delay: float = check_nonnegative(delay, "delay")
-        self.velocity_limit: float | None = velocity_limit
-        self._delay_line = _optional_delay(self.delay, self.dt)
-        self._limiter = _optional_limiter(velocity_limit, self.dt)
         m = self._model
         self._A, self._B = m.A, m.B[:, 0].copy()
         self._C, self._D = m.C, m.D[:, 0].copy()
         self.reset()
 
-    def reset(self) -> None:
-        """Return to rest: state, delay line, rate limiter and specimen."""
+    def _reset_impl(self) -> None:
+        """Return the state and the drive history to rest."""
         self._z = np.zeros(self._A.shape[0])
         self._drive = (0.0, 0.0, 0.0)
-        self._command = 0.0
         self._linear = 0.0
         self._force = 0.0
-        if self._delay_line is not None:
-            self._delay_line.reset()
-        if self._limiter is not None:
-            self._limiter.reset()
-        self.specimen.reset()
 
     def _step_impl(self, command: float) -> tuple[Kinematics, float]:
-        u = command if self._delay_line is None else self._delay_line.step(command)
+        u = command
         self._z = self._A @ self._z + self._B * u
         x, v, a = (self._C @ self._z + self._D * u).tolist()
         self._linear = x
         x_old, v_old, _ = self._drive
-        limiter = self._limiter
+        limiter = self.limiter
         if limiter is not None:
             x = limiter.step(x)
         if self.relative_degree <= 1:
@@ -395,7 +346,7 @@ class TransferFunctionActuator(Actuator):
             a = (v - v_old) / self.dt
         if limiter is not None:
             v, a = limiter.clip(v, a)
-        self._drive, self._command = (x, v, a), u
+        self._drive = (x, v, a)
         self._force = self.specimen.step(x, v, a, self.dt)
         return Kinematics(x, v, a), self._force
 
@@ -403,16 +354,6 @@ class TransferFunctionActuator(Actuator):
         """The rational part ``num(s)/den(s)``; the :attr:`delay` [s] is separate."""
         return self._tf
 
-    def state(self) -> dict[str, float]:
-        """Named variables for logging (SI).
-
-        ``command_delayed`` [m], ``displacement_linear`` (before the rate limiter) [m],
-        ``rate_limiting`` (+1/-1/0) and the specimen's state as ``specimen.<name>``.
-        """
-        limiting = 0.0 if self._limiter is None else float(self._limiter.limiting)
-        own = {
-            "command_delayed": self._command,
-            "displacement_linear": self._linear,
-            "rate_limiting": limiting,
-        }
-        return own | _specimen_state(self.specimen)
+    def _state_impl(self) -> dict[str, float]:
+        """``displacement_linear`` (before the rate limiter) [m]."""
+        return {"displacement_linear": self._linear}

@@ -195,19 +195,12 @@ class Cable(Substructure):
         self._u, self._v, self._a = np.zeros(size), np.zeros(size), np.zeros(size)
         self._fly = np.zeros(3)  # flywheel (x [m], x' [m/s], x'' [m/s^2]); zero without a branch
         self._next = (np.zeros(size), np.zeros(size), np.zeros(size), np.zeros(3))
-        self._k = 0
 
     # ------------------------------------------------------------------ Substructure contract
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         """Return to rest at ``t = 0``."""
         for x in (self._u, self._v, self._a, self._fly):
             x[:] = 0.0
-        self._k = 0
-
-    @property
-    def time(self) -> float:
-        """Current simulated time [s]."""
-        return self._k * self.dt
 
     @property
     def interface(self) -> Kinematics:
@@ -233,7 +226,6 @@ class Cable(Substructure):
         state = self._advance(restoring_force, self._next)
         self._next = (self._u, self._v, self._a, self._fly)
         self._u, self._v, self._a, self._fly = state
-        self._k += 1
         return self.interface
 
     def predict(self, restoring_force: float) -> Kinematics:
@@ -259,7 +251,7 @@ class Cable(Substructure):
 
     def _advance(self, force: float, out: _State) -> _State:
         """The state at ``t_{k+1}`` for device force ``force`` [N], written into ``out``."""
-        load_scale = math.sin(self._load_frequency * (self._k + 1) * self.dt)
+        load_scale = math.sin(self._load_frequency * (self.steps + 1) * self.dt)
         j, series = self._index, self._series
         if not self.use_numba:
             f = load_scale * self._load_shape

@@ -137,6 +137,7 @@ class SimplifiedIMD(_DampingMixin, Specimen):
     kind: ClassVar[str] = "imd_simplified"
 
     def __init__(self, parameters: IMDParameters) -> None:
+        super().__init__()
         self.parameters: IMDParameters = parameters
         self._init_damping()
         self._friction = parameters.friction
@@ -157,7 +158,7 @@ class SimplifiedIMD(_DampingMixin, Specimen):
         """Current ``c_d`` [N s/m]: the whole damping acts rigidly at the driven end."""
         return self._damping
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         """Return to rest and forget the amplitude estimate."""
         self._reset_damping()
 
@@ -209,6 +210,7 @@ class InternalStiffnessIMD(_DampingMixin, Specimen):
         max_step_phase: float = MAX_STEP_PHASE,
         use_jit: bool = True,
     ) -> None:
+        super().__init__()
         if not parameters.has_series_element:
             raise ParameterError(
                 "InternalStiffnessIMD needs internal stiffness or a backlash clearance; got "
@@ -233,7 +235,7 @@ class InternalStiffnessIMD(_DampingMixin, Specimen):
         """The model for a parameter set (the registry's uniform constructor)."""
         return cls(parameters)
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         """Return to rest: drive and flywheel at 0, amplitude estimate forgotten."""
         self._reset_damping()
         self._x = 0.0  # flywheel displacement x_i [m]

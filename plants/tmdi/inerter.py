@@ -79,6 +79,7 @@ class IdealInerter(Specimen):
     kind = "ideal_inerter"
 
     def __init__(self, inertance: float = S1_IDEAL_INERTANCE) -> None:
+        super().__init__()
         self.inertance: float = check_positive(inertance, "inertance b")
 
     @property
@@ -86,7 +87,7 @@ class IdealInerter(Specimen):
         """The whole force is rigid: ``b`` [kg]."""
         return self.inertance
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         """Stateless: nothing to reset."""
 
     def _step_impl(self, u: float, v: float, a: float, dt: float) -> float:
@@ -107,6 +108,7 @@ class RackPinionInerter(Specimen):
     kind = "rack_pinion_inerter"
 
     def __init__(self, parameters: RackPinionParameters = S1_RACK_PINION) -> None:
+        super().__init__()
         if not isinstance(parameters, RackPinionParameters):
             raise ParameterError(
                 f"parameters must be RackPinionParameters; got {type(parameters).__name__}"
@@ -119,7 +121,7 @@ class RackPinionInerter(Specimen):
         self._substeps: dict[float, int] = {}
         self.reset()
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         """Rest at ``u = 0`` with zero gap ``θ_S = θ_G = 0`` (inside the play ``[-ε2, ε1]``, or
         closed if there is no play)."""
         self._state[:] = 0.0
@@ -136,10 +138,6 @@ class RackPinionInerter(Specimen):
         return n
 
     def _step_impl(self, u: float, v: float, a: float, dt: float) -> float:
-        if not (dt > 0.0 and math.isfinite(dt)):
-            raise ParameterError(f"time step dt must be positive; got {dt!r}")
-        if not (math.isfinite(u) and math.isfinite(v)):
-            raise ParameterError(f"drive state must be finite; got u={u!r}, v={v!r}")
         inp = self._input
         inp[layout.I_U0] = self._state[layout.S_U_T]
         inp[layout.I_V0] = self._state[layout.S_V_T]

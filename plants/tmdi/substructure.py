@@ -128,17 +128,11 @@ class TMDISubstructure(Substructure):
         self._out = np.zeros(layout.N_OUTPUT)
         self.reset()
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         """Rest at ``t = 0`` with no interface force."""
         self._state[:] = 0.0
-        self._k = 0
         self._force = 0.0
         self._ag_now = self._ground(0.0)
-
-    @property
-    def time(self) -> float:
-        """Current simulated time [s]."""
-        return self._k * self.dt
 
     @property
     def interface(self) -> Kinematics:
@@ -159,7 +153,7 @@ class TMDISubstructure(Substructure):
         return Kinematics(float(s[layout.S_U_T]), float(s[layout.S_V_T]), float(a_t))
 
     def _advance(self, s: NDArray[np.float64], force: float) -> float:
-        ag1 = self._ground((self._k + 1) * self.dt)
+        ag1 = self._ground((self.steps + 1) * self.dt)
         inp = self._input
         inp[layout.I_AG0] = self._ag_now
         inp[layout.I_AG1] = ag1
@@ -172,7 +166,6 @@ class TMDISubstructure(Substructure):
 
     def _step_impl(self, restoring_force: float) -> Kinematics:
         ag1 = self._advance(self._state, restoring_force)
-        self._k += 1
         self._ag_now = ag1
         self._force = restoring_force
         return self._kinematics(self._state, ag1, restoring_force)
