@@ -48,6 +48,7 @@ from rths.core.errors import (
     check_positive_int,
 )
 from rths.core.kinematics import Kinematics
+from rths.core.registry import COMPENSATORS
 
 __all__ = ["LQGCompensator", "LQGDesign", "LQGWeights", "design_lqg", "discrete_nominal"]
 
@@ -213,6 +214,7 @@ def design_lqg(
     )
 
 
+@COMPENSATORS.register("lqg", LQGWeights)
 class LQGCompensator(Compensator):
     """LQG tracking compensator: feedforward command plus LQG correction.
 
@@ -231,7 +233,20 @@ class LQGCompensator(Compensator):
         Model-based feedforward, or ``None`` for the static inverse.
     """
 
-    kind = "lqg"
+    @classmethod
+    def from_options(
+        cls,
+        options: LQGWeights,
+        *,
+        dt: float,
+        nominal: object = None,
+        delay: float = 0.0,
+        **_: object,
+    ) -> LQGCompensator:
+        """The ``lqg`` kind: LQG feedback alone, designed on the ``nominal`` model."""
+        if nominal is None:
+            raise ParameterError("compensator 'lqg' needs a nominal model; got None")
+        return cls(dt, design_lqg(nominal, dt, options, delay))
 
     def __init__(
         self, dt: float, design: LQGDesign, feedforward: FeedforwardCompensator | None = None

@@ -29,7 +29,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from plants.lines import DelayLine, RateLimiter
-from rths.core.errors import NumericalError, ParameterError, check_nonnegative, check_positive
+from rths.core.errors import (
+    NumericalError,
+    ParameterError,
+    check_nonnegative,
+    check_positive,
+)
 from rths.core.kinematics import Kinematics
 
 __all__ = ["Actuator", "Kinematics", "Specimen", "Substructure", "drive"]

@@ -18,7 +18,7 @@ from _vrths import (
 
 from controllers.ats import AdaptiveTimeSeries
 from controllers.baselines import NoCompensation, PolynomialExtrapolation
-from controllers.factory import KINDS, make_compensator
+from controllers.factory import kinds, make_compensator
 from controllers.feedforward import FeedforwardCompensator
 from controllers.ff_lqg import FFLQGCompensator
 from controllers.lqg import LQGCompensator
@@ -69,7 +69,7 @@ def test_nominal_plant_at_2048_hz_keeps_the_ordering():
     target = multisine(dt, 3.0)
     result = {
         kind: j2(closed_loop(make_compensator(kind, dt, nominal), plant, target, NOISE)[0], target.r, int(1.0 / dt))
-        for kind in KINDS
+        for kind in kinds()
     }
     assert result["ff_lqg"] < result["ff"] < result["polynomial"] < result["none"]
     assert result["lqg"] < result["none"]  # the integral trims the low-frequency error
@@ -109,7 +109,7 @@ def test_factory_builds_every_kind_with_its_defaults():
         "lqg": LQGCompensator,
         "ff_lqg": FFLQGCompensator,
     }
-    assert KINDS == tuple(expected)
+    assert set(expected) <= set(kinds())
     for kind, cls in expected.items():
         comp = make_compensator(kind, DT, nominal)
         assert type(comp) is cls and comp.kind == kind and comp.dt == DT
@@ -138,7 +138,7 @@ def test_factory_derives_defaults_from_the_nominal_model():
 
 def test_factory_validation():
     nominal = benchmark_plant()
-    with pytest.raises(ParameterError, match="unknown compensator kind 'pid'; choose one of 'none', 'polynomial'"):
+    with pytest.raises(ParameterError, match="unknown compensator kind 'pid'; choose one of .*'none', 'polynomial'"):
         make_compensator("pid", DT, nominal)
     with pytest.raises(ParameterError, match=r"unknown option\(s\) 'gain' for compensator 'ff'; valid: 'order'"):
         make_compensator("ff", DT, nominal, gain=2.0)

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from plants.tmdi.structure import EQ7_QUANTITIES, linear_frf, s1_configuration
+from plants.tmdi import EQ7_QUANTITIES, linear_frf, s1_configuration
 from rths.core.errors import ParameterError
 from rths.experiments.s1_shake_table.frf import (
     FRF,

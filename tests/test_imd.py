@@ -14,7 +14,6 @@ from plants.base import Specimen, drive
 from plants.imd.amplitude import AmplitudeTracker
 from plants.imd.models import (
     CONTACT_FREQUENCY_HZ,
-    IMD_MODELS,
     MAX_STEP_PHASE,
     AmplitudeDamping,
     IMDParameters,
@@ -26,6 +25,7 @@ from plants.imd.models import (
     screw_series_stiffness,
 )
 from rths.core.errors import ParameterError
+from rths.core.registry import SPECIMENS
 
 FS = 4096.0  # drive rate [Hz] (the vRTHS benchmark loop rate)
 DT = 1.0 / FS
@@ -492,15 +492,18 @@ def test_state_reports_eq15_fluctuation_and_forces():
 
 
 def test_registry_and_factory():
-    assert IMD_MODELS == {"imd_simplified": SimplifiedIMD, "imd_internal": InternalStiffnessIMD}
+    assert SPECIMENS.get("imd_simplified").target is SimplifiedIMD
+    assert SPECIMENS.get("imd_internal").target is InternalStiffnessIMD
     assert isinstance(imd_from_parameters(TYPE_II), InternalStiffnessIMD)
     rigid = replace(TYPE_II, internal_stiffness=False)
     assert isinstance(imd_from_parameters(rigid), SimplifiedIMD)
     assert isinstance(imd_from_parameters(TYPE_II, kind="imd_simplified"), SimplifiedIMD)
     assert InternalStiffnessIMD(TYPE_II).rigid_inertance == 0.0
     assert InternalStiffnessIMD(TYPE_II).rigid_damping == 0.0
-    for cls in IMD_MODELS.values():
-        assert issubclass(cls, Specimen) and IMD_MODELS[cls.kind] is cls
+    for cls in (SimplifiedIMD, InternalStiffnessIMD):
+        assert issubclass(cls, Specimen) and SPECIMENS.get(cls.kind).target is cls
+    with pytest.raises(ParameterError, match="unknown IMD kind 'linear'"):
+        imd_from_parameters(TYPE_II, kind="linear")
 
 
 # --- validation ---------------------------------------------------------------------------

@@ -11,13 +11,13 @@ import pytest
 
 from plants.actuator.models import MTS_IDENTIFIED, TransferFunctionActuator
 from plants.base import Specimen
-from plants.tmdi.inerter import IdealInerter
-from plants.tmdi.structure import (
+from plants.tmdi import (
     NominalInerter,
     TMDIStructure,
     TMDISubstructure,
     s1_configuration,
 )
+from plants.tmdi.inerter import IdealInerter
 from rths.cli import main
 from rths.core.errors import ConfigError, ParameterError
 from rths.experiments.s1_shake_table.report import frf_table, loops_figure, summarise

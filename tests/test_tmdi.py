@@ -12,6 +12,17 @@ from scipy.integrate import cumulative_trapezoid
 from controllers.baselines import NoCompensation
 from plants.base import Specimen
 from plants.imd.amplitude import AmplitudeTracker
+from plants.tmdi import (
+    EQ7_QUANTITIES,
+    IntegrationError,
+    NominalInerter,
+    TMDIParameters,
+    TMDIStructure,
+    TMDISubstructure,
+    linear_frf,
+    linearised_frequencies,
+    s1_configuration,
+)
 from plants.tmdi.hdrb import (
     HDRB,
     S1_PRIMARY,
@@ -26,17 +37,6 @@ from plants.tmdi.inerter import (
     IdealInerter,
     RackPinionInerter,
     rack_pinion_preset,
-)
-from plants.tmdi.structure import (
-    EQ7_QUANTITIES,
-    IntegrationError,
-    NominalInerter,
-    TMDIParameters,
-    TMDIStructure,
-    TMDISubstructure,
-    linear_frf,
-    linearised_frequencies,
-    s1_configuration,
 )
 from rths.core.errors import ParameterError
 from rths.core.scaling import Scaling

@@ -19,18 +19,18 @@ import numpy as np
 import pytest
 
 from plants.actuator.models import MTS_IDENTIFIED
+from plants.tmdi import (
+    S1_UNCONTROLLED,
+    calibrate_uncontrolled_ps,
+    harmonic_balance_crest,
+    stepped_sine_crest,
+)
 from plants.tmdi.hdrb import (
     AMPLITUDE_EXPONENT,
     HDRB,
     S1_PRIMARY,
     S1_PRIMARY_UNCONTROLLED,
     UNCONTROLLED_STIFFNESS_SCALE,
-)
-from plants.tmdi.structure import (
-    S1_UNCONTROLLED,
-    calibrate_uncontrolled_ps,
-    harmonic_balance_crest,
-    stepped_sine_crest,
 )
 from rths.core.errors import NumericalError, ParameterError
 from rths.experiments.s1_shake_table.frf import (

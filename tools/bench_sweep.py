@@ -23,7 +23,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from plants.tmdi.structure import TMDIStructure
+from plants.tmdi import TMDIStructure
 from rths.experiments.s1_shake_table.frf import estimate_frf, steady_state_windows
 from rths.experiments.s1_shake_table.sweep import (
     SteppedSine,

@@ -29,8 +29,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from plants.tmdi import TMDIStructure, TMDISubstructure, s1_configuration
 from plants.tmdi.inerter import RackPinionInerter, rack_pinion_preset
-from plants.tmdi.structure import TMDIStructure, TMDISubstructure, s1_configuration
 
 G = 9.81
 FREQ = 2.25  # Hz, f_0 of S1 Fig.12

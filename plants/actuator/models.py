@@ -36,6 +36,7 @@ References
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import control
 import numpy as np
@@ -49,7 +50,7 @@ from plants.actuator.linear import (
     servo_hydraulic_model,
     siso_transfer_function,
 )
-from plants.lines import DelayLine, RateLimiter, delayed, rate_limited
+from plants.actuator.options import ServoHydraulicOptions, TransferFunctionOptions
 from plants.actuator.parameters import (
     BENCHMARK,
     HEAVY_INERTIAL_LOAD,
@@ -58,13 +59,16 @@ from plants.actuator.parameters import (
     IdentifiedTransferFunction,
 )
 from plants.base import Actuator, Kinematics, Specimen
+from plants.device_model import DeviceModel
 from plants.linear_specimen import LinearSpecimen
+from plants.lines import DelayLine, RateLimiter, delayed, rate_limited
 from rths.core.errors import (
     ParameterError,
     check_nonnegative,
     check_positive,
     check_positive_int,
 )
+from rths.core.registry import ACTUATORS
 
 __all__ = [
     "BENCHMARK",
@@ -95,6 +99,7 @@ def default_substeps(dt: float) -> int:
     return max(1, math.ceil(dt / MAX_SUBSTEP - 1e-9))
 
 
+@ACTUATORS.register("servo_hydraulic", ServoHydraulicOptions)
 class ServoHydraulicActuator(Actuator):
     """The vRTHS benchmark servo-hydraulic actuator coupled to its specimen (CSI).
 
@@ -194,6 +199,42 @@ class ServoHydraulicActuator(Actuator):
         self._n_states = m.A.shape[0]
         self.reset()
 
+    @classmethod
+    def from_options(
+        cls,
+        options: ServoHydraulicOptions,
+        *,
+        specimen: Specimen,
+        dt: float,
+        rng: np.random.Generator | None = None,
+        **_: object,
+    ) -> ServoHydraulicActuator:
+        """The ``servo_hydraulic`` kind driving ``specimen`` (``rng``: a Monte-Carlo draw of
+        the benchmark's uncertain hydraulics, :meth:`BenchmarkParameters.sample`)."""
+        hydraulics = options.hydraulics
+        if rng is not None:
+            hydraulics = hydraulics.sample(rng)
+        return cls(specimen, dt, hydraulics, substeps=options.substeps, delay=options.delay,
+                   velocity_limit=options.velocity_limit)  # fmt: skip
+
+    @classmethod
+    def nominal_plant(
+        cls, options: ServoHydraulicOptions, *, model: DeviceModel | None, dt: float
+    ) -> tuple[control.TransferFunction, float]:
+        """The compensator's command→measured model and delay [s]: the loop linearised with the
+        ``[model]`` device installed (the lab engineer identifies the transfer system with the
+        specimen on it); S0 Eq.12's series spring enters as the dynamic stiffness of the rest."""
+        remainder: Any = None
+        if model is None:
+            device = LinearSpecimen(0.0, 0.0, 0.0)
+        elif model.series_stiffness is None:
+            device = LinearSpecimen(model.inertance, model.damping, model.stiffness)
+        else:
+            device = LinearSpecimen(0.0, 0.0, 0.0)
+            remainder = model.dynamic_stiffness()
+        act = cls(device, dt, options.hydraulics)
+        return control.minreal(act.transfer_function(remainder), verbose=False), options.delay
+
     def _check_substeps(self, stiffness: float, what: str) -> None:
         """Stability of the sub-stepped loop with ``F_rest = k x`` held over each sub-step."""
         m = self._model
@@ -276,6 +317,7 @@ class ServoHydraulicActuator(Actuator):
         return {"hydraulic_force": f_a, "displacement_linear": x}
 
 
+@ACTUATORS.register("transfer_function", TransferFunctionOptions)
 class TransferFunctionActuator(Actuator):
     """Command→displacement transfer function ``num(s)/den(s)`` with optional delay/rate limit.
 
@@ -323,6 +365,24 @@ class TransferFunctionActuator(Actuator):
         self._A, self._B = m.A, m.B[:, 0].copy()
         self._C, self._D = m.C, m.D[:, 0].copy()
         self.reset()
+
+    @classmethod
+    def from_options(
+        cls, options: TransferFunctionOptions, *, specimen: Specimen, dt: float, **_: object
+    ) -> TransferFunctionActuator:
+        """The ``transfer_function`` kind driving ``specimen``."""
+        assert options.num is not None and options.den is not None  # options validate it
+        return cls(list(options.num), list(options.den), specimen, dt, delay=options.delay,
+                   velocity_limit=options.velocity_limit)  # fmt: skip
+
+    @classmethod
+    def nominal_plant(
+        cls, options: TransferFunctionOptions, *, model: DeviceModel | None, dt: float
+    ) -> tuple[control.TransferFunction, float]:
+        """The compensator's model: the TF itself (it was identified with the specimen on) or
+        ``nominal_num``/``nominal_den``, and the delay [s]."""
+        num, den = options.nominal
+        return control.tf(list(num), list(den)), options.delay
 
     def _reset_impl(self) -> None:
         """Return the state and the drive history to rest."""

@@ -71,6 +71,7 @@ from plants.cable.device import (
 )
 from plants.cable.fe import assemble, check_mesh, mesh_nodes, sine_load_shape
 from plants.cable.newmark import newmark_operator, step_kernel, step_reference
+from plants.cable.options import CableOptions
 from plants.cable.properties import (
     CableProperties,
     DistributedLoad,
@@ -82,12 +83,14 @@ from plants.cable.properties import (
     physical_damper,
     physical_stiffness,
 )
+from plants.device_model import DeviceModel
 from rths.core.errors import (
     ParameterError,
     check_finite,
     check_in_range,
     check_positive_int,
 )
+from rths.core.registry import SUBSTRUCTURES
 
 #: nodal displacement, velocity, acceleration and the flywheel's ``(x, x', x'')``
 _State = tuple[
@@ -112,6 +115,7 @@ __all__ = [
 ]
 
 
+@SUBSTRUCTURES.register("cable", CableOptions)
 class Cable(Substructure):
     """Taut cable FE model integrated with Newmark average acceleration (see module docstring).
 
@@ -195,6 +199,60 @@ class Cable(Substructure):
         self._u, self._v, self._a = np.zeros(size), np.zeros(size), np.zeros(size)
         self._fly = np.zeros(3)  # flywheel (x [m], x' [m/s], x'' [m/s^2]); zero without a branch
         self._next = (np.zeros(size), np.zeros(size), np.zeros(size), np.zeros(3))
+
+    @classmethod
+    def from_options(
+        cls, options: CableOptions, *, dt: float, device: InterfaceDevice | None = None, **_: object
+    ) -> Cable:
+        """The ``cable`` kind: the cable of ``options`` carrying the nominal ``device``.
+
+        With ``elements = "auto"`` the mesh is the finest of 100 elements and what the device's
+        series stiffness needs for the damper node to radiate (:func:`elements_for`).
+        """
+        props = CableProperties(options.length, options.tension, options.mass_per_length)
+        n = options.elements
+        if n == "auto":
+            stiff = device.series_stiffness if device is not None and device.has_series else None
+            n = elements_for(props, options.damper_position, stiff, minimum=100)
+        load = options.load
+        omega = None if load.frequency is None else 2.0 * math.pi * load.frequency
+        damping = options.intrinsic_damping
+        return cls(
+            props,
+            options.damper_position,
+            dt,
+            elements=n,
+            load=DistributedLoad(amplitude=load.amplitude, mode=load.mode, frequency=omega),
+            intrinsic_damping=RayleighDamping(damping) if damping else None,
+            damper=device,
+        )
+
+    @staticmethod
+    def nominal_device(model: DeviceModel | None) -> InterfaceDevice | None:
+        """The interface device (prototype scale) for a ``[model]`` of kind ``imd`` or
+        ``linear`` (S0 Eq.1, or Eq.12 with a series stiffness); None for none.
+
+        Raises
+        ------
+        ParameterError
+            For a model kind a cable cannot carry (``inerter``).
+        """
+        if model is None:
+            return None
+        if model.kind not in ("imd", "linear"):
+            raise ParameterError(
+                f"a cable substructure takes a model of kind 'imd' or 'linear' (or 'none'); "
+                f"got {model.kind!r}"
+            )
+        if model.series_stiffness is None:
+            return InterfaceDevice(
+                inertance=model.inertance, damping=model.damping, stiffness=model.stiffness
+            )
+        return InterfaceDevice(
+            series_stiffness=model.series_stiffness,
+            series_inertance=model.inertance,
+            series_damping=model.damping,
+        )
 
     # ------------------------------------------------------------------ Substructure contract
     def _reset_impl(self) -> None:

@@ -22,7 +22,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from rths.core.errors import ParameterError, check_positive, check_positive_int
 
-__all__ = ["STANDARD_GRAVITY", "SteppedSine", "frequency_grid", "stepped_sine_acceleration"]
+__all__ = [
+    "STANDARD_GRAVITY",
+    "SteppedSine",
+    "SteppedSineOptions",
+    "frequency_grid",
+    "stepped_sine_acceleration",
+]
 
 #: Standard gravity [m/s²], the unit of a PGA given in g.
 STANDARD_GRAVITY: Final[float] = 9.80665
@@ -214,3 +220,32 @@ def stepped_sine_acceleration(
     else:
         sine = SteppedSine.sweep(frequencies, direction, cycles)
     return sine.function(amplitude)
+
+
+@dataclass(frozen=True)
+class SteppedSineOptions:
+    """A stepped sine of the shaking table (the ``excitation`` table of a scenario).
+
+    Parameters
+    ----------
+    pga
+        Peak ground acceleration [g], > 0.
+    frequencies
+        Step frequencies [Hz], > 0, in playing order.
+    cycles
+        Whole cycles per step, >= 1 (S1 §2.3: 20).
+    """
+
+    pga: float
+    frequencies: tuple[float, ...]
+    cycles: int = 20
+
+    def __post_init__(self) -> None:
+        check_positive(self.pga, "PGA")
+        if any(not f > 0 for f in self.frequencies):
+            raise ParameterError(f"step frequencies must be positive; got {list(self.frequencies)!r}")
+        check_positive_int(self.cycles, "cycles per step")
+
+    def acceleration(self) -> Callable[[float], float]:
+        """Ground acceleration ``ü_G(t)`` [m/s²] (:func:`stepped_sine_acceleration`)."""
+        return stepped_sine_acceleration(self.frequencies, self.pga, self.cycles)

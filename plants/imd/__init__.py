@@ -6,7 +6,6 @@ amplitude tracker of S0 Eq.17-18 (:mod:`~.amplitude`) and the compiled flywheel 
 
 from plants.imd.models import (
     CONTACT_FREQUENCY_HZ,
-    IMD_MODELS,
     MAX_STEP_PHASE,
     AmplitudeDamping,
     IMDParameters,
@@ -14,13 +13,13 @@ from plants.imd.models import (
     SimplifiedIMD,
     ball_screw_stiffness,
     damping_from_ratio,
+    imd,
     imd_from_parameters,
     screw_series_stiffness,
 )
 
 __all__ = [
     "CONTACT_FREQUENCY_HZ",
-    "IMD_MODELS",
     "MAX_STEP_PHASE",
     "AmplitudeDamping",
     "IMDParameters",
@@ -28,6 +27,7 @@ __all__ = [
     "SimplifiedIMD",
     "ball_screw_stiffness",
     "damping_from_ratio",
+    "imd",
     "imd_from_parameters",
     "screw_series_stiffness",
 ]

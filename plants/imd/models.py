@@ -30,19 +30,18 @@ Use::
     sim = SimplifiedIMD(p)                                  # what the numerical model knows
     F = lab.step(u, v, a, dt)
 
-Adding a damper model (an afternoon): write a :class:`plants.base.Specimen` subclass here (or in
-its own ``plants/<name>.py`` if it needs new parameters) with a unique ``kind``, ``__init__``
-taking an :class:`IMDParameters`, ``from_parameters``, ``reset``, ``_step_impl(u, v, a, dt)``
-returning the restoring force [N] and ``state()``; reuse the shared pieces -- the amplitude
-tracker, :func:`plants.imd.kernels.regularised_sign`, the Hermite drive and RK4 loop of
-:func:`plants.imd.kernels.advance_flywheel` (copy its pattern for new internal dynamics); add
-the class to :data:`IMD_MODELS`; add oracle tests to ``tests/test_imd.py``.
+Adding a damper model (an afternoon): one new module in ``plants/`` with a
+:class:`plants.base.Specimen` subclass -- ``_step_impl(u, v, a, dt)`` returning the restoring
+force [N], ``_reset_impl``, ``state()``, a ``from_options`` classmethod -- registered with
+``@SPECIMENS.register("<kind>", <frozen options dataclass>)`` (:mod:`rths.core.registry`); plus
+oracle tests.  Reuse the shared pieces where they fit: the amplitude tracker,
+:func:`plants.imd.kernels.regularised_sign`, the Hermite drive and RK4 loop of
+:func:`plants.imd.kernels.advance_flywheel`.  The README shows a complete toy example.
 """
 
 from __future__ import annotations
 
 import math
-from typing import ClassVar
 
 from plants.base import Specimen
 from plants.imd.amplitude import AmplitudeTracker
@@ -56,10 +55,11 @@ from plants.imd.parameters import (
     screw_series_stiffness,
 )
 from rths.core.errors import ParameterError, check_positive, format_choices
+from rths.core.registry import SPECIMENS
 
 __all__ = [
     "CONTACT_FREQUENCY_HZ",
-    "IMD_MODELS",
+    "imd",
     "MAX_STEP_PHASE",
     "AmplitudeDamping",
     "IMDParameters",
@@ -116,6 +116,7 @@ class _DampingMixin:
         return self._damping
 
 
+@SPECIMENS.register("imd_simplified", IMDParameters)
 class SimplifiedIMD(_DampingMixin, Specimen):
     """The simplified IMD, S0 Eq.1: ``F = m_e u'' + c_d u' + F_r tanh(u'/v_eps)``.
 
@@ -134,7 +135,6 @@ class SimplifiedIMD(_DampingMixin, Specimen):
     still correct, only explicit).
     """
 
-    kind: ClassVar[str] = "imd_simplified"
 
     def __init__(self, parameters: IMDParameters) -> None:
         super().__init__()
@@ -142,6 +142,11 @@ class SimplifiedIMD(_DampingMixin, Specimen):
         self._init_damping()
         self._friction = parameters.friction
         self._v_eps = parameters.friction_velocity
+
+    @classmethod
+    def from_options(cls, options: IMDParameters, **_: object) -> SimplifiedIMD:
+        """The registered kind: the model of ``options``."""
+        return cls.from_parameters(options)
 
     @classmethod
     def from_parameters(cls, parameters: IMDParameters) -> SimplifiedIMD:
@@ -175,6 +180,7 @@ class SimplifiedIMD(_DampingMixin, Specimen):
         return {"damping": self._damping, "amplitude": self.amplitude}
 
 
+@SPECIMENS.register("imd_internal", IMDParameters)
 class InternalStiffnessIMD(_DampingMixin, Specimen):
     """IMD with internal stiffness, S0 Eq.12 (+ Eq.4, Eq.18, backlash and friction).
 
@@ -201,7 +207,6 @@ class InternalStiffnessIMD(_DampingMixin, Specimen):
         source as plain Python (the reference path).
     """
 
-    kind: ClassVar[str] = "imd_internal"
 
     def __init__(
         self,
@@ -229,6 +234,11 @@ class InternalStiffnessIMD(_DampingMixin, Specimen):
         self._v_eps = parameters.friction_velocity
         self._init_damping()
         self.reset()
+
+    @classmethod
+    def from_options(cls, options: IMDParameters, **_: object) -> InternalStiffnessIMD:
+        """The registered kind: the model of ``options``."""
+        return cls.from_parameters(options)
 
     @classmethod
     def from_parameters(cls, parameters: IMDParameters) -> InternalStiffnessIMD:
@@ -303,11 +313,15 @@ class InternalStiffnessIMD(_DampingMixin, Specimen):
         }
 
 
-#: Registry of the IMD models by ``kind`` (scenario files name them).
-IMD_MODELS: dict[str, type[SimplifiedIMD] | type[InternalStiffnessIMD]] = {
-    SimplifiedIMD.kind: SimplifiedIMD,
-    InternalStiffnessIMD.kind: InternalStiffnessIMD,
-}
+@SPECIMENS.register("imd", IMDParameters)
+def imd(options: IMDParameters, **_: object) -> Specimen:
+    """An inertial mass damper carrying every effect its parameters switch on (S0 Eq.1 or Eq.12).
+
+    :class:`InternalStiffnessIMD` when there is a series element (internal stiffness, backlash),
+    else :class:`SimplifiedIMD`.
+    """
+    cls = InternalStiffnessIMD if options.has_series_element else SimplifiedIMD
+    return cls.from_parameters(options)
 
 
 def imd_from_parameters(parameters: IMDParameters, kind: str = "imd") -> Specimen:
@@ -320,13 +334,12 @@ def imd_from_parameters(parameters: IMDParameters, kind: str = "imd") -> Specime
     kind
         ``"imd"`` (default): the model that carries every switched-on effect --
         :class:`InternalStiffnessIMD` when there is a series element, else
-        :class:`SimplifiedIMD`.  Or a key of :data:`IMD_MODELS` to force a model.
+        :class:`SimplifiedIMD`.  Or ``"imd_simplified"`` / ``"imd_internal"`` to force a model.
     """
-    if kind == "imd":
-        cls = InternalStiffnessIMD if parameters.has_series_element else SimplifiedIMD
-        return cls.from_parameters(parameters)
-    try:
-        return IMD_MODELS[kind].from_parameters(parameters)
-    except KeyError:
-        choices = format_choices(["imd", *sorted(IMD_MODELS)])
-        raise ParameterError(f"unknown IMD kind {kind!r}; choose one of {choices}") from None
+    if kind not in _IMD_KINDS:
+        raise ParameterError(f"unknown IMD kind {kind!r}; choose one of {format_choices(_IMD_KINDS)}")
+    model: Specimen = SPECIMENS.get(kind).build(parameters)
+    return model
+
+
+_IMD_KINDS = ("imd", "imd_internal", "imd_simplified")

@@ -349,6 +349,14 @@ class IMDParameters:
         """Names accepted by :meth:`preset`."""
         return tuple(sorted(_PRESETS))
 
+    #: Scenario-file presets (:mod:`rths.config.options`): the names of :meth:`preset`.
+    presets = preset_names
+
+    @classmethod
+    def from_preset(cls, name: str, **overrides: object) -> IMDParameters:
+        """Scenario-file presets (:mod:`rths.config.options`): :meth:`preset`."""
+        return cls.preset(name, **overrides)
+
 
 _PRESETS: dict[str, dict[str, object]] = {
     # S0 Table 4 (SMS-B snubbers, tested at UIUC)

@@ -13,12 +13,10 @@ from plants.tmdi.structure import (
     S1_UNCONTROLLED,
     SECONDARY_MASSES,
     IntegrationError,
-    NominalInerter,
     PSCalibration,
     TMDIParameters,
     TMDIResponse,
     TMDIStructure,
-    TMDISubstructure,
     UncontrolledObservations,
     calibrate_uncontrolled_ps,
     harmonic_balance_crest,
@@ -27,6 +25,7 @@ from plants.tmdi.structure import (
     s1_configuration,
     stepped_sine_crest,
 )
+from plants.tmdi.substructure import NominalInerter, TMDISubstructure
 
 __all__ = [
     "EQ7_QUANTITIES",

@@ -36,6 +36,7 @@ The Coulomb friction is regularised, ``f_y tanh(u̇_T / v_eps)``.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Final
 
 import numpy as np
@@ -55,10 +56,12 @@ from rths.core.errors import (
     ParameterError,
     check_positive,
 )
+from rths.core.registry import SPECIMENS
 
 __all__ = [
     "FLYWHEELS",
     "IdealInerter",
+    "IdealInerterOptions",
     "RackPinionInerter",
     "RackPinionParameters",
     "S1_IDEAL_INERTANCE",
@@ -67,6 +70,23 @@ __all__ = [
     "rack_pinion_preset",
 ]
 
+@dataclass(frozen=True)
+class IdealInerterOptions:
+    """Options of the ``ideal_inerter`` specimen kind.
+
+    Parameters
+    ----------
+    inertance
+        ``b`` [kg], > 0 (default: S1 §4.2's 48.7 kg for the IF device).
+    """
+
+    inertance: float = S1_IDEAL_INERTANCE
+
+    def __post_init__(self) -> None:
+        check_positive(self.inertance, "inertance b")
+
+
+@SPECIMENS.register("ideal_inerter", IdealInerterOptions)
 class IdealInerter(Specimen):
     """Ideal linear inerter ``F = b ü`` (S1 Fig.1a) with one end grounded.
 
@@ -76,11 +96,14 @@ class IdealInerter(Specimen):
         ``b`` [kg]; positive.
     """
 
-    kind = "ideal_inerter"
-
     def __init__(self, inertance: float = S1_IDEAL_INERTANCE) -> None:
         super().__init__()
         self.inertance: float = check_positive(inertance, "inertance b")
+
+    @classmethod
+    def from_options(cls, options: IdealInerterOptions, **_: object) -> IdealInerter:
+        """The ``ideal_inerter`` kind."""
+        return cls(options.inertance)
 
     @property
     def rigid_inertance(self) -> float:
@@ -94,6 +117,7 @@ class IdealInerter(Specimen):
         return self.inertance * a
 
 
+@SPECIMENS.register("rack_pinion", RackPinionParameters)
 class RackPinionInerter(Specimen):
     """Rack-and-pinion flywheel inerter with play, friction and series compliance, S1 Eq.9-11.
 
@@ -104,8 +128,6 @@ class RackPinionInerter(Specimen):
     parameters
         Device parameters; the S1 §4.2 IF device by default.
     """
-
-    kind = "rack_pinion_inerter"
 
     def __init__(self, parameters: RackPinionParameters = S1_RACK_PINION) -> None:
         super().__init__()
@@ -120,6 +142,11 @@ class RackPinionInerter(Specimen):
         self._input[layout.I_DRIVEN] = 1.0
         self._substeps: dict[float, int] = {}
         self.reset()
+
+    @classmethod
+    def from_options(cls, options: RackPinionParameters, **_: object) -> RackPinionInerter:
+        """The ``rack_pinion`` kind."""
+        return cls(options)
 
     def _reset_impl(self) -> None:
         """Rest at ``u = 0`` with zero gap ``θ_S = θ_G = 0`` (inside the play ``[-ε2, ε1]``, or

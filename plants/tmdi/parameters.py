@@ -159,6 +159,16 @@ class RackPinionParameters:
         """Total play ``ε1 + ε2`` [rad]."""
         return self.clearance_forward + self.clearance_backward
 
+    @staticmethod
+    def presets() -> tuple[str, ...]:
+        """Scenario-file presets: the S1 Table 1 flywheels (:func:`rack_pinion_preset`)."""
+        return tuple(FLYWHEELS)
+
+    @classmethod
+    def from_preset(cls, name: str, **overrides: object) -> RackPinionParameters:
+        """The device of :func:`rack_pinion_preset` with some fields replaced."""
+        return replace(rack_pinion_preset(name), **overrides)  # type: ignore[arg-type]
+
     def max_substep(self) -> float:
         """Largest internal sub-step [s]: a quarter of the shortest time scale of the device.
 

@@ -38,6 +38,7 @@ to the time-domain crests of this model (:func:`stepped_sine_crest`); see
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Final
 
@@ -55,22 +56,11 @@ from plants.tmdi.calibration import (
     harmonic_balance_crest,
     stepped_sine_crest,
 )
-from plants.tmdi.hdrb import (
-    S1_PRIMARY,
-    S1_PRIMARY_AMPLITUDE,
-    S1_PRIMARY_IDEAL_INERTER,
-    S1_PRIMARY_IDEAL_INERTER_AMPLITUDE,
-    S1_PRIMARY_UNCONTROLLED,
-    S1_SECONDARY,
-    S1_SECONDARY_AMPLITUDE,
-    S1_SECONDARY_IDEAL_INERTER,
-    S1_SECONDARY_IDEAL_INERTER_AMPLITUDE,
-)
+from plants.tmdi.configuration import HDRB_MODELS, s1_configuration
+from plants.tmdi.engine import S1Structure
 from plants.tmdi.inerter import (
     IdealInerter,
     RackPinionInerter,
-    ideal_inerter_preset,
-    rack_pinion_preset,
 )
 from plants.tmdi.kernel import IntegrationError
 from plants.tmdi.linear import EQ7_QUANTITIES, linear_frf, linearised_frequencies
@@ -80,18 +70,15 @@ from plants.tmdi.parameters import (
     SUBSTEP_FRACTION,
     TMDIParameters,
 )
-from plants.tmdi.substructure import NominalInerter, TMDISubstructure
 from rths.core.errors import (
     ParameterError,
     check_positive,
-    format_choices,
 )
 
 __all__ = [
     "EQ7_QUANTITIES",
     "HDRB_MODELS",
     "IntegrationError",
-    "NominalInerter",
     "PRIMARY_MASS",
     "PSCalibration",
     "S1_UNCONTROLLED",
@@ -99,7 +86,6 @@ __all__ = [
     "TMDIParameters",
     "TMDIResponse",
     "TMDIStructure",
-    "TMDISubstructure",
     "UncontrolledObservations",
     "calibrate_uncontrolled_ps",
     "harmonic_balance_crest",
@@ -108,71 +94,6 @@ __all__ = [
     "s1_configuration",
     "stepped_sine_crest",
 ]
-
-#: HDRB damping models of :func:`s1_configuration`.
-HDRB_MODELS: Final[tuple[str, ...]] = ("viscous", "amplitude")
-
-
-def s1_configuration(
-    mass: str | None,
-    flywheel: str | None = None,
-    inerter: str = "rack_pinion",
-    hdrb: str = "viscous",
-) -> tuple[TMDIParameters, Specimen | None]:
-    """A physical model of S1 Table 1 as (structure, inerter specimen).
-
-    Parameters
-    ----------
-    mass
-        Secondary mass ``"SM"`` (6 kg), ``"IM"`` (10 kg), ``"LM"`` (20 kg), or None for the
-        uncontrolled PS (``flywheel`` must then be None).
-    flywheel
-        ``"NF"``, ``"IF"``, ``"LF"`` (S1 Table 1), or None for a TMD without inerter.
-    inerter
-        ``"rack_pinion"``: the S1 Eq.9-11 device (:func:`plants.tmdi.inerter.rack_pinion_preset`)
-        with the isolators identified with it (c_I = 538.13, c_T = 409.15 N s/m);
-        ``"ideal"``: the ideal-inerter variant of S1 §4.2 (b = 48.7 kg for IF, scaled for NF/LF;
-        c_I = 743.3, c_T = 324.7 N s/m).  Ignored for the uncontrolled PS.
-    hdrb
-        ``"viscous"``: the S1 §4.2 isolators as identified (constant dashpots); for the
-        uncontrolled PS the TMDI's primary bearing (S1 identifies no PS-alone model).
-        ``"amplitude"``: the dashpots follow the amplitude law of :mod:`plants.tmdi.hdrb` -- with a
-        TMDI the S1 §4.2 bearings anchored where S1 identified them (``S1_*_AMPLITUDE``
-        presets), for the uncontrolled PS the bearing calibrated on S1's uncontrolled tests
-        (:data:`~plants.tmdi.hdrb.S1_PRIMARY_UNCONTROLLED`).
-    """
-    if inerter not in ("rack_pinion", "ideal"):
-        raise ParameterError(f"inerter must be 'rack_pinion' or 'ideal'; got {inerter!r}")
-    if hdrb not in HDRB_MODELS:
-        raise ParameterError(f"hdrb must be one of {format_choices(HDRB_MODELS)}; got {hdrb!r}")
-    ideal = inerter == "ideal"
-    amplitude = hdrb == "amplitude"
-    if mass is None:
-        if flywheel is not None:
-            raise ParameterError(f"the uncontrolled PS has no inerter; got flywheel {flywheel!r}")
-        return TMDIParameters(PRIMARY_MASS, S1_PRIMARY_UNCONTROLLED if amplitude else S1_PRIMARY
-                              ), None
-    if mass not in SECONDARY_MASSES:
-        raise ParameterError(
-            f"secondary mass must be one of {format_choices(list(SECONDARY_MASSES))} or None; "
-            f"got {mass!r}"
-        )
-    if ideal and amplitude:
-        primary = S1_PRIMARY_IDEAL_INERTER_AMPLITUDE
-        secondary = S1_SECONDARY_IDEAL_INERTER_AMPLITUDE
-    elif ideal:
-        primary, secondary = S1_PRIMARY_IDEAL_INERTER, S1_SECONDARY_IDEAL_INERTER
-    elif amplitude:
-        primary, secondary = S1_PRIMARY_AMPLITUDE, S1_SECONDARY_AMPLITUDE
-    else:
-        primary, secondary = S1_PRIMARY, S1_SECONDARY
-    structure = TMDIParameters(PRIMARY_MASS, primary, SECONDARY_MASSES[mass], secondary)
-    if flywheel is None:
-        return structure, None
-    if ideal:
-        return structure, IdealInerter(ideal_inerter_preset(flywheel))
-    return structure, RackPinionInerter(rack_pinion_preset(flywheel))
-
 
 @dataclass(frozen=True, slots=True)
 class TMDIResponse:
@@ -217,15 +138,13 @@ class TMDIResponse:
 _SECONDARY_KINEMATICS: Final[tuple[str, ...]] = ("u_TI", "a_T_tot", "u_T", "a_T", "v_T")
 
 
-def _initial_state(rack: RackPinionInerter | None) -> NDArray[np.float64]:
-    s = np.zeros(layout.N_STATE)
-    if rack is not None and rack.parameters.total_clearance == 0.0:
-        s[layout.S_MODE] = layout.FORWARD
-    return s
+class TMDIStructure(S1Structure):
+    """Full model of S1 Eq.12 with the inerter inside, under a base excitation.
 
-
-class TMDIStructure:
-    """Full model of S1 Eq.12 with the inerter inside, driven by a ground-acceleration history.
+    A :class:`~plants.base.Substructure` (interface ``u_T``, or ``u_I`` without a TMD; the
+    force of :meth:`step` acts there, normally 0) so the S1 sweep and the fully numerical run
+    drive it like any other plant; :meth:`run` is the same kernel over a whole
+    ground-acceleration record in one compiled call (bit-identical to stepping, tested).
 
     Parameters
     ----------
@@ -238,6 +157,11 @@ class TMDIStructure:
         own state is left alone.
     dt
         Sampling step [s] of the ground acceleration and of the response.
+    ground_acceleration
+        ``ü_G`` [m/s²] for :meth:`step`: a callable of time [s] or samples at ``excitation_dt``
+        (default: none, ``ü_G = 0``).
+    excitation_dt
+        Spacing [s] of sampled ``ground_acceleration``; defaults to ``dt``.
 
     Notes
     -----
@@ -245,36 +169,55 @@ class TMDIStructure:
     through :class:`TMDISubstructure` instead.
     """
 
-    def __init__(self, parameters: TMDIParameters, inerter: Specimen | None, dt: float) -> None:
-        self.parameters: Final[TMDIParameters] = parameters
-        self.dt: Final[float] = check_positive(dt, "time step dt")
+    def __init__(
+        self,
+        parameters: TMDIParameters,
+        inerter: Specimen | None,
+        dt: float,
+        ground_acceleration: Callable[[float], float] | ArrayLike | None = None,
+        excitation_dt: float | None = None,
+    ) -> None:
         self._rack: RackPinionInerter | None = None
         if inerter is not None and not parameters.has_tmd:
             raise ParameterError("an inerter needs a secondary mass; got secondary mass 0.0")
         if isinstance(inerter, IdealInerter):
-            self._p = layout.pack_parameters(parameters, inertance=inerter.inertance)
+            packed = layout.pack_parameters(parameters, inertance=inerter.inertance)
         elif isinstance(inerter, RackPinionInerter):
             self._rack = inerter
-            self._p = layout.pack_parameters(parameters, device=inerter.parameters)
+            packed = layout.pack_parameters(parameters, device=inerter.parameters)
         elif inerter is None:
-            self._p = layout.pack_parameters(parameters)
+            packed = layout.pack_parameters(parameters)
         else:
             raise ParameterError(
                 "inerter must be IdealInerter, RackPinionInerter or None; got "
                 f"{type(inerter).__name__} (couple other specimens through TMDISubstructure)"
             )
-        self.substeps: Final[int] = self._substeps()
+        rigid_contact = self._rack is not None and self._rack.parameters.total_clearance == 0.0
+        super().__init__(
+            parameters,
+            packed,
+            _no_excitation if ground_acceleration is None else ground_acceleration,
+            dt,
+            excitation_dt,
+            substeps=self._substeps(parameters, dt),
+            initial_mode=layout.FORWARD if rigid_contact else layout.OPEN,
+        )
 
-    def _substeps(self) -> int:
+    def _substeps(self, parameters: TMDIParameters, dt: float) -> int:
         if self._rack is None:
             return 1
         device = self._rack.parameters
         # the rack's own scales and the secondary mass on the series spring k_S / r_P²
         coupled = math.sqrt(
-            self.parameters.secondary_mass * device.pinion_radius**2 / device.series_stiffness
+            parameters.secondary_mass * device.pinion_radius**2 / device.series_stiffness
         )
         h_max = min(device.max_substep(), SUBSTEP_FRACTION * coupled)
-        return max(1, math.ceil(self.dt / h_max - 1e-9))
+        return max(1, math.ceil(check_positive(dt, "time step dt") / h_max - 1e-9))
+
+    @property
+    def device_force(self) -> float:
+        """Restoring force ``F_B`` [N] of the inerter inside the model now (0 without one)."""
+        return self.outputs()["F_B"] - self._force
 
     def run(self, ground_acceleration: ArrayLike) -> TMDIResponse:
         """Response from rest to the ground acceleration samples ``ü_G(k dt)`` [m/s²].
@@ -293,8 +236,9 @@ class TMDIStructure:
             )
         if not np.all(np.isfinite(ag)):
             raise ParameterError("ground acceleration must be finite; got NaN or inf samples")
-        out, failures = kern.simulate(ag, self.dt, self.substeps, self._p,
-                                      _initial_state(self._rack))
+        initial = np.zeros(layout.N_STATE)
+        initial[layout.S_MODE] = self._initial_mode
+        out, failures = kern.simulate(ag, self.dt, self.substeps, self._p, initial)
         if failures or not np.all(np.isfinite(out)):
             raise IntegrationError(
                 f"TMDI integration failed to converge in {failures} segments with dt={self.dt!r}"
@@ -305,3 +249,8 @@ class TMDIStructure:
                 fields[name][:] = np.nan
         return TMDIResponse(time=np.arange(ag.size) * self.dt, ground_acceleration=ag.copy(),
                             **fields)
+
+
+def _no_excitation(t: float) -> float:
+    """``ü_G = 0`` [m/s²]."""
+    return 0.0

@@ -3,21 +3,21 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Final
 
-import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
-from plants.base import Kinematics, Specimen, Substructure
-from plants.tmdi import kernel as kern
+from plants.base import Specimen
+from plants.device_model import DeviceModel
 from plants.tmdi import layout
+from plants.tmdi.configuration import TMDIOptions, s1_configuration
+from plants.tmdi.engine import S1Structure
 from plants.tmdi.inerter import IdealInerter, RackPinionInerter
-from plants.tmdi.kernel import IntegrationError
-from plants.tmdi.linear import EQ7_QUANTITIES
-from rths.core.errors import ParameterError, check_nonnegative, check_positive
+from plants.tmdi.structure import TMDIStructure
+from rths.core.errors import ParameterError, check_nonnegative
+from rths.core.registry import SUBSTRUCTURES
 
 if TYPE_CHECKING:
     from plants.tmdi.parameters import TMDIParameters
@@ -70,12 +70,13 @@ class NominalInerter:
         )
 
 
-class TMDISubstructure(Substructure):
+@SUBSTRUCTURES.register("tmdi", TMDIOptions)
+class TMDISubstructure(S1Structure):
     """PS + TMD of S1 Eq.12 as the numerical substructure of an RTHS with the inerter physical.
 
     The interface DOF is ``u_T`` (relative to the ground, where the inerter is fixed); the loop
-    supplies the inerter's restoring force ``F_B``, held constant over each step (it enters
-    both ends of the trapezoidal rule).  The substructure owns the base excitation.
+    supplies the inerter's restoring force ``F_B``, held constant over each step.  The
+    substructure owns the base excitation.
 
     Nominal device.  An inerter of ``b/m_T = 4.8`` (S1 IM-IF) fed back one step late turns
     into a negative mass that destabilises the secondary DOF, whatever the step.  With
@@ -91,8 +92,7 @@ class TMDISubstructure(Substructure):
     parameters
         The structure; it must have a secondary mass.
     ground_acceleration
-        ``ü_G`` [m/s²]: a callable of time [s], or samples at spacing ``excitation_dt``
-        (linearly interpolated, zero after the last sample).
+        ``ü_G`` [m/s²]: a callable of time [s], or samples at spacing ``excitation_dt``.
     dt
         Loop step [s].
     excitation_dt
@@ -110,34 +110,54 @@ class TMDISubstructure(Substructure):
         excitation_dt: float | None = None,
         device: NominalInerter | None = None,
     ) -> None:
-        super().__init__(dt)
         if not parameters.has_tmd:
             raise ParameterError("the TMDI substructure needs a secondary mass; got 0.0 kg")
         if device is not None and not isinstance(device, NominalInerter):
             raise ParameterError(f"device must be a NominalInerter or None; got {device!r}")
-        self.parameters: Final[TMDIParameters] = parameters
         self.device: Final[NominalInerter | None] = device
-        spacing = self.dt if excitation_dt is None else excitation_dt
-        self._ground = _ground_motion(ground_acceleration, spacing)
         nominal = device or NominalInerter(0.0)
-        self._p = layout.pack_parameters(
+        packed = layout.pack_parameters(
             parameters, inertance=nominal.inertance, grounded_damping=nominal.damping
         )
-        self._state = np.zeros(layout.N_STATE)
-        self._input = np.zeros(layout.N_INPUT)
-        self._out = np.zeros(layout.N_OUTPUT)
-        self.reset()
+        super().__init__(parameters, packed, ground_acceleration, dt, excitation_dt)
 
-    def _reset_impl(self) -> None:
-        """Rest at ``t = 0`` with no interface force."""
-        self._state[:] = 0.0
-        self._force = 0.0
-        self._ag_now = self._ground(0.0)
+    @classmethod
+    def from_options(
+        cls, options: TMDIOptions, *, dt: float, device: NominalInerter | None = None, **_: object
+    ) -> TMDISubstructure:
+        """The ``tmdi`` kind: the S1 Table 1 structure under the stepped sine, carrying
+        ``device``."""
+        params, _ = s1_configuration(
+            options.mass, options.flywheel, options.isolators, hdrb=options.hdrb
+        )
+        return cls(params, options.excitation.acceleration(), dt, device=device)
 
-    @property
-    def interface(self) -> Kinematics:
-        """``u_T``, ``u̇_T``, ``ü_T`` (relative to the ground) now, with the last force."""
-        return self._kinematics(self._state, self._ag_now, self._force)
+    @staticmethod
+    def nominal_device(model: DeviceModel | None) -> NominalInerter | None:
+        """The nominal inerter (prototype scale) for a ``[model]`` of kind ``inerter``.
+
+        Raises
+        ------
+        ParameterError
+            For a model kind the TMDI cannot carry (``imd``, ``linear``).
+        """
+        if model is None:
+            return None
+        if model.kind != "inerter":
+            raise ParameterError(
+                f"a tmdi substructure takes a model of kind 'inerter' (or 'none'); got "
+                f"{model.kind!r}"
+            )
+        return NominalInerter(model.inertance, model.damping)
+
+    @classmethod
+    def monolithic(cls, options: TMDIOptions, specimen: Specimen, dt: float) -> TMDIStructure:
+        """The same structure and excitation with the physical ``specimen`` (an S1 inerter)
+        inside (S1 Eq.12): what a perfect RTHS of this substructure reproduces."""
+        params, _ = s1_configuration(
+            options.mass, options.flywheel, options.isolators, hdrb=options.hdrb
+        )
+        return TMDIStructure(params, specimen, dt, options.excitation.acceleration())
 
     @property
     def device_force(self) -> float:
@@ -148,73 +168,7 @@ class TMDISubstructure(Substructure):
         kin = self.interface
         return self.device.inertance * kin.acceleration + self.device.damping * kin.velocity
 
-    def _kinematics(self, s: NDArray[np.float64], ag: float, force: float) -> Kinematics:
-        a_t = kern.accelerations(s, ag, force, self._p)[1]
-        return Kinematics(float(s[layout.S_U_T]), float(s[layout.S_V_T]), float(a_t))
-
-    def _advance(self, s: NDArray[np.float64], force: float) -> float:
-        ag1 = self._ground((self.steps + 1) * self.dt)
-        inp = self._input
-        inp[layout.I_AG0] = self._ag_now
-        inp[layout.I_AG1] = ag1
-        inp[layout.I_FEXT] = force
-        if kern.step(s, self.dt, 1, inp, self._p) or not np.all(np.isfinite(s)):
-            raise IntegrationError(
-                f"TMDI substructure step failed at t={self.time!r} s with force {force!r} N"
-            )
-        return ag1
-
-    def _step_impl(self, restoring_force: float) -> Kinematics:
-        ag1 = self._advance(self._state, restoring_force)
-        self._ag_now = ag1
-        self._force = restoring_force
-        return self._kinematics(self._state, ag1, restoring_force)
-
-    def predict(self, restoring_force: float) -> Kinematics:
-        """What :meth:`step` would return for ``restoring_force`` [N]; no state changes."""
-        trial = self._state.copy()
-        ag1 = self._advance(trial, float(restoring_force))
-        return self._kinematics(trial, ag1, float(restoring_force))
-
     def outputs(self) -> dict[str, float]:
         """S1 Eq.7 quantities now, plus ``a_G``; ``F_B`` is the last interface force (with a
         nominal device: :attr:`device_force` plus the last correction)."""
-        kern.outputs(self._state, self._ag_now, self._force, self._p, self._out)
-        result = {name: float(self._out[layout.OUTPUT_FIELDS[name]]) for name in EQ7_QUANTITIES}
-        result["a_G"] = float(self._ag_now)
-        return result
-
-
-def _ground_motion(
-    source: Callable[[float], float] | ArrayLike, spacing: float
-) -> Callable[[float], float]:
-    """``ü_G(t)`` from a callable or from samples (linear interpolation, 0 after the end)."""
-    if callable(source):
-        def checked(t: float) -> float:
-            value = float(source(t))
-            if not math.isfinite(value):
-                raise ParameterError(
-                    f"ground acceleration at t={t!r} s must be finite; got {value!r}"
-                )
-            return value
-        return checked
-    samples = np.asarray(source, dtype=float)
-    if samples.ndim != 1 or samples.size == 0:
-        raise ParameterError(
-            f"ground acceleration samples must be a non-empty 1-D array; got shape {samples.shape}"
-        )
-    if not np.all(np.isfinite(samples)):
-        raise ParameterError("ground acceleration samples must be finite; got NaN or inf")
-    spacing = check_positive(spacing, "excitation_dt")
-    values = samples.tolist()
-    last = len(values) - 1
-
-    def sampled(t: float) -> float:
-        position = max(t, 0.0) / spacing
-        i = int(position)
-        if i >= last:
-            return values[last] if position <= last + 1e-9 else 0.0
-        frac = position - i
-        return values[i] + frac * (values[i + 1] - values[i])
-
-    return sampled
+        return super().outputs()

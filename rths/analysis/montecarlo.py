@@ -10,22 +10,18 @@ paired.  Runs use the in-process ``fast`` clock and write no log; the result is 
 
 from __future__ import annotations
 
-import argparse
-import json
 import sys
 from dataclasses import dataclass
 
 import numpy as np
 from tqdm import tqdm
 
-from controllers.factory import KINDS
 from rths.config import build
 from rths.config.scenario import Scenario
-from rths.core.errors import ConfigError
 from rths.metrics import normalised_rms_error
 from rths.runtime.loop import InProcessLink, Loop
 
-__all__ = ["MonteCarloResult", "main", "run_draws"]
+__all__ = ["MonteCarloResult", "run_draws", "run_one"]
 
 
 @dataclass(frozen=True)
@@ -76,7 +72,9 @@ def run_draws(
     """Run ``draws`` perturbed labs for every compensator in ``kinds``."""
     j2 = {k: np.full(draws, np.nan) for k in kinds}
     stopped: dict[str, list[str]] = {k: [] for k in kinds}
-    bar = tqdm(total=draws * len(kinds), unit="run", disable=not progress, file=sys.stderr,
+    # disable=None: no bar when stderr is not a terminal (CI logs)
+    bar = tqdm(total=draws * len(kinds), unit="run", disable=None if progress else True,
+               file=sys.stderr,
                leave=False, desc=f"{scn.run.name} Monte Carlo")  # fmt: skip
     for i in range(draws):
         for kind in kinds:
@@ -87,26 +85,3 @@ def run_draws(
             bar.update()
     bar.close()
     return MonteCarloResult(j2, stopped)
-
-
-def main(scn: Scenario, args: argparse.Namespace) -> int:
-    """``rths run SCENARIO --monte-carlo N [--compensator KIND|all] [--json]``."""
-    draws = args.monte_carlo or scn.monte_carlo_draws
-    if draws < 1:
-        raise ConfigError(f"--monte-carlo needs a number of draws >= 1; got {args.monte_carlo!r}")
-    kind = args.compensator or scn.compensator_kind
-    kinds = list(KINDS) if kind == "all" else [kind]
-    seed = scn.run.seed if args.seed is None else args.seed
-    result = run_draws(scn, kinds, draws, seed, progress=not args.no_progress)
-    rows = result.table()
-    if args.json:
-        print(json.dumps({"scenario": scn.run.name, "draws": draws, "seed": seed, "rows": rows,
-                          "j2": {k: v.tolist() for k, v in result.j2.items()}}, indent=2))  # fmt: skip
-    else:
-        print(f"{scn.run.name}: J2 over {draws} perturbed labs (seed {seed})")
-        print(f"{'compensator':<12} {'median %':>9} {'worst %':>9} {'stopped':>8}")
-        for r in rows:
-            med = "-" if r["median"] is None else f"{100 * r['median']:.3f}"
-            worst = "-" if r["worst"] is None else f"{100 * r['worst']:.3f}"
-            print(f"{r['kind']:<12} {med:>9} {worst:>9} {r['stopped']:>8}")
-    return 0

@@ -16,7 +16,6 @@ enough.  The steady-state window for the figures is the last ``--cycles`` cycles
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 from typing import Any
 
@@ -46,13 +45,9 @@ def _scenario(meta: dict[str, dict[str, str]]) -> Any:
 def _load_period(scn: Any) -> float:
     if scn is None:
         return 1.0
-    s = scn.substructure
-    if hasattr(s, "frequencies"):  # TMDI stepped sine: the last step's period
-        return 1.0 / s.frequencies[-1]
-    if s.load_frequency:
-        return 1.0 / s.load_frequency
-    c = math.sqrt(s.tension / s.mass_per_length)
-    return 2.0 * s.length / (s.load_mode * c)
+    # a substructure kind's options may say which period its excitation has
+    period = getattr(scn.substructure.options, "excitation_period", None)
+    return 1.0 if period is None else float(period)
 
 
 def write_report(log: Path, out: Path, cycles: float = 3.0, mock: bool = True) -> dict[str, Any]:

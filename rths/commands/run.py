@@ -6,6 +6,12 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+from rths.core.errors import ConfigError
+
+if TYPE_CHECKING:
+    from rths.config.scenario import Scenario
 
 __all__ = ["add_parser", "run"]
 
@@ -49,15 +55,14 @@ def run(args: argparse.Namespace) -> int:
 
     scn = load_scenario(args.scenario)
     if args.monte_carlo is not None:
-        from rths.analysis.montecarlo import main as monte_carlo
-
-        return monte_carlo(scn, args)
+        return _monte_carlo(scn, args)
     from tqdm import tqdm
 
     from rths.session.runner import RunOptions, run_scenario
 
+    # disable=None: no bar when stderr is not a terminal (CI logs stay free of carriage returns)
     bar = None if args.no_progress else tqdm(total=scn.run.steps, unit="step", leave=False,
-                                             desc=scn.run.name, file=sys.stderr)  # fmt: skip
+                                             desc=scn.run.name, file=sys.stderr, disable=None)  # fmt: skip
 
     def progress(done: int, total: int) -> None:
         if bar is not None:
@@ -87,4 +92,30 @@ def run(args: argparse.Namespace) -> int:
     if outcome.result.stopped:
         print(f"rths run: stopped early: {outcome.result.stopped}", file=sys.stderr)
         return 1
+    return 0
+
+
+def _monte_carlo(scn: Scenario, args: argparse.Namespace) -> int:
+    """``rths run SCENARIO --monte-carlo N [--compensator KIND|all] [--json]``."""
+    from controllers.factory import kinds
+    from rths.analysis.montecarlo import run_draws
+
+    draws = args.monte_carlo or scn.monte_carlo_draws
+    if draws < 1:
+        raise ConfigError(f"--monte-carlo needs a number of draws >= 1; got {args.monte_carlo!r}")
+    kind = args.compensator or scn.compensator.kind
+    chosen = list(kinds()) if kind == "all" else [kind]
+    seed = scn.run.seed if args.seed is None else args.seed
+    result = run_draws(scn, chosen, draws, seed, progress=not args.no_progress)
+    rows = result.table()
+    if args.json:
+        print(json.dumps({"scenario": scn.run.name, "draws": draws, "seed": seed, "rows": rows,
+                          "j2": {k: v.tolist() for k, v in result.j2.items()}}, indent=2))  # fmt: skip
+    else:
+        print(f"{scn.run.name}: J2 over {draws} perturbed labs (seed {seed})")
+        print(f"{'compensator':<12} {'median %':>9} {'worst %':>9} {'stopped':>8}")
+        for r in rows:
+            med = "-" if r["median"] is None else f"{100 * r['median']:.3f}"
+            worst = "-" if r["worst"] is None else f"{100 * r['worst']:.3f}"
+            print(f"{r['kind']:<12} {med:>9} {worst:>9} {r['stopped']:>8}")
     return 0

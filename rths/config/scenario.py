@@ -5,53 +5,53 @@ examples users copy)::
 
     [run]          name, duration [s], rate [Hz], clock, seed
     [scaling]      displacement (specimen/prototype), force (prototype/specimen)
-    [substructure] kind = "cable" + geometry; [substructure.load] (S0 Eq.22)
-                   or kind = "tmdi" (S1 2-DOF + TMDI); [substructure.excitation] (stepped sine)
-    [specimen]     the physical specimen in the emulated lab (the truth): kind, preset, effects
-    [actuator]     kind = "transfer_function" | "servo_hydraulic", delay, velocity_limit, ...
+    [substructure] kind + its options, e.g. kind = "cable" + geometry, [substructure.load]
+    [specimen]     the physical specimen in the emulated lab (the truth): kind + options
+    [actuator]     kind + options, e.g. "transfer_function" (num, den, delay, velocity_limit)
     [lab]          converters: bits, range, calibrations, noise
     [model]        what the numerical side believes about the specimen: the nominal device the
                    substructure carries, the compensator's plant, the fully numerical mock run
-    [compensator]  kind + options (controllers.factory)
+    [compensator]  kind + options
     [loop]         correction_filter [Hz], stroke [m] (interlock)
     [monte_carlo]  draws (perturbed benchmark plants)
 
-Every key is checked here, before any process starts: a typo, a wrong type or an out-of-range
-value is a :class:`rths.core.errors.ConfigError` naming the file, the table and the key.  Physical
-consistency (e.g. a preset name, a stable actuator) is checked when :mod:`rths.config.build` constructs the
-plants, with the table named in the message.
+The four component tables name a registered kind (:mod:`rths.core.registry`; ``rths kinds``
+lists them with their options): the kind's frozen options dataclass says which keys the table
+takes, and :func:`rths.config.options.parse_options` checks every one.  Every key is checked here,
+before any process starts: a typo, a wrong type or an out-of-range value is a
+:class:`rths.core.errors.ConfigError` naming the file, the table and the key.  Physical
+consistency that needs the plants built (e.g. a stable actuator) is checked when
+:mod:`rths.config.build` constructs them, with the table named in the message.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from plants.device_model import DeviceModel
+from rths.config.kinds import registry
+from rths.config.options import parse_options
 from rths.config.toml import Table, load_toml, parse_toml
+from rths.core.errors import ConfigError, ParameterError
 from rths.core.scaling import Scaling
 
 __all__ = [
     "CLOCKS",
-    "ActuatorSpec",
-    "CableSpec",
-    "TMDISpec",
+    "MODEL_KINDS",
+    "Component",
     "LabSpec",
     "LoopSpec",
-    "ModelSpec",
     "RunSpec",
     "Scenario",
-    "SpecimenSpec",
     "load_scenario",
     "parse_scenario",
 ]
 
 CLOCKS = ("lockstep", "realtime", "fast")
-SPECIMEN_KINDS = (
-    "imd", "imd_simplified", "imd_internal", "linear", "benchmark", "rack_pinion", "ideal_inerter",
-)
-ACTUATOR_KINDS = ("transfer_function", "servo_hydraulic")
+#: Kinds of ``[model]`` (what the numerical side believes about the specimen).
 MODEL_KINDS = ("imd", "linear", "inerter", "none")
 
 
@@ -77,72 +77,11 @@ class RunSpec:
 
 
 @dataclass(frozen=True)
-class CableSpec:
-    """``[substructure]`` of kind ``cable``: taut cable (S0 §5.1) and its load (S0 Eq.22).
-
-    ``elements`` None means "enough for the nominal device" (see :func:`rths.config.build.cable`).
-    """
-
-    length: float
-    tension: float
-    mass_per_length: float
-    damper_position: float
-    elements: int | None
-    intrinsic_damping: float
-    load_amplitude: float
-    load_mode: int
-    load_frequency: float | None  # Hz; None: the undamped cable's mode-n frequency
-
-
-@dataclass(frozen=True)
-class TMDISpec:
-    """``[substructure]`` of kind ``tmdi``: the S1 primary structure + TMD (numerical) with the
-    grounded inerter as the physical specimen, under a stepped-sine base acceleration (S1 §2.3).
-
-    ``mass``: S1 Table 1 secondary mass (SM, IM, LM); ``flywheel`` (NF, IF, LF); ``isolators``:
-    which S1 §4.2 identification of the HDRBs ("rack_pinion" or "ideal"); ``hdrb``: "viscous"
-    (S1 §4.2) or "amplitude" (amplitude-dependent damping, plants.tmdi.hdrb); excitation: ``pga``
-    [g], step ``frequencies`` [Hz] in playing order, ``cycles`` per step.
-    """
-
-    mass: str
-    flywheel: str
-    isolators: str
-    pga: float
-    frequencies: tuple[float, ...]
-    cycles: int = 20
-    hdrb: str = "viscous"
-
-
-@dataclass(frozen=True)
-class SpecimenSpec:
-    """``[specimen]``: kind, optional preset and parameter overrides (specimen scale, SI)."""
+class Component:
+    """A component table: the registered ``kind`` and its validated options dataclass."""
 
     kind: str
-    preset: str | None = None
-    options: dict[str, Any] = field(default_factory=dict)
-
-
-@dataclass(frozen=True)
-class ActuatorSpec:
-    """``[actuator]``: transfer system of the emulated lab.
-
-    ``transfer_function``: ``num``/``den`` (or ``preset = "mts_identified"``) and optionally a
-    different ``nominal_num``/``nominal_den`` for the compensator (identification error).
-    ``servo_hydraulic``: ``preset`` (``benchmark`` | ``heavy_inertial_load``), parameter
-    ``options`` and ``substeps``.  Both: ``delay`` [s], ``velocity_limit`` [m/s].
-    """
-
-    kind: str
-    preset: str | None = None
-    num: tuple[float, ...] | None = None
-    den: tuple[float, ...] | None = None
-    nominal_num: tuple[float, ...] | None = None
-    nominal_den: tuple[float, ...] | None = None
-    delay: float = 0.0
-    velocity_limit: float | None = None
-    substeps: int | None = None
-    options: dict[str, Any] = field(default_factory=dict)
+    options: Any
 
 
 @dataclass(frozen=True)
@@ -159,22 +98,6 @@ class LabSpec:
 
 
 @dataclass(frozen=True)
-class ModelSpec:
-    """``[model]``: the numerical side's model of the device (specimen scale).
-
-    ``imd``: ``inertance`` [kg], ``damping`` [N s/m] or ``damping_ratio`` (with the series
-    stiffness), optional ``series_stiffness`` [N/m] (S0 Eq.12).  ``linear``: ``mass``,
-    ``damping``, ``stiffness``.  ``none``: no nominal device (plain RTHS feedback).
-    """
-
-    kind: str
-    inertance: float = 0.0
-    damping: float = 0.0
-    stiffness: float = 0.0
-    series_stiffness: float | None = None
-
-
-@dataclass(frozen=True)
 class LoopSpec:
     """``[loop]``: low-pass on the force correction [Hz] (0: none) and the stroke interlock [m]."""
 
@@ -184,21 +107,28 @@ class LoopSpec:
 
 @dataclass(frozen=True)
 class Scenario:
-    """A parsed scenario (see the module docstring)."""
+    """A parsed scenario (see the module docstring).
+
+    ``model`` is the ``[model]`` device at specimen scale, or None for ``kind = "none"``.
+    """
 
     source: str
     text: str
     run: RunSpec
     scaling: Scaling
-    substructure: CableSpec | TMDISpec
-    specimen: SpecimenSpec
-    actuator: ActuatorSpec
+    substructure: Component
+    specimen: Component
+    actuator: Component
     lab: LabSpec
-    model: ModelSpec
-    compensator_kind: str
-    compensator_options: dict[str, Any]
+    model: DeviceModel | None
+    compensator: Component
     loop: LoopSpec
     monte_carlo_draws: int = 0
+
+    @property
+    def compensator_kind(self) -> str:
+        """The ``[compensator]`` kind."""
+        return self.compensator.kind
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -219,14 +149,12 @@ def _parse(doc: Table, text: str) -> Scenario:
         t.number("displacement", 1.0, positive=True), t.number("force", 1.0, positive=True)
     )
     t.finish()
-    sub = _substructure(doc.table("substructure"))
-    specimen = _specimen(doc.table("specimen"))
-    actuator = _actuator(doc.table("actuator"))
+    sub = _component(doc.table("substructure"), "substructure")
+    specimen = _component(doc.table("specimen"), "specimen")
+    actuator = _component(doc.table("actuator"), "actuator")
     lab = _lab(doc.table("lab", {}))
     model = _model(doc.table("model", {"kind": "none"}))
-    comp = doc.table("compensator", {"kind": "ff_lqg"})
-    kind = comp.string("kind")
-    options = comp.rest()
+    comp = _component(doc.table("compensator", {"kind": "ff_lqg"}), "compensator")
     t = doc.table("loop", {})
     loop = LoopSpec(
         t.number("correction_filter", 60.0, nonnegative=True),
@@ -244,9 +172,8 @@ def _parse(doc: Table, text: str) -> Scenario:
             f"got {loop.correction_filter!r}",
         )
     return Scenario(
-        doc.source, text, run, scaling, sub, specimen, actuator, lab, model, kind, options, loop,
-        draws,
-    )  # fmt: skip
+        doc.source, text, run, scaling, sub, specimen, actuator, lab, model, comp, loop, draws
+    )
 
 
 def _run(t: Table) -> RunSpec:
@@ -261,87 +188,11 @@ def _run(t: Table) -> RunSpec:
     return spec
 
 
-def _substructure(t: Table) -> CableSpec | TMDISpec:
-    kind = t.choice("kind", ("cable", "tmdi"))
-    return _cable(t) if kind == "cable" else _tmdi(t)
-
-
-def _tmdi(t: Table) -> TMDISpec:
-    ex = t.table("excitation")
-    spec = TMDISpec(
-        mass=t.choice("mass", ("SM", "IM", "LM")),
-        flywheel=t.choice("flywheel", ("NF", "IF", "LF")),
-        isolators=t.choice("isolators", ("rack_pinion", "ideal"), default="rack_pinion"),
-        pga=ex.number("pga", positive=True),
-        frequencies=tuple(ex.numbers("frequencies")),
-        cycles=ex.integer("cycles", 20, minimum=1),
-        hdrb=t.choice("hdrb", ("viscous", "amplitude"), default="viscous"),
-    )
-    if any(f <= 0 for f in spec.frequencies):
-        raise ex.error("frequencies", f"must be positive; got {list(spec.frequencies)!r}")
-    ex.finish()
-    t.finish()
-    return spec
-
-
-def _cable(t: Table) -> CableSpec:
-    elements: Any = t.raw("elements", "auto")
-    if elements != "auto" and (isinstance(elements, bool) or not isinstance(elements, int)
-                               or elements < 2):  # fmt: skip
-        raise t.error("elements", f'must be an integer >= 2 or "auto"; got {elements!r}')
-    load = t.table("load", {})
-    frequency = load.number("frequency", None, positive=True)
-    spec = CableSpec(
-        length=t.number("length", positive=True),
-        tension=t.number("tension", positive=True),
-        mass_per_length=t.number("mass_per_length", positive=True),
-        damper_position=t.number("damper_position", lo=1e-6, hi=1 - 1e-6),
-        elements=None if elements == "auto" else elements,
-        intrinsic_damping=t.number("intrinsic_damping", 0.001, lo=0.0, hi=0.99),
-        load_amplitude=load.number("amplitude", 0.0),
-        load_mode=load.integer("mode", 1, minimum=1),
-        load_frequency=frequency,
-    )
-    load.finish()
-    t.finish()
-    return spec
-
-
-def _specimen(t: Table) -> SpecimenSpec:
-    kind = t.choice("kind", SPECIMEN_KINDS)
-    preset = t.string("preset", None)
-    return SpecimenSpec(kind, preset, t.rest())
-
-
-def _numbers(t: Table, key: str) -> tuple[float, ...] | None:
-    values = t.numbers(key, None)
-    return None if values is None else tuple(values)
-
-
-def _actuator(t: Table) -> ActuatorSpec:
-    kind = t.choice("kind", ACTUATOR_KINDS)
-    spec = ActuatorSpec(
-        kind=kind,
-        preset=t.string("preset", None),
-        num=_numbers(t, "num"),
-        den=_numbers(t, "den"),
-        nominal_num=_numbers(t, "nominal_num"),
-        nominal_den=_numbers(t, "nominal_den"),
-        delay=t.number("delay", 0.0, nonnegative=True),
-        velocity_limit=t.number("velocity_limit", None, positive=True),
-        substeps=t.integer("substeps", None, minimum=1),
-        options=t.rest(),
-    )
-    if kind == "transfer_function":
-        if (spec.num is None) != (spec.den is None) or (spec.num is None and spec.preset is None):
-            raise t.error("num", "give both num and den, or a preset")
-        if (spec.nominal_num is None) != (spec.nominal_den is None):
-            raise t.error("nominal_num", "give both nominal_num and nominal_den, or neither")
-        if spec.options:
-            raise t.error(next(iter(spec.options)), "unknown key for a transfer_function actuator")
-    elif spec.num is not None or spec.nominal_num is not None:
-        raise t.error("num", "only a transfer_function actuator takes num/den")
-    return spec
+def _component(t: Table, family: str) -> Component:
+    """A ``kind`` of ``family`` and its options, validated against the registry."""
+    kinds = registry(family)
+    kind = t.choice("kind", kinds.names())
+    return Component(kind, parse_options(t, kinds.get(kind).options))
 
 
 def _lab(t: Table) -> LabSpec:
@@ -360,37 +211,43 @@ def _lab(t: Table) -> LabSpec:
     return spec
 
 
-def _model(t: Table) -> ModelSpec:
+def _model(t: Table) -> DeviceModel | None:
+    """``[model]``: the nominal device (specimen scale), or None for ``kind = "none"``."""
     kind = t.choice("kind", MODEL_KINDS)
     if kind == "none":
         t.finish()
-        return ModelSpec("none")
+        return None
+    try:
+        return _device(t, kind)
+    except ParameterError as exc:
+        raise ConfigError(f"{t.source}: [model] {exc}") from None
+
+
+def _device(t: Table, kind: str) -> DeviceModel:
     if kind == "inerter":
-        spec = ModelSpec(
+        model = DeviceModel(
             "inerter",
             inertance=t.number("inertance", nonnegative=True),
             damping=t.number("damping", 0.0, nonnegative=True),
         )
-        t.finish()
-        return spec
-    if kind == "linear":
-        spec = ModelSpec(
+    elif kind == "linear":
+        model = DeviceModel(
             "linear",
             inertance=t.number("mass", nonnegative=True),
             damping=t.number("damping", 0.0, nonnegative=True),
             stiffness=t.number("stiffness", 0.0, nonnegative=True),
         )
-        t.finish()
-        return spec
-    inertance = t.number("inertance", positive=True)
-    series = t.number("series_stiffness", None, positive=True)
-    damping = t.number("damping", None, nonnegative=True)
-    ratio = t.number("damping_ratio", None, lo=0.0, hi=10.0)
-    if damping is not None and ratio is not None:
-        raise t.error("damping_ratio", "give damping or damping_ratio, not both")
-    if ratio is not None:
-        if series is None:
-            raise t.error("damping_ratio", "needs series_stiffness (c = 2 xi sqrt(k m))")
-        damping = 2.0 * ratio * math.sqrt(series * inertance)
+    else:
+        inertance = t.number("inertance", positive=True)
+        series = t.number("series_stiffness", None, positive=True)
+        damping = t.number("damping", None, nonnegative=True)
+        ratio = t.number("damping_ratio", None, lo=0.0, hi=10.0)
+        if damping is not None and ratio is not None:
+            raise t.error("damping_ratio", "give damping or damping_ratio, not both")
+        if ratio is not None:
+            if series is None:
+                raise t.error("damping_ratio", "needs series_stiffness (c = 2 xi sqrt(k m))")
+            damping = 2.0 * ratio * math.sqrt(series * inertance)
+        model = DeviceModel("imd", inertance, damping or 0.0, series_stiffness=series)
     t.finish()
-    return ModelSpec("imd", inertance=inertance, damping=damping or 0.0, series_stiffness=series)
+    return model

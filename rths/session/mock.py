@@ -15,13 +15,15 @@ force at specimen scale, structure responses at prototype scale.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from numpy.typing import NDArray
 
-from plants.cable.model import InterfaceDevice
-from plants.excitation.stepped_sine import stepped_sine_acceleration
+from plants.base import Substructure
 from rths.config import build
-from rths.config.scenario import Scenario, TMDISpec
+from rths.config.kinds import registry
+from rths.config.scenario import Scenario
 from rths.core.errors import ConfigError
 
 __all__ = ["VARIANTS", "numerical_run"]
@@ -30,18 +32,28 @@ VARIANTS = ("model", "simplified", "monolithic")
 
 
 def variants(scn: Scenario) -> tuple[str, ...]:
-    """The mock variants that make sense for the scenario's substructure."""
-    return ("model", "monolithic") if isinstance(scn.substructure, TMDISpec) else (
-        "model", "simplified")  # fmt: skip
+    """The mock variants that make sense for the scenario: ``model`` always; ``simplified`` when
+    the ``[model]`` has a rigid form distinct from a grounded inerter; ``monolithic`` when the
+    substructure kind can carry the physical specimen inside (its ``monolithic`` hook)."""
+    target = registry("substructure").get(scn.substructure.kind).target
+    out = ["model"]
+    if scn.model is None or scn.model.kind != "inerter":
+        out.append("simplified")
+    if hasattr(target, "monolithic"):
+        out.append("monolithic")
+    return tuple(out)
 
 
-def _device(scn: Scenario, variant: str) -> object:
-    if variant == "model" or isinstance(scn.substructure, TMDISpec):
-        return build.nominal_device(scn)  # a TMDI's nominal inerter has no simplified form
-    m, lam = scn.model, scn.scaling.impedance
-    if m.kind == "none":
-        return None
-    return InterfaceDevice(inertance=lam * m.inertance, damping=lam * m.damping)
+def _substructure(scn: Scenario, variant: str) -> Substructure:
+    if variant == "monolithic":
+        target = registry("substructure").get(scn.substructure.kind).target
+        built: Substructure = target.monolithic(
+            scn.substructure.options, build.specimen(scn), scn.run.dt
+        )
+        return built
+    if variant == "simplified" and scn.model is not None:
+        scn = replace(scn, model=scn.model.rigid())
+    return build.substructure(scn)
 
 
 def numerical_run(
@@ -54,7 +66,7 @@ def numerical_run(
     scn
         The scenario.
     variant
-        ``"model"`` or ``"simplified"`` (module docstring).
+        One of :func:`variants` (module docstring).
     steps
         Number of steps (default: the scenario's).
 
@@ -68,9 +80,7 @@ def numerical_run(
     if variant not in variants(scn):
         raise ConfigError(f"mock variant must be one of {variants(scn)}; got {variant!r}")
     n = scn.run.steps if steps is None else steps
-    if variant == "monolithic":
-        return _monolithic(scn, n)
-    sub = build.substructure(scn, device=_device(scn, variant))
+    sub = _substructure(scn, variant)
     lam_u, lam_f = scn.scaling.displacement, scn.scaling.force
     out: dict[str, NDArray[np.float64]] = {
         "t": scn.run.dt * np.arange(1, n + 1),
@@ -83,22 +93,4 @@ def numerical_run(
         out["force"][k] = sub.device_force / lam_f
         for name, value in sub.outputs().items():
             out.setdefault(name, np.empty(n))[k] = value
-    return out
-
-
-def _monolithic(scn: Scenario, n: int) -> dict[str, NDArray[np.float64]]:
-    """The TMDI with the physical inerter model inside (S1 Eq.12), same excitation and step."""
-    from plants.tmdi.structure import TMDIStructure, s1_configuration
-    s = scn.substructure
-    assert isinstance(s, TMDISpec)
-    dt = scn.run.dt
-    params, _ = s1_configuration(s.mass, s.flywheel, s.isolators, hdrb=s.hdrb)
-    ground = stepped_sine_acceleration(s.frequencies, s.pga, s.cycles)
-    response = TMDIStructure(params, build.specimen(scn), dt).run(
-        np.array([ground(k * dt) for k in range(n + 1)])
-    )
-    out = {"t": dt * np.arange(1, n + 1)}
-    out["target"] = scn.scaling.displacement * np.asarray(response.u_T)[1:]
-    out["force"] = np.asarray(response.F_B)[1:] / scn.scaling.force
-    out["u_I"] = np.asarray(response.u_I)[1:]
     return out

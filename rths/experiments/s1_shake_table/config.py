@@ -188,8 +188,8 @@ def _table(table: Table) -> TableSpec:
 
 
 def _config(doc: Table) -> SweepConfig:
+    from plants.tmdi import HDRB_MODELS, SECONDARY_MASSES
     from plants.tmdi.inerter import FLYWHEELS
-    from plants.tmdi.structure import HDRB_MODELS, SECONDARY_MASSES
 
     sweep = doc.table("sweep")
     name = sweep.string("name")

@@ -35,7 +35,7 @@ from plants.excitation.stepped_sine import (
     frequency_grid,
     stepped_sine_acceleration,
 )
-from plants.tmdi.structure import (
+from plants.tmdi import (
     EQ7_QUANTITIES,
     NominalInerter,
     TMDIParameters,
