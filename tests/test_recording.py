@@ -98,8 +98,8 @@ def test_plain_mcap_reader_sees_every_field_count_order_and_metadata(tmp_path: P
     assert by_name["scenario"] == {"text": "[cable]\nT = 1.0e6\n"}
     assert by_name["units"] == {"force": "N"}
     assert by_name["rths"] == {"version": __version__}
-    assert by_name["rths.log.recorder"]["complete"] == "true"
-    assert by_name["rths.log.recorder"]["rths/loop.written"] == str(n)
+    assert by_name["rths.recording"]["complete"] == "true"
+    assert by_name["rths.recording"]["rths/loop.written"] == str(n)
     assert summary.statistics.chunk_count >= 1 and summary.chunk_indexes[0].compression == "zstd"
 
 
@@ -115,7 +115,7 @@ def test_gaps_and_reordering_are_counted_and_logged(tmp_path: Path) -> None:
     events = [json.loads(m.data) for topic, _, _, m in messages if topic == EVENTS_TOPIC]
     assert [e["kind"] for e in events] == ["gap", "reordered"]
     assert events[0]["message"] == "rths/loop: expected seq 3, got 5" and events[0]["missing"] == 2
-    meta = {m.name: m.metadata for m in metadata}["rths.log.recorder"]
+    meta = {m.name: m.metadata for m in metadata}["rths.recording"]
     assert meta["complete"] == "false" and meta["rths/loop.missing"] == "2"
     # A stream that does not start at 0 has lost its beginning: that is a gap too.
     with Recorder(tmp_path / "late.mcap") as rec:
@@ -266,7 +266,7 @@ def test_mcap_io_reads_what_was_written(tmp_path: Path) -> None:
         assert np.array_equal(loop[name], [loop_row(k)[name] for k in ks])
     assert np.array_equal(loop["log_time_ns"], [(k + 1) * DT_NS for k in ks])
     meta = read_metadata(path)
-    assert meta["scenario"]["text"].startswith("[cable]") and meta["rths.log.recorder"]["rths/loop.missing"] == "1"
+    assert meta["scenario"]["text"].startswith("[cable]") and meta["rths.recording"]["rths/loop.missing"] == "1"
     assert list_topics(path) == {EVENTS_TOPIC: 1, LOOP_TOPIC: 499} and is_complete(path)
 
 

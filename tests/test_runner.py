@@ -51,7 +51,7 @@ def test_fast_run_log_is_readable_without_project_code(fast_log):
     assert meta["scaling"]["displacement"] == "0.1" and meta["scaling"]["force"] == "53.3"
     assert meta["units"]["target"] == "m" and meta["units"]["force"] == "N"
     assert "[specimen]" in meta["scenario"]["text"]
-    assert meta["rths.log.recorder"]["complete"] == "true"
+    assert meta["rths.recording"]["complete"] == "true"
     # the summary's J2 is the RMS tracking error of the rows themselves
     target = np.array([r["target"] for r in rows])
     measured = np.array([r["measured"] for r in rows])

@@ -73,7 +73,7 @@ def write_report(log: Path, out: Path, cycles: float = 3.0, mock: bool = True) -
     doc["tracking"] = summarize(target, measured, force, dt,
                                 max_delay=min(0.1, 0.25 * t.size * dt)).to_dict()  # fmt: skip
     doc["summary"] = meta.get("rths.summary", {})
-    doc["recording"] = meta.get("rths.log.recorder", {})
+    doc["recording"] = meta.get("rths.recording", {})
     doc["scaling"] = meta.get("scaling", {})
     period = _load_period(scn)
     w = _window(t, period, cycles)

@@ -16,10 +16,24 @@ if TYPE_CHECKING:
 __all__ = ["add_parser", "run"]
 
 
+class _KindsFormatter(argparse.HelpFormatter):
+    """Help that ends with the registered kinds (read from the registries only when the help is
+    printed, so ``rths --help`` stays fast)."""
+
+    def format_help(self) -> str:
+        from rths.config.kinds import registry
+
+        lines = ["kinds a scenario can name (details: rths kinds):"]
+        for family in ("substructure", "specimen", "actuator", "compensator"):
+            lines.append(f"  [{family}] " + ", ".join(registry(family).names()))
+        return super().format_help() + "\n" + "\n".join(lines) + "\n"
+
+
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Register ``rths run``."""
     p = subparsers.add_parser(
         "run",
+        formatter_class=_KindsFormatter,
         help="run a scenario (RTHS over zenoh, or in process) and record it to MCAP",
         description="Run an RTHS scenario. The specimen process is started on loopback unless "
         "--external-specimen is given. Prints a one-line summary: J1, J2, J3, sync-subspace RMSE, "
@@ -29,8 +43,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("--clock", choices=("lockstep", "realtime", "fast"),
                    help="override the scenario's clock")  # fmt: skip
     p.add_argument("--out", type=Path, help="MCAP log path (default runs/<run-id>.mcap)")
-    p.add_argument("--compensator", help="override the compensator kind (none, polynomial, ats, "
-                   "ff, lqg, ff_lqg); with --monte-carlo also 'all'")  # fmt: skip
+    p.add_argument("--compensator", help="override the compensator kind (see the list below); "
+                   "with --monte-carlo also 'all'")  # fmt: skip
     p.add_argument("--monte-carlo", type=int, metavar="N", default=None, nargs="?", const=0,
                    help="run N perturbed draws of the lab on the fast clock instead (no N: the "
                    "scenario's [monte_carlo] draws)")  # fmt: skip

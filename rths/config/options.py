@@ -38,6 +38,7 @@ from typing import Any, Literal, get_args, get_origin, get_type_hints
 
 from rths.config.toml import Table
 from rths.core.errors import ConfigError, ParameterError
+from rths.core.registry import first_sentence
 
 __all__ = ["OptionDoc", "describe_options", "parse_options"]
 
@@ -91,7 +92,9 @@ class OptionDoc:
 def describe_options(options_cls: type) -> list[OptionDoc]:
     """The options of a kind, in declaration order (``preset`` first when the class has some)."""
     hints = get_type_hints(options_cls)
-    docs = dict(_numpydoc_parameters(options_cls.__doc__ or ""))
+    docs: dict[str, str] = {}
+    for cls in reversed(options_cls.__mro__):  # a subclass's description wins
+        docs |= {k: first_sentence(v) for k, v in _numpydoc_parameters(cls.__doc__ or "")}
     out = []
     presets = _presets(options_cls)
     if presets is not None:

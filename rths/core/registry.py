@@ -61,6 +61,7 @@ __all__ = [
     "Kind",
     "NoOptions",
     "Registry",
+    "first_sentence",
 ]
 
 T = TypeVar("T")
@@ -99,9 +100,9 @@ class Kind:
 
     @property
     def summary(self) -> str:
-        """First line of the registered class's docstring."""
-        doc = (self.target.__doc__ or "").strip()
-        return doc.splitlines()[0] if doc else ""
+        """First sentence of the registered target's docstring."""
+        paragraph = (self.target.__doc__ or "").strip().split("\n\n")[0]
+        return first_sentence(" ".join(paragraph.split()))
 
     @property
     def module(self) -> str:
@@ -177,6 +178,10 @@ class Registry:
 
         return decorate
 
+    def unregister(self, name: str) -> None:
+        """Forget ``name`` (for tests that register a temporary kind); unknown names are ignored."""
+        self._kinds.pop(name, None)
+
     def get(self, name: str) -> Kind:
         """The kind called ``name``; :class:`ParameterError` listing the choices otherwise."""
         try:
@@ -198,6 +203,12 @@ class Registry:
 
     def __len__(self) -> int:
         return len(self._kinds)
+
+
+def first_sentence(text: str) -> str:
+    """``text`` up to the first full stop that ends a sentence."""
+    match = re.search(r"\.(?=\s+[A-Z(]|$)", text)
+    return text if match is None else text[: match.end()]
 
 
 def _qualname(target: Any) -> str:

@@ -135,7 +135,7 @@ class _Topic:
 class WriterThread(threading.Thread):
     """Background thread that drains ``inbox`` into an MCAP file (see the module docstring).
 
-    After :data:`STOP` it writes the ``rths.log.recorder`` metadata record and finishes the file
+    After :data:`STOP` it writes the ``rths.recording`` metadata record and finishes the file
     (footer and summary), also if something failed on the way; the first failure is kept in
     :attr:`error` and the counts in :meth:`counts`.
     """
@@ -191,7 +191,7 @@ class WriterThread(threading.Thread):
                 summary.update({f"{name}.{c}": str(getattr(stats, c)) for c in _COUNTS})
                 if not stats.complete:
                     summary["complete"] = "false"
-            self._writer.add_metadata("rths.log.recorder", summary)
+            self._writer.add_metadata("rths.recording", summary)
             self._writer.finish()
         except BaseException as exc:
             self.error = self.error or exc

@@ -19,7 +19,7 @@ Log contract (read it with ``mcap.reader.make_reader``, no project code needed):
   when a sequence number is skipped and an ``error`` event when the run ends by an exception;
 * non-finite floats are written as ``null`` (JSON has no NaN) and counted;
 * run metadata are MCAP metadata records (name → string map) written first; a record named
-  ``rths.log.recorder`` with the per-topic counts is written last.
+  ``rths.recording`` with the per-topic counts is written last.
 
 :class:`rths.wire.transport.LogBridge` feeds the :class:`rths.wire.codec.LogRecord` s that another process
 publishes on ``rths/<run>/log/**`` into :meth:`Recorder.put_record`; they are decoded on the
@@ -106,7 +106,7 @@ def object_schema(
 
 #: Schema of ``rths/loop``: one message per loop step at the interface, specimen scale.
 LOOP_SCHEMA: dict[str, Any] = object_schema(
-    "rths.runtime.loop",
+    "rths.loop",
     {
         "t": "simulated time at the end of the step, t_(k+1) = (k+1) dt [s]",
         "target": "target displacement of the specimen end from the numerical substructure [m]",
