@@ -124,25 +124,31 @@ def test_gaps_and_reordering_are_counted_and_logged(tmp_path: Path) -> None:
 
 
 def test_producer_never_waits_for_the_writer(tmp_path: Path, monkeypatch) -> None:
-    gate = threading.Event()
+    """The writer thread is stuck inside its first write (think: chunk compression, slow disk);
+    5000 puts still return, all queued.  Events order everything: the test waits until the
+    writer is inside the stuck write, and releases it only after the producer is done."""
+    entered, gate = threading.Event(), threading.Event()
     original = rths.log.mcap_writer.Writer.add_message
 
     def stuck(self, *args, **kwargs):
-        gate.wait()  # the writer thread is stuck (think: chunk compression, slow disk)
+        entered.set()
+        gate.wait()
         return original(self, *args, **kwargs)
 
     monkeypatch.setattr(rths.log.mcap_writer.Writer, "add_message", stuck)
     rec = Recorder(tmp_path / "stuck.mcap").start()
+    rec.put(LOOP_TOPIC, 0, 0, loop_row(0))
+    assert entered.wait(PATIENCE)  # the writer holds message 0 and is stuck
 
     def produce() -> None:
-        for k in range(5000):
+        for k in range(1, 5000):
             rec.put(LOOP_TOPIC, k, k * DT_NS, loop_row(k))
 
     producer = threading.Thread(target=produce)
     producer.start()
-    producer.join(PATIENCE)  # finishes while the writer is still stuck: put never waited
-    assert not producer.is_alive()
-    assert rec._writer.stats()[LOOP_TOPIC].written == 0  # nothing written yet: all queued
+    producer.join(PATIENCE)  # deadlock guard only: put never waits, so this returns at once
+    assert not producer.is_alive() and not gate.is_set()
+    assert LOOP_TOPIC not in rec._writer.stats() or rec._writer.stats()[LOOP_TOPIC].written == 0
     gate.set()
     summary = rec.close()
     assert summary.topics[LOOP_TOPIC].written == 5000 and summary.complete

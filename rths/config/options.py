@@ -60,16 +60,15 @@ def parse_options(table: Table, options_cls: type) -> Any:
     preset = None
     if presets is not None:
         preset = table.choice("preset", presets) if "preset" in table else table.raw("preset", None)
-    for f in dataclasses.fields(options_cls):
-        if not f.init:
-            continue
+    keys = [f for f in dataclasses.fields(options_cls) if f.init]
+    for f in keys:  # mark every known key, so that a typo is named before anything else
+        table.raw(f.name, None)
+    table.finish()
+    for f in keys:
         if f.name in table:
             values[f.name] = _read(table, f.name, hints[f.name])
         elif preset is None and _required(f):
             raise table.error(f.name, "missing (required)")
-        else:
-            table.raw(f.name, None)  # mark as a known key for the "expected one of" list
-    table.finish()
     try:
         if preset is not None:
             return options_cls.from_preset(preset, **values)  # type: ignore[attr-defined]

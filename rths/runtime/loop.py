@@ -47,7 +47,12 @@ from typing import Protocol
 
 from controllers.base import Compensator
 from plants.base import Substructure
-from rths.core.errors import ParameterError, RTHSError, check_positive_int
+from rths.core.errors import (
+    NumericalError,
+    ParameterError,
+    RTHSError,
+    check_positive_int,
+)
 from rths.core.scaling import Scaling
 from rths.runtime.clocks import FreeRunning, Pacer, TimingStats
 
@@ -192,8 +197,12 @@ class Loop:
                 stopped = self._stop_reason
                 break
             pacer.wait(k)
-            target = sub.step(fed).scaled(lam_u)
-            command = comp.step(target, measured)
+            try:
+                target = sub.step(fed).scaled(lam_u)
+                command = comp.step(target, measured)
+            except NumericalError as exc:  # a diverged model stops the run like the interlock
+                stopped = f"interlock: {exc}"
+                break
             if not abs(command) <= self.command_limit:  # also catches NaN
                 stopped = (
                     f"interlock: command {command:.6g} m outside the stroke "
