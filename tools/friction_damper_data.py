@@ -28,8 +28,16 @@ from typing import NoReturn
 import numpy as np
 
 __all__ = [
-    "IN_M", "KIP_N", "LB_N", "SUBDIR", "Record", "OneLineParser", "find_data_dir",
-    "list_records", "load_record", "parse_name",
+    "IN_M",
+    "KIP_N",
+    "LB_N",
+    "SUBDIR",
+    "OneLineParser",
+    "Record",
+    "find_data_dir",
+    "list_records",
+    "load_record",
+    "parse_name",
 ]
 
 IN_M = 0.0254  #: one inch [m]
@@ -44,7 +52,7 @@ _SINE = re.compile(r"^(?P<f>[0-9.]+)Hz(?P<T>[0-9.]+)lbtension(?P<A>[0-9.]+)ampli
 class OneLineParser(argparse.ArgumentParser):
     """:class:`argparse.ArgumentParser` whose usage errors are one line on stderr, exit 2."""
 
-    def error(self, message: str) -> NoReturn:  # noqa: D102 - argparse hook
+    def error(self, message: str) -> NoReturn:
         print(f"{self.prog}: error: {message}", file=sys.stderr)
         raise SystemExit(2)
 

@@ -32,10 +32,15 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from friction_damper_data import (  # noqa: E402
-    SKIP_MESSAGE, OneLineParser, Record, find_data_dir, list_records, load_record,
+from friction_damper_data import (
+    SKIP_MESSAGE,
+    OneLineParser,
+    Record,
+    find_data_dir,
+    list_records,
+    load_record,
 )
-from friction_damper_reading import Reading, read_record, summarize, velocity  # noqa: E402
+from friction_damper_reading import Reading, read_record, summarize, velocity
 
 ATTRIBUTION = ("ARTS Laboratory, University of South Carolina; Downey et al., Engineering "
                "Structures 113 (2016) 287-298 (CC BY-SA 4.0)")

@@ -11,11 +11,11 @@ Method (what a lab engineer does with a ruler on each force-displacement loop):
    *locate* levels; every level and slope is read from the raw samples.  Within a half-cycle
    ``g = s (F_smooth - F0)`` runs from the previous contact (g < 0) through the backlash
    plateau (g ~ 0) to the new contact, stick and slip (g > 0).
-3. "Near zero" is ``|g| <= b``, ``b = max(5 % of L, 5 sigma)``: ``L`` the median slip level from
-   ``F0`` (first pass: half the 2nd-98th percentile span of the smoothed force) and ``sigma`` the
-   white noise of the raw force on the near-zero samples (1.4826 median|diff F| / sqrt 2).
-   ``F0``, the force read with no contact, is the median raw force on the plateaus.  Three passes
-   from ``F0 = 0``.
+3. "Near zero" is ``|g| <= b``, ``b = max(5 % of L, 5 sigma)``: ``L`` the friction amplitude
+   (mean of the median positive and negative slip levels from ``F0``; first pass: half the
+   2nd-98th percentile span of the smoothed force) and ``sigma`` the white noise of the raw
+   force on the near-zero samples (1.4826 median|diff F| / sqrt 2).  ``F0``, the force read with
+   no contact, is the median raw force on the plateaus.  Three passes from ``F0 = 0``.
 4. Plateau: on a half-cycle that starts in back contact (``g < -b`` at the reversal), the
    samples from the first near-zero one to the last near-zero one before firm front contact
    (first ``g >= 3 b``).  Clearance = its travel; ``k_gap`` = the slope of the raw force over
@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import sys
 from dataclasses import dataclass, field
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -49,10 +50,10 @@ from scipy.ndimage import median_filter
 from scipy.signal import savgol_filter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from friction_damper_data import Record  # noqa: E402
+from friction_damper_data import Record
 
 SMOOTH_N = 21  #: moving-median window for locating force levels [samples] (20 ms at 1024 Hz)
-BAND_FRAC = 0.05  #: near-zero band, fraction of the median slip level
+BAND_FRAC = 0.05  #: near-zero band, fraction of the friction amplitude
 BAND_SIGMA = 5.0  #: near-zero band, minimum in noise sigmas
 HYST_FRAC, HYST_MIN = 0.02, 2.0e-4  #: reversal hysteresis: fraction of range, minimum [m]
 FLANK = (0.2, 0.8)  #: force window of the flank fits, fractions of P (or of the force at reversal)
@@ -70,6 +71,8 @@ def noise_sigma(f: np.ndarray) -> float:
 
 def reversals(x: np.ndarray, h: float) -> np.ndarray:
     """Indices of the alternating extrema of ``x`` that are followed by a move of more than ``h``.
+
+    The start counts as an extremum when ``x`` first moves away from it by more than ``h``.
 
     Parameters
     ----------
@@ -206,8 +209,9 @@ def read_record(rec: Record, band_frac: float = BAND_FRAC) -> Reading:
     """Read every half-cycle of ``rec`` (module text) and check the channels against each other.
 
     Three passes refine ``F0``, the noise ``sigma`` (first-difference MAD of the raw force on the
-    near-zero samples) and the band ``b = max(band_frac * L, BAND_SIGMA * sigma)``, where ``L`` is
-    the median slip level from ``F0`` (the loop half-height before any slip is read).
+    near-zero samples) and the band ``b = max(band_frac * L, BAND_SIGMA * sigma)``; ``L`` is the
+    mean of the median positive and median negative slip levels from ``F0`` (before any slip is
+    read: half the 2nd-98th percentile span of the smoothed force).
     """
     x, f, t = rec.x, rec.force, rec.t
     fs = median_filter(f, size=SMOOTH_N, mode="nearest")
@@ -221,14 +225,15 @@ def read_record(rec: Record, band_frac: float = BAND_FRAC) -> Reading:
         sigma = noise_sigma(f[near]) if near.sum() > 10 else noise_sigma(f)
         band = max(band_frac * scale, BAND_SIGMA * sigma)
         hcs = [read_half_cycle(x[i:j + 1], f[i:j + 1], fs[i:j + 1], t[i:j + 1], f0, band)
-               for i, j in zip(cuts[:-1], cuts[1:])]
+               for i, j in pairwise(cuts)]
         on_plateau = [f[i + p[0]:i + p[1] + 1] for i, hc in zip(cuts[:-1], hcs)
                       if (p := hc.plateau) is not None]
         if on_plateau:
             f0 = float(np.median(np.concatenate(on_plateau)))
-        levels = [abs(hc.slip_level - f0) for hc in hcs if hc.slips]
-        if levels:
-            scale = float(np.median(levels))
+        levels = [np.median([abs(hc.slip_level - f0) for hc in hcs if hc.slips
+                             and hc.direction == d] or [np.nan]) for d in (1, -1)]
+        if np.any(np.isfinite(levels)):
+            scale = float(np.nanmean(levels))
     return Reading(rec.name, f0, band, sigma, h, hcs, channel_checks(rec))
 
 
@@ -251,7 +256,7 @@ def channel_checks(rec: Record) -> dict[str, float]:
     """
     v = velocity(rec.x, rec.dt)
     d = rec.act2 - rec.act1
-    n = max(1, int(round(0.2 / rec.dt)))
+    n = max(1, round(0.2 / rec.dt))
     moving = np.abs(v) > 0.3 * np.abs(v).max()
     p = rec.force[moving] * v[moving]
     lags = np.arange(-30, 31)
@@ -295,7 +300,7 @@ def summarize(r: Reading) -> dict[str, dict[str, float]]:
     hcs = r.half_cycles
     slips = [h for h in hcs if h.slips]
     pairs = [(a.slip_level, b.slip_level) if a.direction > 0 else (b.slip_level, a.slip_level)
-             for a, b in zip(slips[:-1], slips[1:]) if a.direction != b.direction]
+             for a, b in pairwise(slips) if a.direction != b.direction]
     out = {
         "slip_pos": stats([h.slip_level for h in hcs if h.slips and h.direction > 0]),
         "slip_neg": stats([h.slip_level for h in hcs if h.slips and h.direction < 0]),
