@@ -62,10 +62,26 @@ def _cell(st: dict[str, float], scale: float, fmt: str) -> str:
     return f"{m} [{a},{b}] n{st['n']}"
 
 
-def table(readings: list[Reading]) -> str:
-    """Text table: one block per record, median [IQR] count of each quantity in plot units."""
+BAND_CHECK = (0.025, 0.05, 0.10)  #: near-zero bands (fractions of f) for the clearance check
+
+
+def band_sensitivity(rec: Record) -> dict[str, float]:
+    """Median plateau width [m] of ``rec`` read with each band of :data:`BAND_CHECK`.
+
+    A flat, force-free plateau with steep flanks gives nearly the same width for every band; a
+    width that grows with the band means a sloped plateau or rounded contact knees.
+    """
+    return {f"{b:g}": summarize(read_record(rec, band_frac=b))["clearance"]["median"]
+            for b in BAND_CHECK}
+
+
+def table(readings: list[Reading], sens: list[dict[str, float]] | None = None) -> str:
+    """Text table: one block per record, median [IQR] count of each quantity in plot units.
+
+    ``sens`` (one :func:`band_sensitivity` per reading) adds the clearance-vs-band line.
+    """
     lines = []
-    for r in readings:
+    for i, r in enumerate(readings):
         s = summarize(r)
         lines.append(f"{r.name}: F0 {r.f0 * 1e-3:+.3f} kN, near-zero band +-{r.band * 1e-3:.3f} kN"
                      f" (noise sigma {r.sigma * 1e-3:.3f} kN), hysteresis "
@@ -73,6 +89,9 @@ def table(readings: list[Reading]) -> str:
         for part in (_COLS[:4], _COLS[4:7], _COLS[7:]):
             cells = (f"{head} {_cell(s[key], sc, fmt)};" for key, head, sc, fmt in part)
             lines.append("    " + "  ".join(cells))
+        if sens is not None:
+            lines.append("    gap mm with a band of " + ", ".join(
+                f"{100 * float(b):g} %: {w * 1e3:.2f}" for b, w in sens[i].items()) + " of f")
         c = r.checks
         lines.append(f"    channels: F / (act2-act1) {c['force_per_act_diff']:.3f} (r "
                      f"{c['corr_act']:.3f}, lag {c['lag_act_samples']:+d} samples); velocity / "
@@ -82,8 +101,9 @@ def table(readings: list[Reading]) -> str:
     return "\n".join(lines)
 
 
-def to_json(r: Reading, rec: Record) -> dict:
-    """JSON-ready dict of one reading: SI and plot-unit statistics, checks, every half-cycle."""
+def to_json(r: Reading, rec: Record, sens: dict[str, float]) -> dict:
+    """JSON-ready dict of one reading: SI and plot-unit statistics, the clearance [m] for each
+    band of :data:`BAND_CHECK` (``sens``), the channel checks and every half-cycle."""
     s = summarize(r)
     plot = {k: {q: (v * sc if q != "n" else v) for q, v in s[k].items()} for k, _, sc, _ in _COLS}
     return {
@@ -91,7 +111,7 @@ def to_json(r: Reading, rec: Record) -> dict:
         "tension_lb": rec.tension_lb, "amplitude_in": rec.amplitude_in,
         "f0_N": r.f0, "band_N": r.band, "noise_sigma_N": r.sigma, "hysteresis_m": r.hysteresis,
         "si": s, "plot_units": plot, "plot_units_legend": {k: h for k, h, _, _ in _COLS},
-        "channel_checks": r.checks,
+        "clearance_vs_band_m": sens, "channel_checks": r.checks,
         "half_cycles": [{k: v for k, v in asdict(h).items() if k != "plateau"}
                         for h in r.half_cycles],
     }
@@ -171,13 +191,14 @@ def main(argv: list[str] | None = None) -> int:
             p.error(f"no sine record with band tension {args.tension:g} lb")
         print(nominal_toml(args.nominal, args.tension, recs), end="")
         return 0
-    out, readings = [], []
+    out, readings, sens = [], [], []
     for n in names:
         rec = load_record(folder, n)
         readings.append(read_record(rec))
-        out.append(to_json(readings[-1], rec))
+        sens.append(band_sensitivity(rec))
+        out.append(to_json(readings[-1], rec, sens[-1]))
     print(f"Friction damper with backlash -- data: {ATTRIBUTION}")
-    print(table(readings))
+    print(table(readings, sens))
     if args.json:
         try:
             args.json.write_text(json.dumps(_finite({"attribution": ATTRIBUTION, "records": out}),
