@@ -152,8 +152,10 @@ def nominal_toml(kind: str, tension: float, records: list[Record]) -> str:
     lines += [f"#   {r.name}" for r in records]
     lines += [f"# NRMSE {nrmse:.2f} of the force RMS.  For comparison, the friction read on the",
               f"# loops (slip phases only, median over records): {np.nanmedian(loops):.1f} N.",
-              f"# Data: {ATTRIBUTION[:62]}",
-              f"#   {ATTRIBUTION[62:]}."]
+              "# Use: python tools/friction_damper_to_csv.py --out DIR, then",
+              "#   rths diagnose DIR/<record>.csv --nominal <this file>",
+              "# Data: " + ATTRIBUTION.split("; ")[0] + ";",
+              "#   " + ATTRIBUTION.split("; ")[1] + "."]
     return "\n".join(lines) + (
         "\n[actuator]            # measured/command: identity (only the displacement is recorded)\n"
         "num = [1.0]\nden = [1.0]\ndelay = 0.0  # s\n\n"
