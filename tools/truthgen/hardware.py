@@ -13,7 +13,7 @@ import math
 import numpy as np
 from scipy import signal
 
-from plant import Actuator, Specimen, nominal_linear_model
+from .plant import Actuator, Specimen, nominal_linear_model
 
 
 def loguniform(rng: np.random.Generator, lo: float, hi: float) -> float:
