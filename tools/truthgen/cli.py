@@ -9,11 +9,6 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-import numpy as np
-
-from . import design
-from .generate import build_case
-
 ALLOWED_RATES = (1000.0, 1024.0, 2048.0, 4096.0)
 VERSION = 1
 
@@ -31,6 +26,7 @@ def _fail(msg: str) -> None:
 
 def _clean(obj):
     """JSON-safe copy (numpy scalars -> Python, non-finite -> None)."""
+    import numpy as np
     if isinstance(obj, dict):
         return {str(k): _clean(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
@@ -45,6 +41,8 @@ def _clean(obj):
 
 
 def _job(args: tuple) -> tuple[str, dict, float]:
+    from .generate import build_case
+
     name, ss, plan, rates, max_dur, out = args
     t0 = time.process_time()
     label = build_case(ss, plan, rates, max_dur, Path(out) / name)
@@ -86,7 +84,10 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> int:
     """Generate a suite; returns the exit status."""
-    a = parse(argv)
+    a = parse(argv)  # before the heavy imports: misuse fails fast
+    import numpy as np
+
+    from . import design
     out = Path(a.out)
     try:
         out.mkdir(parents=True, exist_ok=True)
