@@ -67,8 +67,13 @@ amplitudes set from the nominal model to 1-40 % of the actuator force with
 stroke and speed budgets.  Each effect is simulated with and without it (the
 other effect kept); labels carry per-record NRMSE on both channels and the SNR
 (difference rms / channel noise rms) on the affected channel (``measured`` for
-actuator effects, ``force`` for specimen effects).  Effects below SNR 3 on at
-least two records are redrawn up to 5 times, then kept and flagged ``weak``.
+actuator effects, ``force`` for specimen effects).  An effect needs SNR >= 3 on
+at least two records; otherwise its parameters are redrawn (at most 5 draws in
+all), and if still too weak it is kept and flagged ``weak`` -- no case is ever
+discarded.  Backlash cases also carry ``chaos_sensitivity_nrmse``: the force
+NRMSE caused by changing the gap by 1 ppm (large = practically chaotic).
+rate_limit is a flow limit: with an inertial load the oil column rings at
+reversals, so peak speed can exceed the label (``record_peak_speed_over_limit``).
 
 labels.json: ``{case: {effects: [{effect, channel, params, derived, strength,
 ...}], rate, records: [{file, excitation, ...}], noise,

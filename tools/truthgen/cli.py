@@ -113,13 +113,17 @@ def main(argv: list[str] | None = None) -> int:
                          f"{len(label['records'])} records ({secs:.0f} s) in {cpu:.1f} s cpu\n")
         labels[name] = label
 
-    if a.jobs == 1:
-        for j in jobs:
-            report(*_job(j))
-    else:
-        with ProcessPoolExecutor(max_workers=a.jobs) as ex:
-            for res in ex.map(_job, jobs):
-                report(*res)
+    try:
+        if a.jobs == 1:
+            for j in jobs:
+                report(*_job(j))
+        else:
+            with ProcessPoolExecutor(max_workers=a.jobs) as ex:
+                for res in ex.map(_job, jobs):
+                    report(*res)
+    except (RuntimeError, OSError) as e:  # generation failure: one line, status 1
+        sys.stderr.write(f"truthgen: error: {e}\n")
+        return 1
     ordered = {nm: _clean(labels[nm]) for nm in names}
     (out / "labels.json").write_text(json.dumps(ordered, indent=1) + "\n")
     meta = {"generator": "truthgen", "version": VERSION, "seed": a.seed, "cases": a.cases,

@@ -69,6 +69,7 @@ def write_csv(path: Path, fs: float, command: np.ndarray, measured: np.ndarray, 
 
 
 def _num(x: float) -> str:
+    """TOML float literal."""
     r = repr(float(x))
     return r if ("." in r or "e" in r or "inf" in r or "nan" in r) else r + ".0"
 

@@ -40,6 +40,7 @@ def _taper(n: int, nt: int) -> np.ndarray:
 
 
 def _loguni(rng: np.random.Generator, lo: float, hi: float) -> float:
+    """Log-uniform draw in [lo, hi]."""
     return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
 
 

@@ -166,6 +166,7 @@ class Simulator:
         return m
 
     def _switch(self, xa: np.ndarray, m: tuple[int, int, int], tgt: tuple[str, int]) -> tuple[int, int, int]:
+        """New mode after one element transition (projects z onto its bound on slip)."""
         lst = list(m)
         lst[_TRANS[tgt[0]]] = tgt[1]
         if tgt[0] == "friction" and tgt[1] != 0:

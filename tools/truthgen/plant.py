@@ -200,11 +200,13 @@ class Plant:
 
     # ------------------------------------------------------------------ rows
     def _e(self, i: int) -> np.ndarray:
+        """Unit row selecting augmented-state entry ``i``."""
         r = np.zeros(self.n_aug)
         r[i] = 1.0
         return r
 
     def _u(self, i: int) -> np.ndarray:
+        """Unit row selecting input ``i``."""
         return self._e(self.n + i)
 
     def modes_of(self, kind: str) -> tuple[int, ...]:
@@ -215,6 +217,7 @@ class Plant:
         return (-2, -1, 0, 1, 2) if kind == "contact" else (-1, 0, 1)
 
     def _kinematics(self) -> dict[str, np.ndarray]:
+        """Rows of the node positions (m) and velocities (m/s): P, R, I."""
         e = self._e
         bp, br, bi = self.body_of["P"], self.body_of["R"], self.body_of["I"]
         out = {"xP": e(self.i_x[bp]), "vP": e(self.i_v[bp]), "xR": e(self.i_x[br]),
@@ -262,6 +265,7 @@ class Plant:
         return self._cache[mode]
 
     def _build(self, mode: tuple[int, int, int]) -> dict:
+        """Assemble the rows of :meth:`system` (uncached)."""
         contact, fric, sat = mode
         a, s, eff = self.act, self.spec, self.effects
         e, u = self._e, self._u
