@@ -242,6 +242,53 @@ def test_amplitude_damping_law(hw):
         assert abs(c_est / (c1 / (xa + c2)) - 1) < 1e-2
 
 
+def test_event_integrator_matches_brute_force_rk4(hw):
+    """The exact-in-mode integrator against a 100 kHz RK4 of the same hybrid automaton."""
+    from truthgen.plant import U_ONE, U_R
+
+    act, spec = hw
+    eff = {"coulomb_friction": {"friction": 800.0, "presliding_stiffness": 800.0 / 10e-6},
+           "rate_limit": {"velocity_limit": 0.05}}
+    plant = Plant(act, spec, eff, AA)
+    c = 3e-3 * np.sin(2 * np.pi * 5.0 * np.arange(int(0.6 * FS)) / FS)
+    sim = Simulator(plant, FS, 4, 0.0)
+    o = sim.run(c)
+    assert sim.events > 10  # stick/slip and saturation events both occur
+    div, n = 100, plant.n
+    h = 1 / (FS * div)
+    x = np.zeros(plant.n_aug)
+    x[n + U_ONE] = 1.0
+    mode = [0, 0, 0]
+    ref = np.zeros(len(c))
+    for k in range(len(c)):
+        ref[k] = plant.outputs()[1] @ x
+        x[n + U_R] = c[k]
+        for _ in range(div):
+            for _ in range(6):  # switch at step boundaries on crossed guards
+                sd = plant.system(tuple(mode))
+                j = np.flatnonzero(sd["guards"] @ x > 0)
+                if not j.size:
+                    break
+                el, tg = sd["targets"][j[0]]
+                mode[{"contact": 0, "friction": 1, "sat": 2}[el]] = tg
+                if el == "friction" and tg:
+                    x[plant.i_z] = tg * 10e-6
+            F = plant.system(tuple(mode))["F"]
+            k1 = F @ x
+            xa = x.copy()
+            xa[:n] += h / 2 * k1
+            k2 = F @ xa
+            xa = x.copy()
+            xa[:n] += h / 2 * k2
+            k3 = F @ xa
+            xa = x.copy()
+            xa[:n] += h * k3
+            x[:n] += h / 6 * (k1 + 2 * k2 + 2 * k3 + F @ xa)
+    # RK4 switching only at its 10 us steps errs by 0.027 / 0.005 / 0.001 N at 20 / 10 / 5 us
+    # (converging onto the event integrator); 0.02 N is 6e-6 of the 3.4 kN rms force.
+    assert np.max(np.abs(o["force"] - ref)) < 0.02
+
+
 # ---------------------------------------------------------------- cases and files
 
 def _read_csv(path: Path) -> np.ndarray:

@@ -87,7 +87,8 @@ def make(rng: np.random.Generator, family: str, fs: float, duration: float) -> t
             gap = int(0.2 * fs)
             a, b = edges[i] + gap, edges[i + 1] - gap
             tb = np.arange(b - a) / fs
-            y[a:b] = amps[i] * np.sin(2 * np.pi * f * tb) * _taper(b - a, int(min(max(1.0, 2.0 / f), 0.3 * (b - a) / fs) * fs))
+            taper = min(max(1.0, 2.0 / f), 0.3 * (b - a) / fs)  # s
+            y[a:b] = amps[i] * np.sin(2 * np.pi * f * tb) * _taper(b - a, int(taper * fs))
             blocks.append({"frequency": f, "relative_amplitude": float(amps[i])})
         info["blocks"] = blocks
     elif family == "sweep":

@@ -22,7 +22,7 @@ import math
 import numpy as np
 from scipy.linalg import expm
 
-from .plant import NU, U_FAD, U_ONE, U_R, Plant
+from .plant import U_FAD, U_ONE, U_R, Plant
 
 _TRANS = {"contact": 0, "friction": 1, "sat": 2}
 _THETA = np.linspace(0.0, 1.0, 17)[1:]
