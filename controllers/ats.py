@@ -114,7 +114,6 @@ class ATSSettings:
                 f"ATS filter_order must be 2, 4, 6 or 8; got {self.filter_order!r}"
             )
 
-
     @property
     def start(self) -> tuple[float, float, float]:
         """The coefficients the compensator starts from: ``initial``, or ``(1, 0, 0)``."""
@@ -183,8 +182,12 @@ class AdaptiveTimeSeries(Compensator):
         self._updates = 0
         self._u_prev = 0.0
         s = self.settings  # the same Butterworth on command and measurement: its lag cancels
-        self._filt_u = None if s.cutoff_hz is None else LowPass(s.cutoff_hz, self.dt, s.filter_order)
-        self._filt_y = None if s.cutoff_hz is None else LowPass(s.cutoff_hz, self.dt, s.filter_order)
+        self._filt_u = (
+            None if s.cutoff_hz is None else LowPass(s.cutoff_hz, self.dt, s.filter_order)
+        )
+        self._filt_y = (
+            None if s.cutoff_hz is None else LowPass(s.cutoff_hz, self.dt, s.filter_order)
+        )
 
     def _record(self, u_prev: float, y: float) -> None:
         if self._filt_u is not None:

@@ -71,8 +71,7 @@ class Compensator(ABC):
         y = float(measured)
         if not math.isfinite(y + target.displacement + target.velocity + target.acceleration):
             raise ParameterError(
-                f"target and measured displacement must be finite; got {target!r} and "
-                f"{measured!r}"
+                f"target and measured displacement must be finite; got {target!r} and {measured!r}"
             )
         command = self._step_impl(target, y)
         self._steps += 1

@@ -79,7 +79,9 @@ class PolynomialOptions:
         if self.horizon is not None:
             check_nonnegative(self.horizon, "polynomial extrapolation horizon")
         if not 1 <= check_positive_int(self.order, "polynomial extrapolation order") <= 4:
-            raise ParameterError(f"polynomial extrapolation order must be at most 4; got {self.order}")
+            raise ParameterError(
+                f"polynomial extrapolation order must be at most 4; got {self.order}"
+            )
 
 
 @COMPENSATORS.register("polynomial", PolynomialOptions)

@@ -65,8 +65,9 @@ class FFLQGCompensator(LQGCompensator):
         """The ``ff_lqg`` kind (Phillips & Spencer 2013) on the ``nominal`` model."""
         if nominal is None:
             raise ParameterError("compensator 'ff_lqg' needs a nominal model; got None")
-        feedforward = FeedforwardCompensator.from_options(options, dt=dt, nominal=nominal,
-                                                          delay=delay)  # fmt: skip
+        feedforward = FeedforwardCompensator.from_options(
+            options, dt=dt, nominal=nominal, delay=delay
+        )
         return cls(dt, design_lqg(nominal, dt, options.weights, delay), feedforward)
 
     def __init__(self, dt: float, design: LQGDesign, feedforward: FeedforwardCompensator) -> None:

@@ -1,8 +1,8 @@
 """Interfaces shared by every plant: numerical substructures, specimens and actuators.
 
 A plant is a fixed-step model of a physical thing.  It knows nothing of zenoh, MCAP, clocks or the
-loop: the loop (``rths.runtime.loop``) holds plants through these three interfaces only, so a new damper
-model or a new structure is one new module that subclasses one of them.
+loop: the loop (``rths.runtime.loop``) holds plants through these three interfaces only, so a new
+damper model or a new structure is one new module that subclasses one of them.
 
 Time alignment used throughout (loop step ``k`` covers ``[t_k, t_k+1]``)::
 

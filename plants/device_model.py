@@ -7,7 +7,8 @@ linearised with it installed, and the fully numerical "mock" run uses it in plac
 Kinds (specimen scale, SI):
 
 ``linear``   ``F = m a + c v + k x`` (``inertance`` = m, ``damping``, ``stiffness``)
-``imd``      S0 Eq.1 (``inertance`` m_e, ``damping`` c_d) or, with ``series_stiffness`` k0, S0 Eq.12:
+``imd``      S0 Eq.1 (``inertance`` m_e, ``damping`` c_d) or, with ``series_stiffness`` k0, S0
+Eq.12:
              the flywheel ``m_e, c_d`` behind the spring ``k0``
 ``inerter``  ``F = b a + c v`` (``inertance`` b, ``damping`` c), for the S1 TMDI
 """
@@ -53,12 +54,16 @@ class DeviceModel:
 
     def __post_init__(self) -> None:
         if self.kind not in DEVICE_KINDS:
-            raise ParameterError(f"device model kind must be one of {DEVICE_KINDS}; got {self.kind!r}")
+            raise ParameterError(
+                f"device model kind must be one of {DEVICE_KINDS}; got {self.kind!r}"
+            )
         check_nonnegative(self.inertance, "device inertance")
         check_nonnegative(self.damping, "device damping")
         check_nonnegative(self.stiffness, "device stiffness")
         if self.stiffness and self.kind != "linear":
-            raise ParameterError(f"only a linear device has a parallel stiffness; got {self.kind!r}")
+            raise ParameterError(
+                f"only a linear device has a parallel stiffness; got {self.kind!r}"
+            )
         if self.series_stiffness is not None:
             check_positive(self.series_stiffness, "device series stiffness")
             if self.kind != "imd":
@@ -68,8 +73,13 @@ class DeviceModel:
         """The device seen from the prototype: every impedance times ``impedance`` [-]."""
         k = check_positive(impedance, "impedance scale factor")
         series = None if self.series_stiffness is None else k * self.series_stiffness
-        return replace(self, inertance=k * self.inertance, damping=k * self.damping,
-                       stiffness=k * self.stiffness, series_stiffness=series)  # fmt: skip
+        return replace(
+            self,
+            inertance=k * self.inertance,
+            damping=k * self.damping,
+            stiffness=k * self.stiffness,
+            series_stiffness=series,
+        )
 
     def rigid(self) -> DeviceModel:
         """The same inertance and damping attached rigidly (S0 Eq.1, the "simplified model")."""

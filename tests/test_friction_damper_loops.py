@@ -27,10 +27,21 @@ import friction_damper_to_csv as fdc
 FS = 1024.0
 
 
-def loops(*, f_pos: float = 10e3, f_neg: float = 12e3, gap: float = 3e-3, k: float = 4e6,
-          k_gap: float = 0.0, offset: float = -100.0, noise: float = 80.0, amp: float = 20e-3,
-          freq: float = 0.5, cycles: float = 4.0, x: np.ndarray | None = None,
-          seed: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def loops(
+    *,
+    f_pos: float = 10e3,
+    f_neg: float = 12e3,
+    gap: float = 3e-3,
+    k: float = 4e6,
+    k_gap: float = 0.0,
+    offset: float = -100.0,
+    noise: float = 80.0,
+    amp: float = 20e-3,
+    freq: float = 0.5,
+    cycles: float = 4.0,
+    x: np.ndarray | None = None,
+    seed: int = 1,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(t [s], x [m], F [N])`` of the dead-zone + elasto-plastic device (module text).
 
     The slider position ``z`` moves only when the contact force would exceed the limit; the
@@ -54,13 +65,18 @@ def loops(*, f_pos: float = 10e3, f_neg: float = 12e3, gap: float = 3e-3, k: flo
     return t, x + rng.normal(0, 1e-6, x.size), f + offset + rng.normal(0, noise, x.size)
 
 
-def record(t: np.ndarray, x: np.ndarray, f: np.ndarray, name: str = "0.5Hz30lbtension1amplitude",
-           ) -> fdd.Record:
+def record(
+    t: np.ndarray,
+    x: np.ndarray,
+    f: np.ndarray,
+    name: str = "0.5Hz30lbtension1amplitude",
+) -> fdd.Record:
     """A :class:`Record` of the synthetic arrays (actuator channels: ``2 (act2 - act1) = F``)."""
     kind, fr, ten, amp = fdd.parse_name(name)
     v = np.gradient(x, t)
-    return fdd.Record(name, kind, fr, ten, amp, t, x, f, v, np.maximum(-f, 0) / 2,
-                      np.maximum(f, 0) / 2)
+    return fdd.Record(
+        name, kind, fr, ten, amp, t, x, f, v, np.maximum(-f, 0) / 2, np.maximum(f, 0) / 2
+    )
 
 
 def test_sine_loops_recover_friction_clearance_and_stiffness():
@@ -84,8 +100,17 @@ def test_sine_loops_recover_friction_clearance_and_stiffness():
 
 
 def test_soft_gap_spring_and_other_values():
-    t, x, f = loops(f_pos=5e3, f_neg=5e3, gap=5e-3, k=2e6, k_gap=0.1e6, offset=50.0,
-                    amp=15e-3, freq=1.0, cycles=5)
+    t, x, f = loops(
+        f_pos=5e3,
+        f_neg=5e3,
+        gap=5e-3,
+        k=2e6,
+        k_gap=0.1e6,
+        offset=50.0,
+        amp=15e-3,
+        freq=1.0,
+        cycles=5,
+    )
     s = fdr.summarize(fdr.read_record(record(t, x, f)))
     assert s["friction"]["median"] == pytest.approx(5e3, rel=0.01)
     assert s["k_gap"]["median"] == pytest.approx(0.1e6, rel=0.15)
@@ -118,8 +143,14 @@ def test_nonstationary_drive_is_read_reversal_by_reversal():
 
 
 def test_reversals_ignore_wiggles_below_the_hysteresis():
-    x = np.concatenate([np.linspace(0, 1, 50), np.linspace(1, 0.95, 5), np.linspace(0.95, 2, 50),
-                        np.linspace(2, -1, 80)])
+    x = np.concatenate(
+        [
+            np.linspace(0, 1, 50),
+            np.linspace(1, 0.95, 5),
+            np.linspace(0.95, 2, 50),
+            np.linspace(2, -1, 80),
+        ]
+    )
     assert list(fdr.reversals(x, 0.1)) == [0, 104]
     assert list(fdr.reversals(x, 0.01)) == [0, 49, 54, 104]
 
@@ -142,8 +173,16 @@ def test_restoring_sign_and_nominal_fits():
 
 def _write_json(folder: Path, name: str, t, x, f) -> None:
     """A record file in the published layout (inches, kip, lb)."""
-    rows = np.column_stack([t, x / fdd.IN_M, f / fdd.KIP_N, np.gradient(x, t) / fdd.IN_M,
-                            np.maximum(-f, 0) / 2 / fdd.LB_N, np.maximum(f, 0) / 2 / fdd.LB_N])
+    rows = np.column_stack(
+        [
+            t,
+            x / fdd.IN_M,
+            f / fdd.KIP_N,
+            np.gradient(x, t) / fdd.IN_M,
+            np.maximum(-f, 0) / 2 / fdd.LB_N,
+            np.maximum(f, 0) / 2 / fdd.LB_N,
+        ]
+    )
     with gzip.open(folder / f"{name}.json.gz", "wt", encoding="utf-8") as fh:
         json.dump({"data": rows.tolist(), "dt": 1 / FS, "sampling freq": FS}, fh)
 

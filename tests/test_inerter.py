@@ -42,10 +42,18 @@ def sine_drive(dt: float, duration: float, amplitude: float, freq: float, start_
     t = np.arange(0.0, duration + 0.5 * dt, dt)
     w = 2.0 * math.pi * freq
     if start_at_rest:
-        return t, amplitude * (1 - np.cos(w * t)), amplitude * w * np.sin(w * t), \
-            amplitude * w * w * np.cos(w * t)
-    return t, amplitude * np.sin(w * t), amplitude * w * np.cos(w * t), \
-        -amplitude * w * w * np.sin(w * t)
+        return (
+            t,
+            amplitude * (1 - np.cos(w * t)),
+            amplitude * w * np.sin(w * t),
+            amplitude * w * w * np.cos(w * t),
+        )
+    return (
+        t,
+        amplitude * np.sin(w * t),
+        amplitude * w * np.cos(w * t),
+        -amplitude * w * w * np.sin(w * t),
+    )
 
 
 def test_presets_match_s1_table_1_and_section_4_2() -> None:

@@ -18,9 +18,7 @@ QUIET = LabConverters(
 )  # benchmark converters without noise
 
 
-def benchmark_lab(
-    converters: LabConverters | None = None, seed: int | None = 0
-) -> EmulatedLab:
+def benchmark_lab(converters: LabConverters | None = None, seed: int | None = 0) -> EmulatedLab:
     return EmulatedLab(ServoHydraulicActuator(benchmark_specimen(), DT), converters, seed=seed)
 
 
@@ -147,8 +145,7 @@ def test_block_noise_equals_per_step_draws():
             force=Converter(100.0, noise_rms=0.01),
         )
         specimen = LinearSpecimen(1.0, 10.0, 1e4)
-        out = EmulatedLab(TransferFunctionActuator([1.0], [1.0, 1.0], specimen, 1e-3), conv,
-                          seed=7)  # fmt: skip
+        out = EmulatedLab(TransferFunctionActuator([1.0], [1.0, 1.0], specimen, 1e-3), conv, seed=7)
         out.NOISE_BLOCK = block
         out.reset()
         return out

@@ -166,7 +166,9 @@ def test_file_is_finished_when_the_body_raises(tmp_path: Path) -> None:
     assert facts["summary"] is not None and is_complete(path)
     assert sum(topic == LOOP_TOPIC for topic, *_ in messages) == 100
     events = [json.loads(m.data) for topic, _, _, m in messages if topic == EVENTS_TOPIC]
-    assert events == [{"kind": "error", "message": "run ended by ZeroDivisionError('division by zero')"}]
+    assert events == [
+        {"kind": "error", "message": "run ended by ZeroDivisionError('division by zero')"}
+    ]
     assert read_topic(path, EVENTS_TOPIC)["log_time_ns"][0] == 99 * DT_NS  # last time seen
 
 
@@ -221,7 +223,9 @@ def test_recorder_validation(tmp_path: Path) -> None:
         Recorder(tmp_path / "a.mcap", chunk_size=0)
     with pytest.raises(ParameterError, match=r"flush_interval must be positive; got -1"):
         Recorder(tmp_path / "a.mcap", flush_interval=-1)
-    with pytest.raises(ParameterError, match=r"metadata\['run'\] keys and values must be strings; got 'dt': 0.001"):
+    with pytest.raises(
+        ParameterError, match=r"metadata\['run'\] keys and values must be strings; got 'dt': 0.001"
+    ):
         Recorder(tmp_path / "a.mcap", metadata={"run": {"dt": 0.001}})  # type: ignore[dict-item]
     with pytest.raises(ParameterError, match=r"metadata must map record names .*got 'run': 'x'"):
         Recorder(tmp_path / "a.mcap", metadata={"run": "x"})  # type: ignore[dict-item]
@@ -236,14 +240,20 @@ def test_recorder_validation(tmp_path: Path) -> None:
         rec.add_topic("", {})
     with pytest.raises(ParameterError, match=r"schema of topic 'x' is not JSON"):
         rec.add_topic("x", {"a": object()})
-    with pytest.raises(ParameterError, match=r"topic 'rths/loop' is already registered with another"):
+    with pytest.raises(
+        ParameterError, match=r"topic 'rths/loop' is already registered with another"
+    ):
         rec.add_topic(LOOP_TOPIC, {"type": "object"})
     with rec:
         with pytest.raises(DataError, match=r"already started"):
             rec.start()
-        with pytest.raises(ParameterError, match=r"topic 'nope' is not registered .*known: \['rths/loop'\]"):
+        with pytest.raises(
+            ParameterError, match=r"topic 'nope' is not registered .*known: \['rths/loop'\]"
+        ):
             rec.put("nope", 0, 0, {})
-        with pytest.raises(ParameterError, match=r"'rths/events' is not registered for put\(\) \(events go"):
+        with pytest.raises(
+            ParameterError, match=r"'rths/events' is not registered for put\(\) \(events go"
+        ):
             rec.put(EVENTS_TOPIC, 0, 0, {})
         with pytest.raises(ParameterError, match=r"seq and times must be integers; got seq=1.0"):
             rec.put(LOOP_TOPIC, 1.0, 0, {})  # type: ignore[arg-type]
@@ -255,7 +265,9 @@ def test_recorder_validation(tmp_path: Path) -> None:
         rec.event(0, "late", "after close")
     with pytest.raises(ParameterError, match=r"needs at least one field"):
         object_schema("empty", {})
-    with pytest.raises(ParameterError, match=r"required fields of schema 's' are not fields: \['y'\]"):
+    with pytest.raises(
+        ParameterError, match=r"required fields of schema 's' are not fields: \['y'\]"
+    ):
         object_schema("s", {"x": "[m]"}, required=["y"])
 
 
@@ -272,14 +284,20 @@ def test_mcap_io_reads_what_was_written(tmp_path: Path) -> None:
         assert np.array_equal(loop[name], [loop_row(k)[name] for k in ks])
     assert np.array_equal(loop["log_time_ns"], [(k + 1) * DT_NS for k in ks])
     meta = read_metadata(path)
-    assert meta["scenario"]["text"].startswith("[cable]") and meta["rths.recording"]["rths/loop.missing"] == "1"
+    assert (
+        meta["scenario"]["text"].startswith("[cable]")
+        and meta["rths.recording"]["rths/loop.missing"] == "1"
+    )
     assert list_topics(path) == {EVENTS_TOPIC: 1, LOOP_TOPIC: 499} and is_complete(path)
 
 
 def test_mcap_io_errors(tmp_path: Path) -> None:
     path = tmp_path / "run.mcap"
     record(path, 3)
-    with pytest.raises(DataError, match=r"topic 'rths/nope' not found in .*; topics: \['rths/events', 'rths/loop'\]"):
+    with pytest.raises(
+        DataError,
+        match=r"topic 'rths/nope' not found in .*; topics: \['rths/events', 'rths/loop'\]",
+    ):
         read_topic(path, "rths/nope")
     with pytest.raises(DataError, match=r"cannot open MCAP log '.*missing.mcap'"):
         read_topic(tmp_path / "missing.mcap", LOOP_TOPIC)
@@ -296,7 +314,9 @@ def test_mcap_io_errors(tmp_path: Path) -> None:
             writer.finish()
     with pytest.raises(DataError, match=r"message on 'rths/loop' in '.*notjson.mcap' is not JSON"):
         read_topic(tmp_path / "notjson.mcap", LOOP_TOPIC)
-    with pytest.raises(DataError, match=r"'rths/loop' in '.*array.mcap' is not a JSON object: \[1, 2\]"):
+    with pytest.raises(
+        DataError, match=r"'rths/loop' in '.*array.mcap' is not a JSON object: \[1, 2\]"
+    ):
         read_topic(tmp_path / "array.mcap", LOOP_TOPIC)
     (tmp_path / "empty.mcap").write_bytes(b"")
     with pytest.raises(DataError, match=r"'.*empty.mcap' is empty or not an MCAP log"):
@@ -383,8 +403,12 @@ def test_log_bridge_records_another_sessions_stream(tmp_path: Path) -> None:
 def test_metadata_added_at_the_end_is_readable_by_the_plain_reader(tmp_path: Path) -> None:
     path = tmp_path / "summary.mcap"
     with Recorder(path, metadata={"scenario": {"text": "x = 1"}}) as rec:
-        rec.put(LOOP_TOPIC, 0, 0, {"t": 0.0, "target": 0.0, "command": 0.0, "measured": 0.0,
-                                   "force": 0.0})  # fmt: skip
+        rec.put(
+            LOOP_TOPIC,
+            0,
+            0,
+            {"t": 0.0, "target": 0.0, "command": 0.0, "measured": 0.0, "force": 0.0},
+        )
         rec.add_metadata("rths.summary", {"j2": "0.0012"})
         with pytest.raises(ParameterError, match="keys and values must be strings"):
             rec.add_metadata("bad", {"j2": 0.1})  # type: ignore[dict-item]

@@ -53,9 +53,11 @@ DEFAULTS = {  # the companions of the kind under test
 
 def scenario_text(**kinds: str) -> str:
     chosen = DEFAULTS | kinds
-    parts = ['[run]\nname = "kind"\nduration = 0.05\nrate = 1024.0\nclock = "fast"\n',
-             "[lab]\nbits = 24\nfull_scale = 10.0\n[model]\nkind = \"none\"\n"
-             "[loop]\ncorrection_filter = 0.0\n"]  # fmt: skip
+    parts = [
+        '[run]\nname = "kind"\nduration = 0.05\nrate = 1024.0\nclock = "fast"\n',
+        '[lab]\nbits = 24\nfull_scale = 10.0\n[model]\nkind = "none"\n'
+        "[loop]\ncorrection_filter = 0.0\n",
+    ]
     for family, kind in chosen.items():
         parts.append(f'[{family}]\nkind = "{kind}"\n' + MINIMAL.get((family, kind), ""))
     return "\n".join(parts)
@@ -73,28 +75,40 @@ def test_every_kind_builds_and_runs(family, kind):
     scn = parse_scenario(scenario_text(**{family: kind}), f"<{family}:{kind}>")
     sub, comp, lab = build.substructure(scn), build.compensator(scn), build.lab(scn)
     records: list[dict[str, float]] = []
-    result = Loop(sub, comp, InProcessLink(lab), scn.scaling, scn.run.steps,
-                  sink=records.append).run()  # fmt: skip
+    result = Loop(
+        sub, comp, InProcessLink(lab), scn.scaling, scn.run.steps, sink=records.append
+    ).run()
     assert result.stopped is None and result.steps == scn.run.steps == 51
-    built = {"substructure": sub, "compensator": comp, "actuator": lab.actuator,
-             "specimen": lab.actuator.specimen}[family]  # fmt: skip
-    assert built.kind == kind or family == "specimen"  # factory kinds (imd, benchmark) build a class
+    built = {
+        "substructure": sub,
+        "compensator": comp,
+        "actuator": lab.actuator,
+        "specimen": lab.actuator.specimen,
+    }[family]
+    assert (
+        built.kind == kind or family == "specimen"
+    )  # factory kinds (imd, benchmark) build a class
     assert all(math.isfinite(v) for r in records for v in r.values())
     assert sub.steps == comp.steps == lab.actuator.steps == 51  # the bases count
 
 
 def test_every_kind_is_documented_in_the_readme():
     """The README's table is ``rths kinds --markdown`` (regenerate it when a kind changes)."""
-    out = subprocess.run([sys.executable, "-m", "rths", "kinds", "--markdown"],
-                         capture_output=True, text=True, check=True).stdout  # fmt: skip
+    out = subprocess.run(
+        [sys.executable, "-m", "rths", "kinds", "--markdown"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
     text = README.read_text(encoding="utf-8")
     table = text.split("<!-- kinds:begin -->\n")[1].split("<!-- kinds:end -->")[0]
     assert table == out
 
 
 def test_run_help_lists_every_kind():
-    out = subprocess.run([sys.executable, "-m", "rths", "run", "--help"],
-                         capture_output=True, text=True, check=True).stdout  # fmt: skip
+    out = subprocess.run(
+        [sys.executable, "-m", "rths", "run", "--help"], capture_output=True, text=True, check=True
+    ).stdout
     for family, name in all_kinds():
         assert re.search(rf"\[{family}\] .*\b{name}\b", out), (family, name)
 
@@ -107,7 +121,7 @@ def toy_damper():
     source = block.split("```")[0]
     module = types.ModuleType("plants.viscous_damper")
     sys.modules[module.__name__] = module
-    exec(compile(source, "README.md:toy-damper", "exec"), module.__dict__)  # noqa: S102
+    exec(compile(source, "README.md:toy-damper", "exec"), module.__dict__)
     yield module
     SPECIMENS.unregister("viscous")
     del sys.modules[module.__name__]
@@ -156,7 +170,9 @@ def test_registry_rejects_malformed_registrations():
     assert Thing.kind == "thing" and reg.names() == ("thing",) and "thing" in reg
     assert reg.get("thing").build(Opts(2.0), dt=0.1) == (Thing, 2.0, {"dt": 0.1})
     with pytest.raises(ValueError, match="already registered by"):
-        reg.register("thing", Opts)(type("Other", (), {"from_options": classmethod(lambda c, o: o)}))
+        reg.register("thing", Opts)(
+            type("Other", (), {"from_options": classmethod(lambda c, o: o)})
+        )
     with pytest.raises(ValueError, match="unknown widget kind 'thingy'; choose one of 'thing'"):
         reg.get("thingy")
     with pytest.raises(ValueError, match="takes Opts options; got int"):
@@ -201,10 +217,13 @@ def parse(text: str) -> Everything:
 
 
 def test_options_read_every_supported_type():
-    o = parse("rate = 2\ncount = 4\nflag = true\nname = 'y'\nmode = 'b'\nvalues = [1, 2.5]\n"
-              "pair = [3, 4]\nbounds = [[0, 2], [1, 3]]\nsize = 7\nlimit = 0.5\n[inner]\ngain = 2\n")  # fmt: skip
-    assert o == Everything(2.0, 4, True, "y", "b", (1.0, 2.5), (3.0, 4.0),
-                           ((0.0, 2.0), (1.0, 3.0)), 7, 0.5, Inner(2.0))  # fmt: skip
+    o = parse(
+        "rate = 2\ncount = 4\nflag = true\nname = 'y'\nmode = 'b'\nvalues = [1, 2.5]\n"
+        "pair = [3, 4]\nbounds = [[0, 2], [1, 3]]\nsize = 7\nlimit = 0.5\n[inner]\ngain = 2\n"
+    )
+    assert o == Everything(
+        2.0, 4, True, "y", "b", (1.0, 2.5), (3.0, 4.0), ((0.0, 2.0), (1.0, 3.0)), 7, 0.5, Inner(2.0)
+    )
     assert isinstance(o.rate, float) and parse("rate = 1\nsize = 'auto'").size == "auto"
 
 
@@ -237,8 +256,12 @@ def test_option_docs_come_from_the_dataclass():
 
 
 def test_presets_with_overrides():
-    scn = parse_scenario(scenario_text(specimen="imd").replace(
-        'preset = "type_ii"\n', 'preset = "type_ii"\nfriction = 25.0\n'), "<p>")  # fmt: skip
+    scn = parse_scenario(
+        scenario_text(specimen="imd").replace(
+            'preset = "type_ii"\n', 'preset = "type_ii"\nfriction = 25.0\n'
+        ),
+        "<p>",
+    )
     options = scn.specimen.options
     assert options.inertance == 1589.0 and options.friction == 25.0
     spec = build.specimen(scn)

@@ -13,7 +13,8 @@ from rths.config.scenario import load_scenario, parse_scenario
 from rths.core.errors import ConfigError
 
 SCENARIOS = sorted(
-    p for p in (Path(__file__).resolve().parent.parent / "scenarios").glob("*.toml")
+    p
+    for p in (Path(__file__).resolve().parent.parent / "scenarios").glob("*.toml")
     if "[substructure]" in p.read_text()  # RTHS scenarios (rths sweep files have their own schema)
 )
 
@@ -40,23 +41,53 @@ def test_seed_scenario_realises_the_seed_normalised_inertance():
         (r'^clock = "lockstep".*$', 'clock = "sometimes"', r"\[run\] clock: must be one of"),
         (r"^duration = 20.0.*$", "duration = -1.0", r"\[run\] duration: must be positive"),
         (r"^tension = 5.0e6.*$", "tension = 5.0e6\ntensoin = 1.0", r"tensoin: unknown key"),
-        (r"^damper_position = 0.02.*$", "damper_position = 1.5", r"\[substructure\] damper_position must lie in \[1e-06, 0.999999\]; got 1.5"),
-        (r'^elements = "auto".*$', "elements = 1", r'\[substructure\] elements must be an integer >= 2 or "auto"; got 1'),
+        (
+            r"^damper_position = 0.02.*$",
+            "damper_position = 1.5",
+            r"\[substructure\] damper_position must lie in \[1e-06, 0.999999\]; got 1.5",
+        ),
+        (
+            r'^elements = "auto".*$',
+            "elements = 1",
+            r'\[substructure\] elements must be an integer >= 2 or "auto"; got 1',
+        ),
         (r"^mode = 3.*$", "mode = 0", r"\[substructure.load\] mode must be >= 1; got 0"),
         (r'^kind = "imd".*$', 'kind = "sponge"', r"\[specimen\] kind: must be one of"),
-        (r'^preset = "mts_identified".*$', "num = [1.0]",
-         r"\[actuator\] num/den: give both num and den, or a preset"),  # fmt: skip
-        (r'^preset = "type_ii".*$', 'preset = "type_iii"',
-         r"\[specimen\] preset: must be one of 'eimd_full', 'eimd_small', 'type_i', 'type_ii'"),
-        (r'^preset = "mts_identified".*$', 'preset = "moog"',
-         r"\[actuator\] preset: must be one of 'mts_identified'; got 'moog'"),  # fmt: skip
-        (r'^kind = "ff_lqg".*$', 'kind = "magic"', r"\[compensator\] kind: must be one of .*'ff_lqg'"),
-        (r'^preset = "type_ii".*$', 'preset = "type_ii"\nmass = 3.0',
-         r"\[specimen\] mass: unknown key; expected one of .*'inertance'"),
-        (r"^damping_ratio = 0.038.*$", "damping_ratio = 0.038\ndamping = 1.0",
-         r"\[model\] damping_ratio: give damping or damping_ratio"),  # fmt: skip
-        (r"^correction_filter = 60.0.*$", "correction_filter = 5000.0",
-         r"\[loop\] correction_filter: must lie below the Nyquist frequency 1024 Hz"),  # fmt: skip
+        (
+            r'^preset = "mts_identified".*$',
+            "num = [1.0]",
+            r"\[actuator\] num/den: give both num and den, or a preset",
+        ),
+        (
+            r'^preset = "type_ii".*$',
+            'preset = "type_iii"',
+            r"\[specimen\] preset: must be one of 'eimd_full', 'eimd_small', 'type_i', 'type_ii'",
+        ),
+        (
+            r'^preset = "mts_identified".*$',
+            'preset = "moog"',
+            r"\[actuator\] preset: must be one of 'mts_identified'; got 'moog'",
+        ),
+        (
+            r'^kind = "ff_lqg".*$',
+            'kind = "magic"',
+            r"\[compensator\] kind: must be one of .*'ff_lqg'",
+        ),
+        (
+            r'^preset = "type_ii".*$',
+            'preset = "type_ii"\nmass = 3.0',
+            r"\[specimen\] mass: unknown key; expected one of .*'inertance'",
+        ),
+        (
+            r"^damping_ratio = 0.038.*$",
+            "damping_ratio = 0.038\ndamping = 1.0",
+            r"\[model\] damping_ratio: give damping or damping_ratio",
+        ),
+        (
+            r"^correction_filter = 60.0.*$",
+            "correction_filter = 5000.0",
+            r"\[loop\] correction_filter: must lie below the Nyquist frequency 1024 Hz",
+        ),
         (r"^\[loop\]", "[lop]", r"\[top level\] lop: unknown key"),
     ],
 )
@@ -67,9 +98,11 @@ def test_bad_values_name_file_table_and_key(pattern, replacement, match):
 
 def test_missing_section_and_missing_file(tmp_path):
     with pytest.raises(ConfigError, match=r"\[top level\] specimen: missing \(required\)"):
-        parse_scenario("[run]\nname='x'\nduration=1.0\nrate=100.0\n[substructure]\nkind='cable'\n"
-                       "length=1.0\ntension=1.0\nmass_per_length=1.0\ndamper_position=0.5\n",
-                       "x.toml")  # fmt: skip
+        parse_scenario(
+            "[run]\nname='x'\nduration=1.0\nrate=100.0\n[substructure]\nkind='cable'\n"
+            "length=1.0\ntension=1.0\nmass_per_length=1.0\ndamper_position=0.5\n",
+            "x.toml",
+        )
     with pytest.raises(ConfigError, match="no such file"):
         load_scenario(tmp_path / "none.toml")
 
@@ -77,8 +110,11 @@ def test_missing_section_and_missing_file(tmp_path):
 @pytest.mark.parametrize(
     "pattern, replacement, match",
     [
-        (r'^preset = "mts_identified".*$', "num = [1.0]\nden = [1.0, -2.0]",
-         r"\[actuator\] .*unstable"),  # fmt: skip
+        (
+            r'^preset = "mts_identified".*$',
+            "num = [1.0]\nden = [1.0, -2.0]",
+            r"\[actuator\] .*unstable",
+        ),
     ],
 )
 def test_builders_name_the_table_a_plant_rejected(pattern, replacement, match):

@@ -4,6 +4,7 @@ Each test checks the generator against physics or conventions it must obey,
 with the tolerance and its justification next to the assertion.  Everything
 runs on short records (a few seconds) so the file finishes in well under 20 s.
 """
+
 from __future__ import annotations
 
 import json
@@ -51,6 +52,7 @@ def _sine(f: float, amp: float, seconds: float, fs: float = FS) -> np.ndarray:
 
 # ---------------------------------------------------------------- linear actuator
 
+
 def test_linear_response_matches_nominal_tf(hw):
     act, spec = hw
     plant = Plant(act, spec, {}, AA)
@@ -72,7 +74,9 @@ def test_linear_response_matches_nominal_tf(hw):
         assert abs(np.degrees(np.angle(r))) < 0.05, (f, r)
         # With the Bessel filter itself, only the integrator's error is left: the
         # in-mode flow is a matrix exponential, so 1e-5 is float round-off headroom.
-        bes = np.polyval(bb, 1j * w) / np.polyval(ab, 1j * w) * np.exp(1j * w * plant.aa_group_delay)
+        bes = (
+            np.polyval(bb, 1j * w) / np.polyval(ab, 1j * w) * np.exp(1j * w * plant.aa_group_delay)
+        )
         assert abs(r / bes - 1) < 1e-5, (f, r / bes)
 
 
@@ -101,8 +105,12 @@ def test_inerter_force_equals_m_times_measured_acceleration(hw):
 
     ex = math.sqrt(sx**2 + daq.lsb(0.01) ** 2 / 12)
     ef = math.sqrt(sf**2 + daq.lsb(ffs) ** 2 / 12)
-    pred = np.mean([np.std(resid(ex * rng.standard_normal(len(c)), ef * rng.standard_normal(len(c))))
-                    for _ in range(8)])
+    pred = np.mean(
+        [
+            np.std(resid(ex * rng.standard_normal(len(c)), ef * rng.standard_normal(len(c))))
+            for _ in range(8)
+        ]
+    )
     # the residual is the stated noise through the same processing (Monte Carlo); its rms
     # over ~250 independent 25-Hz samples scatters by ~5 %, so 1.3x is a > 5-sigma bound,
     # plus 0.1 % of the force for the difference-quotient error above.
@@ -111,12 +119,20 @@ def test_inerter_force_equals_m_times_measured_acceleration(hw):
 
 # ---------------------------------------------------------------- effects
 
+
 def test_backlash_force_is_zero_inside_clearance(hw):
     act, spec = hw
     gap, kc = 0.5e-3, 1e8
-    eff = {"backlash": {"gap": gap, "contact_stiffness": kc,
-                        "contact_damping": 2 * 0.05 * math.sqrt(kc * spec.total_inertance)}}
-    o = Simulator(Plant(act, spec, eff, AA), FS, 8, act.latency).run(_sine(2.0, 4e-3, 4.0), truth=True)
+    eff = {
+        "backlash": {
+            "gap": gap,
+            "contact_stiffness": kc,
+            "contact_damping": 2 * 0.05 * math.sqrt(kc * spec.total_inertance),
+        }
+    }
+    o = Simulator(Plant(act, spec, eff, AA), FS, 8, act.latency).run(
+        _sine(2.0, 4e-3, 4.0), truth=True
+    )
     inside = np.abs(o["delta"]) < gap / 2
     assert inside.sum() > 500 and (~inside).sum() > 500  # both phases occur
     # the true contact (= load-cell) force is identically zero in the clearance
@@ -125,7 +141,7 @@ def test_backlash_force_is_zero_inside_clearance(hw):
     # recorded force, >= 5 ms from any contact: the anti-alias filter's impulse response
     # (4-pole Bessel, fc ~ 205 Hz) has decayed to < 1e-4 of the impact peak by then.
     w = int(0.005 * FS)
-    calm = np.array([inside[max(0, i - w):i + w + 1].all() for i in range(len(inside))])
+    calm = np.array([inside[max(0, i - w) : i + w + 1].all() for i in range(len(inside))])
     assert calm.sum() > 300
     rng = np.random.default_rng(5)
     sf, off = 2.0, 3.0
@@ -139,7 +155,9 @@ def test_friction_force_plateaus_at_labelled_level(hw):
     act, spec = hw
     fc = 800.0
     eff = {"coulomb_friction": {"friction": fc, "presliding_stiffness": fc / 10e-6}}
-    o = Simulator(Plant(act, spec, eff, AA), FS, 4, act.latency).run(_sine(2.0, 4e-3, 4.0), truth=True)
+    o = Simulator(Plant(act, spec, eff, AA), FS, 4, act.latency).run(
+        _sine(2.0, 4e-3, 4.0), truth=True
+    )
     v = o["vI"]
     slip = np.abs(v) > 0.1 * np.max(np.abs(v))
     # elasto-plastic model: the friction force is exactly +/- the level while sliding
@@ -147,9 +165,12 @@ def test_friction_force_plateaus_at_labelled_level(hw):
     assert np.all(np.sign(o["fric"][slip]) == np.sign(v[slip]))
     # in the recorded channels: F - m a (2nd difference of measured) during sustained slip
     m = spec.total_inertance
-    res = o["force"][1:-1] - m * (o["measured"][2:] - 2 * o["measured"][1:-1] + o["measured"][:-2]) * FS**2
+    res = (
+        o["force"][1:-1]
+        - m * (o["measured"][2:] - 2 * o["measured"][1:-1] + o["measured"][:-2]) * FS**2
+    )
     w = int(0.02 * FS)
-    s2 = np.array([slip[max(0, i - w):i + w + 1].all() for i in range(len(slip))])[1:-1]
+    s2 = np.array([slip[max(0, i - w) : i + w + 1].all() for i in range(len(slip))])[1:-1]
     s2[: int(FS)] = False  # skip the taper-in
     # median within 0.1 %: the AA filter only smears the force jumps at reversals (>= 20 ms
     # away), and the m a difference quotient errs by < 0.2 % of m a (~ 0.05 % of F here)
@@ -168,7 +189,7 @@ def test_delay_shows_in_cross_correlation(hw):
     cc = signal.correlate(x1 - x1.mean(), x0 - x0.mean(), mode="full")
     lags = signal.correlation_lags(len(x1), len(x0))
     k = int(np.argmax(cc))
-    y0, y1, y2 = cc[k - 1:k + 2]
+    y0, y1, y2 = cc[k - 1 : k + 2]
     est = lags[k] + 0.5 * (y0 - y2) / (y0 - 2 * y1 + y2)
     # an input delay of an LTI plant shifts its output exactly; the parabolic peak
     # interpolation on a <= 25 Hz band at 1024 Hz is biased by < 0.05 sample.
@@ -195,7 +216,9 @@ def test_rate_limit_caps_mean_slip_speed(hw):
     act, spec = hw
     vl = 0.05
     c = _sine(2.0, 10e-3, 4.0)
-    o = Simulator(Plant(act, spec, {"rate_limit": {"velocity_limit": vl}}, AA), FS, 4, act.latency).run(c, truth=True)
+    o = Simulator(
+        Plant(act, spec, {"rate_limit": {"velocity_limit": vl}}, AA), FS, 4, act.latency
+    ).run(c, truth=True)
     o0 = Simulator(Plant(act, spec, {}, AA), FS, 4, act.latency).run(c, truth=True)
     i_max = vl * act.area / act.rated_flow
     sat = np.abs(o["current"]) >= (1 - 1e-9) * i_max
@@ -212,15 +235,20 @@ def test_internal_stiffness_impedance():
     b = spec.inertance
     ks = b * (2 * np.pi * 12.0) ** 2
     cs = 2 * 0.05 * math.sqrt(ks * b)
-    sim = Simulator(Plant(act, spec, {"internal_stiffness": {"stiffness": ks, "series_damping": cs}}, AA),
-                    FS, 4, act.latency)
+    sim = Simulator(
+        Plant(act, spec, {"internal_stiffness": {"stiffness": ks, "series_damping": cs}}, AA),
+        FS,
+        4,
+        act.latency,
+    )
     for f in (2.0, 12.0, 16.0):
         c = _sine(f, 1e-3, 4.0)
         o = sim.run(c)
         z = _phasor(o["force"], f, FS, 1.0) / _phasor(o["measured"], f, FS, 1.0)
         s = 2j * np.pi * f
-        z_an = ((ks + cs * s) * (b * s * s + spec.damping * s + spec.stiffness)
-                / (b * s * s + (spec.damping + cs) * s + spec.stiffness + ks) + spec.rod_mass * s * s)
+        z_an = (ks + cs * s) * (b * s * s + spec.damping * s + spec.stiffness) / (
+            b * s * s + (spec.damping + cs) * s + spec.stiffness + ks
+        ) + spec.rod_mass * s * s
         # both channels share the AA filter, so F/x is the specimen impedance exactly;
         # 1e-4 leaves room only for the transient left after 3 s (decayed to < 1e-6)
         assert abs(z / z_an - 1) < 1e-4, (f, z / z_an)
@@ -229,7 +257,9 @@ def test_internal_stiffness_impedance():
 def test_amplitude_damping_law(hw):
     act, spec = hw
     c1, c2 = 40.0, 2e-3
-    sim = Simulator(Plant(act, spec, {"amplitude_damping": {"c1": c1, "c2": c2}}, AA), FS, 4, act.latency)
+    sim = Simulator(
+        Plant(act, spec, {"amplitude_damping": {"c1": c1, "c2": c2}}, AA), FS, 4, act.latency
+    )
     for amp in (1e-3, 5e-3):
         o = sim.run(_sine(3.0, amp, 6.0), truth=True)
         sel = slice(-int(3 * FS), None)
@@ -247,8 +277,10 @@ def test_event_integrator_matches_brute_force_rk4(hw):
     from truthgen.plant import U_ONE, U_R
 
     act, spec = hw
-    eff = {"coulomb_friction": {"friction": 800.0, "presliding_stiffness": 800.0 / 10e-6},
-           "rate_limit": {"velocity_limit": 0.05}}
+    eff = {
+        "coulomb_friction": {"friction": 800.0, "presliding_stiffness": 800.0 / 10e-6},
+        "rate_limit": {"velocity_limit": 0.05},
+    }
     plant = Plant(act, spec, eff, AA)
     c = 3e-3 * np.sin(2 * np.pi * 5.0 * np.arange(int(0.6 * FS)) / FS)
     sim = Simulator(plant, FS, 4, 0.0)
@@ -291,6 +323,7 @@ def test_event_integrator_matches_brute_force_rk4(hw):
 
 # ---------------------------------------------------------------- cases and files
 
+
 def _read_csv(path: Path) -> np.ndarray:
     lines = path.read_text().splitlines()
     assert lines[0] == "time,command,measured,force"
@@ -300,13 +333,17 @@ def _read_csv(path: Path) -> np.ndarray:
 def test_none_case_files_follow_the_labelled_nominal(tmp_path):
     lab = build_case(np.random.SeedSequence(123), (), [1000.0], 3.0, tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["NOMINAL.toml"] + [
-        f"rec_{i + 1}.csv" for i in range(len(lab["records"]))]
+        f"rec_{i + 1}.csv" for i in range(len(lab["records"]))
+    ]
     tn = lab["true_nominal"]
     nom = tomllib.loads((tmp_path / "NOMINAL.toml").read_text())
     fs = lab["rate"]
     # mis-calibration stays within the +/-10 % / +/-0.8 sample calibration envelope
-    dc = lambda n, d: n[-1] / d[-1]  # noqa: E731
-    assert abs(dc(nom["actuator"]["num"], nom["actuator"]["den"]) / dc(tn["num"], tn["den"]) - 1) <= 0.1 + 1e-12
+    dc = lambda n, d: n[-1] / d[-1]
+    assert (
+        abs(dc(nom["actuator"]["num"], nom["actuator"]["den"]) / dc(tn["num"], tn["den"]) - 1)
+        <= 0.1 + 1e-12
+    )
     assert abs(nom["specimen"]["inertance"] / tn["inertance"] - 1) <= 0.1 + 1e-12
     assert abs(nom["actuator"]["delay"] - tn["delay"]) <= 0.8 / fs + 1e-12
     assert nom["specimen"]["friction"] == 0.0 and lab["effects"][0]["effect"] == "none"
@@ -326,7 +363,10 @@ def test_none_case_files_follow_the_labelled_nominal(tmp_path):
         h = np.polyval(tn["num"], s_) / np.polyval(tn["den"], s_) * np.exp(-s_ * tn["delay"]) * zoh
         pred = np.fft.irfft(np.fft.rfft(cmd, nf) * h, nf)[: len(cmd)]
         off = np.mean(meas[: int(0.4 * fs)])  # the records start with 0.5 s of rest
-        noise = math.sqrt(lab["noise"]["displacement_sigma"] ** 2 + daq.lsb(rec["displacement_full_scale"]) ** 2 / 12)
+        noise = math.sqrt(
+            lab["noise"]["displacement_sigma"] ** 2
+            + daq.lsb(rec["displacement_full_scale"]) ** 2 / 12
+        )
         # residual = noise + AA-filter droop (< 0.3 % of the signal at 20 Hz); bound:
         # 1.5x noise rms (observed 0.9-1.3x over seeds 1-8: quantisation error is not white
         # when the noise is below one LSB) + 0.5 % of the signal rms
@@ -340,8 +380,14 @@ def test_none_case_files_follow_the_labelled_nominal(tmp_path):
         band = fr <= fc
         s_ = 2j * np.pi * fr
         z = tn["inertance"] * s_**2 + tn["damping"] * s_ + tn["stiffness"]
-        res = np.fft.irfft(np.where(band, np.fft.rfft(force - np.mean(force[: int(0.4 * fs)]))
-                                    - z * np.fft.rfft(meas - off), 0), len(cmd))
+        res = np.fft.irfft(
+            np.where(
+                band,
+                np.fft.rfft(force - np.mean(force[: int(0.4 * fs)])) - z * np.fft.rfft(meas - off),
+                0,
+            ),
+            len(cmd),
+        )
         ef2 = lab["noise"]["force_sigma"] ** 2 + daq.lsb(rec["force_full_scale"]) ** 2 / 12
         # white noise of variance s^2 per sample through the band: s^2 * mean over the band
         # of the weight, times the band fraction 2 fc / fs
@@ -361,8 +407,16 @@ def test_plan_mix_and_effect_draws():
     classes = {e for p in design.plan_cases(np.random.default_rng(0), 10) for e in p}
     assert classes == set(design.EFFECTS)
     assert any(p == () for p in design.plan_cases(np.random.default_rng(0), 10))
-    ref = {"inertance": 1000.0, "rod_mass": 10.0, "peak_force": 1e4, "peak_speed": 0.2, "peak_disp": 5e-3,
-           "min_peak_cmd": 1e-2, "f_ref": 2.0, "fs": 4096.0}
+    ref = {
+        "inertance": 1000.0,
+        "rod_mass": 10.0,
+        "peak_force": 1e4,
+        "peak_speed": 0.2,
+        "peak_disp": 5e-3,
+        "min_peak_cmd": 1e-2,
+        "f_ref": 2.0,
+        "fs": 4096.0,
+    }
     rng = np.random.default_rng(1)
     for _ in range(200):
         d = design.effect_params(rng, "actuator_delay", ref)["delay"]
@@ -375,13 +429,19 @@ def test_plan_mix_and_effect_draws():
         assert 0.03 <= fr <= 0.5
         vl = design.effect_params(rng, "rate_limit", ref)["velocity_limit"] / ref["peak_speed"]
         assert 0.4 <= vl <= 0.9
-        fi = design.derived("internal_stiffness", design.effect_params(rng, "internal_stiffness", ref), ref)
+        fi = design.derived(
+            "internal_stiffness", design.effect_params(rng, "internal_stiffness", ref), ref
+        )
         assert 5 <= fi["internal_resonance_hz"] <= 150
 
 
 def _cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, str(ROOT / "tools" / "truthgen"), *args],
-                          capture_output=True, text=True, cwd=ROOT)
+    return subprocess.run(
+        [sys.executable, str(ROOT / "tools" / "truthgen"), *args],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
 
 
 def test_cli_bad_arguments_exit_2(tmp_path, capsys):
@@ -390,11 +450,13 @@ def test_cli_bad_arguments_exit_2(tmp_path, capsys):
     r = _cli("--out", str(tmp_path / "a"), "--cases", "0", "--seed", "1")  # the real entry point
     assert r.returncode == 2 and r.stdout == ""
     assert len(r.stderr.strip().splitlines()) == 1 and "error" in r.stderr
-    for args in (["--out", str(tmp_path / "a"), "--cases", "2"],
-                 ["--out", str(tmp_path / "a"), "--cases", "2", "--seed", "1", "--rates", "500"],
-                 ["--out", str(tmp_path / "a"), "--cases", "2", "--seed", "1", "--max-duration", "1"],
-                 ["--out", str(tmp_path / "a"), "--cases", "x", "--seed", "1"],
-                 ["--out", str(ROOT), "--cases", "1", "--seed", "1"]):
+    for args in (
+        ["--out", str(tmp_path / "a"), "--cases", "2"],
+        ["--out", str(tmp_path / "a"), "--cases", "2", "--seed", "1", "--rates", "500"],
+        ["--out", str(tmp_path / "a"), "--cases", "2", "--seed", "1", "--max-duration", "1"],
+        ["--out", str(tmp_path / "a"), "--cases", "x", "--seed", "1"],
+        ["--out", str(ROOT), "--cases", "1", "--seed", "1"],
+    ):
         with pytest.raises(SystemExit) as ex:
             cli.main(args)
         assert ex.value.code == 2
@@ -409,7 +471,12 @@ def test_cli_suite_is_deterministic_and_neutral(tmp_path):
     ra = _cli("--out", str(a), "--cases", "2", "--seed", "3", "--max-duration", "3")
     from truthgen import cli
 
-    assert cli.main(["--out", str(b), "--cases", "2", "--seed", "3", "--max-duration", "3", "--jobs", "2"]) == 0
+    assert (
+        cli.main(
+            ["--out", str(b), "--cases", "2", "--seed", "3", "--max-duration", "3", "--jobs", "2"]
+        )
+        == 0
+    )
     assert ra.returncode == 0, ra.stderr
     assert ra.stderr.count("truthgen: [") == 2  # progress lines on stderr
     files = sorted(p.relative_to(a) for p in a.rglob("*") if p.is_file())

@@ -76,8 +76,10 @@ def main() -> None:
 
     benchmark = ServoHydraulicActuator(benchmark_specimen(), DT)
     generic = TransferFunctionActuator(
-        [50.0 * 102500.0], np.polymul([1.0, 50.0], [1.0, 400.0, 102500.0]),
-        LinearSpecimen(29.13, 114.0, 1.19e6), DT,
+        [50.0 * 102500.0],
+        np.polymul([1.0, 50.0], [1.0, 400.0, 102500.0]),
+        LinearSpecimen(29.13, 114.0, 1.19e6),
+        DT,
     )
     lab = EmulatedLab(ServoHydraulicActuator(benchmark_specimen(), DT), seed=0)
     print(f"loop rate {1 / DT:.0f} Hz, {args.blocks} blocks x {args.block_steps} steps, median")

@@ -42,9 +42,14 @@ def time_per_step(
 ) -> float:
     """Median wall time of one ``Cable.step`` [µs]."""
     cable = Cable(
-        PROPS, 0.02, 1.0 / 4096, elements=elements, load=DistributedLoad(100.0, mode=3),
-        damper=device, use_numba=use_numba,
-    )  # fmt: skip
+        PROPS,
+        0.02,
+        1.0 / 4096,
+        elements=elements,
+        load=DistributedLoad(100.0, mode=3),
+        damper=device,
+        use_numba=use_numba,
+    )
     forces = [1e3 * math.sin(0.01 * k) for k in range(steps)]
     cable.step(0.0)  # compile / warm up
     samples = []

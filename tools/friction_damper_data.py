@@ -166,5 +166,16 @@ def load_record(folder: Path, name: str) -> Record:
     if not np.all(np.isfinite(a)) or np.any(np.diff(a[:, 0]) <= 0):
         raise ValueError(f"{name}: non-finite values or non-increasing time")
     kind, fr, ten, amp = parse_name(name)
-    return Record(name, kind, fr, ten, amp, a[:, 0], a[:, 1] * IN_M, a[:, 2] * KIP_N,
-                  a[:, 3] * IN_M, a[:, 4] * LB_N, a[:, 5] * LB_N)
+    return Record(
+        name,
+        kind,
+        fr,
+        ten,
+        amp,
+        a[:, 0],
+        a[:, 1] * IN_M,
+        a[:, 2] * KIP_N,
+        a[:, 3] * IN_M,
+        a[:, 4] * LB_N,
+        a[:, 5] * LB_N,
+    )

@@ -42,15 +42,22 @@ from friction_damper_data import (
 )
 from friction_damper_reading import Reading, read_record, summarize, velocity
 
-ATTRIBUTION = ("ARTS Laboratory, University of South Carolina; Downey et al., Engineering "
-               "Structures 113 (2016) 287-298 (CC BY-SA 4.0)")
+ATTRIBUTION = (
+    "ARTS Laboratory, University of South Carolina; Downey et al., Engineering "
+    "Structures 113 (2016) 287-298 (CC BY-SA 4.0)"
+)
 
 _COLS = [  # (key, header, scale from SI to plot units, format)
-    ("slip_pos", "F+ kN", 1e-3, "{:.2f}"), ("slip_neg", "F- kN", 1e-3, "{:.2f}"),
-    ("friction", "f kN", 1e-3, "{:.2f}"), ("centre", "ctr kN", 1e-3, "{:.2f}"),
-    ("clearance", "gap mm", 1e3, "{:.2f}"), ("clearance_tangent", "gapT mm", 1e3, "{:.2f}"),
-    ("k_load", "kL kN/mm", 1e-6, "{:.2f}"), ("k_unload", "kU kN/mm", 1e-6, "{:.2f}"),
-    ("k_gap", "kG kN/mm", 1e-6, "{:.3f}"), ("breakaway", "peak/slip", 1.0, "{:.2f}"),
+    ("slip_pos", "F+ kN", 1e-3, "{:.2f}"),
+    ("slip_neg", "F- kN", 1e-3, "{:.2f}"),
+    ("friction", "f kN", 1e-3, "{:.2f}"),
+    ("centre", "ctr kN", 1e-3, "{:.2f}"),
+    ("clearance", "gap mm", 1e3, "{:.2f}"),
+    ("clearance_tangent", "gapT mm", 1e3, "{:.2f}"),
+    ("k_load", "kL kN/mm", 1e-6, "{:.2f}"),
+    ("k_unload", "kU kN/mm", 1e-6, "{:.2f}"),
+    ("k_gap", "kG kN/mm", 1e-6, "{:.3f}"),
+    ("breakaway", "peak/slip", 1.0, "{:.2f}"),
 ]
 
 
@@ -71,8 +78,10 @@ def band_sensitivity(rec: Record) -> dict[str, float]:
     A flat, force-free plateau with steep flanks gives nearly the same width for every band; a
     width that grows with the band means a sloped plateau or rounded contact knees.
     """
-    return {f"{b:g}": summarize(read_record(rec, band_frac=b))["clearance"]["median"]
-            for b in BAND_CHECK}
+    return {
+        f"{b:g}": summarize(read_record(rec, band_frac=b))["clearance"]["median"]
+        for b in BAND_CHECK
+    }
 
 
 def table(readings: list[Reading], sens: list[dict[str, float]] | None = None) -> str:
@@ -83,21 +92,28 @@ def table(readings: list[Reading], sens: list[dict[str, float]] | None = None) -
     lines = []
     for i, r in enumerate(readings):
         s = summarize(r)
-        lines.append(f"{r.name}: F0 {r.f0 * 1e-3:+.3f} kN, near-zero band +-{r.band * 1e-3:.3f} kN"
-                     f" (noise sigma {r.sigma * 1e-3:.3f} kN), hysteresis "
-                     f"{r.hysteresis * 1e3:.2f} mm, {len(r.half_cycles)} half-cycles")
+        lines.append(
+            f"{r.name}: F0 {r.f0 * 1e-3:+.3f} kN, near-zero band +-{r.band * 1e-3:.3f} kN"
+            f" (noise sigma {r.sigma * 1e-3:.3f} kN), hysteresis "
+            f"{r.hysteresis * 1e3:.2f} mm, {len(r.half_cycles)} half-cycles"
+        )
         for part in (_COLS[:4], _COLS[4:7], _COLS[7:]):
             cells = (f"{head} {_cell(s[key], sc, fmt)};" for key, head, sc, fmt in part)
             lines.append("    " + "  ".join(cells))
         if sens is not None:
-            lines.append("    gap mm with a band of " + ", ".join(
-                f"{100 * float(b):g} %: {w * 1e3:.2f}" for b, w in sens[i].items()) + " of f")
+            lines.append(
+                "    gap mm with a band of "
+                + ", ".join(f"{100 * float(b):g} %: {w * 1e3:.2f}" for b, w in sens[i].items())
+                + " of f"
+            )
         c = r.checks
-        lines.append(f"    channels: F / (act2-act1) {c['force_per_act_diff']:.3f} (r "
-                     f"{c['corr_act']:.3f}, lag {c['lag_act_samples']:+d} samples); velocity / "
-                     f"dx/dt {c['velocity_gain']:.3f} (r {c['corr_velocity']:.4f}); F v > 0 on "
-                     f"{100 * c['dissipating_fraction']:.0f} % of |v| > 0.3 max; F at rest "
-                     f"{c['force_rest_start'] * 1e-3:+.3f} / {c['force_rest_end'] * 1e-3:+.3f} kN")
+        lines.append(
+            f"    channels: F / (act2-act1) {c['force_per_act_diff']:.3f} (r "
+            f"{c['corr_act']:.3f}, lag {c['lag_act_samples']:+d} samples); velocity / "
+            f"dx/dt {c['velocity_gain']:.3f} (r {c['corr_velocity']:.4f}); F v > 0 on "
+            f"{100 * c['dissipating_fraction']:.0f} % of |v| > 0.3 max; F at rest "
+            f"{c['force_rest_start'] * 1e-3:+.3f} / {c['force_rest_end'] * 1e-3:+.3f} kN"
+        )
     return "\n".join(lines)
 
 
@@ -107,13 +123,23 @@ def to_json(r: Reading, rec: Record, sens: dict[str, float]) -> dict:
     s = summarize(r)
     plot = {k: {q: (v * sc if q != "n" else v) for q, v in s[k].items()} for k, _, sc, _ in _COLS}
     return {
-        "record": r.name, "kind": rec.kind, "frequency_hz": rec.frequency_hz,
-        "tension_lb": rec.tension_lb, "amplitude_in": rec.amplitude_in,
-        "f0_N": r.f0, "band_N": r.band, "noise_sigma_N": r.sigma, "hysteresis_m": r.hysteresis,
-        "si": s, "plot_units": plot, "plot_units_legend": {k: h for k, h, _, _ in _COLS},
-        "clearance_vs_band_m": sens, "channel_checks": r.checks,
-        "half_cycles": [{k: v for k, v in asdict(h).items() if k != "plateau"}
-                        for h in r.half_cycles],
+        "record": r.name,
+        "kind": rec.kind,
+        "frequency_hz": rec.frequency_hz,
+        "tension_lb": rec.tension_lb,
+        "amplitude_in": rec.amplitude_in,
+        "f0_N": r.f0,
+        "band_N": r.band,
+        "noise_sigma_N": r.sigma,
+        "hysteresis_m": r.hysteresis,
+        "si": s,
+        "plot_units": plot,
+        "plot_units_legend": {k: h for k, h, _, _ in _COLS},
+        "clearance_vs_band_m": sens,
+        "channel_checks": r.checks,
+        "half_cycles": [
+            {k: v for k, v in asdict(h).items() if k != "plateau"} for h in r.half_cycles
+        ],
     }
 
 
@@ -135,7 +161,7 @@ def fit_nominal(records: list[Record], kind: str) -> tuple[float, float]:
     v = np.concatenate([velocity(r.x, r.dt) for r in records])
     basis = v if kind == "viscous" else np.sign(v)
     p = float(np.dot(f, basis) / np.dot(basis, basis))
-    return p, float(np.sqrt(np.mean((f - p * basis) ** 2) / np.mean(f ** 2)))
+    return p, float(np.sqrt(np.mean((f - p * basis) ** 2) / np.mean(f**2)))
 
 
 def nominal_toml(kind: str, tension: float, records: list[Record]) -> str:
@@ -147,21 +173,26 @@ def nominal_toml(kind: str, tension: float, records: list[Record]) -> str:
     p, nrmse = fit_nominal(records, kind)
     damping, friction = (p, 0.0) if kind == "viscous" else (0.0, p)
     loops = [summarize(read_record(r))["friction"]["median"] for r in records]
-    lines = [f"# Friction damper with backlash, {tension:g} lb band tension: {kind} nominal, least",
-             "# squares over every sample of the sine records"]
+    lines = [
+        f"# Friction damper with backlash, {tension:g} lb band tension: {kind} nominal, least",
+        "# squares over every sample of the sine records",
+    ]
     lines += [f"#   {r.name}" for r in records]
-    lines += [f"# NRMSE {nrmse:.2f} of the force RMS.  For comparison, the friction read on the",
-              f"# loops (slip phases only, median over records): {np.nanmedian(loops):.1f} N.",
-              "# Use: python tools/friction_damper_to_csv.py --out DIR, then",
-              "#   rths diagnose DIR/<record>.csv --nominal <this file>",
-              "# Data: " + ATTRIBUTION.split("; ")[0] + ";",
-              "#   " + ATTRIBUTION.split("; ")[1] + "."]
+    lines += [
+        f"# NRMSE {nrmse:.2f} of the force RMS.  For comparison, the friction read on the",
+        f"# loops (slip phases only, median over records): {np.nanmedian(loops):.1f} N.",
+        "# Use: python tools/friction_damper_to_csv.py --out DIR, then",
+        "#   rths diagnose DIR/<record>.csv --nominal <this file>",
+        "# Data: " + ATTRIBUTION.split("; ")[0] + ";",
+        "#   " + ATTRIBUTION.split("; ")[1] + ".",
+    ]
     return "\n".join(lines) + (
         "\n[actuator]            # measured/command: identity (only the displacement is recorded)\n"
         "num = [1.0]\nden = [1.0]\ndelay = 0.0  # s\n\n"
         "[specimen]            # F = inertance*a + damping*v + stiffness*x + friction*sign(v)\n"
         f"inertance = 0.0  # kg\ndamping = {damping:.1f}  # N s/m\nstiffness = 0.0  # N/m\n"
-        f"friction = {friction:.1f}  # N\n")
+        f"friction = {friction:.1f}  # N\n"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -203,11 +234,14 @@ def main(argv: list[str] | None = None) -> int:
     print(table(readings, sens))
     if args.json:
         try:
-            args.json.write_text(json.dumps(_finite({"attribution": ATTRIBUTION, "records": out}),
-                                            indent=1) + "\n")
+            args.json.write_text(
+                json.dumps(_finite({"attribution": ATTRIBUTION, "records": out}), indent=1) + "\n"
+            )
         except OSError as e:
-            print(f"friction_damper_loops.py: error: cannot write {args.json}: {e.strerror}",
-                  file=sys.stderr)
+            print(
+                f"friction_damper_loops.py: error: cannot write {args.json}: {e.strerror}",
+                file=sys.stderr,
+            )
             return 2
         print(f"wrote {args.json}")
     return 0

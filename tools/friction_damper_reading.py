@@ -102,8 +102,9 @@ def _first(mask: np.ndarray) -> int | None:
     return int(hits[0]) if hits.size else None
 
 
-def flank_line(x: np.ndarray, f: np.ndarray, g: np.ndarray, lo: float,
-               hi: float) -> tuple[float, float] | None:
+def flank_line(
+    x: np.ndarray, f: np.ndarray, g: np.ndarray, lo: float, hi: float
+) -> tuple[float, float] | None:
     """Line ``F = k x + q`` fitted to a flank; ``None`` when it is not a clean straight flank.
 
     The raw samples from the first passage of ``g >= lo`` to the first passage of ``g >= hi``
@@ -112,9 +113,9 @@ def flank_line(x: np.ndarray, f: np.ndarray, g: np.ndarray, lo: float,
     ``R2_MIN`` of the force variance, else ``None``.
     """
     a, b = _first(g >= lo), _first(g >= hi)
-    if a is None or b is None or b - a + 1 < 4 or np.ptp(x[a:b + 1]) <= 0:
+    if a is None or b is None or b - a + 1 < 4 or np.ptp(x[a : b + 1]) <= 0:
         return None
-    xs, fs = x[a:b + 1], f[a:b + 1]
+    xs, fs = x[a : b + 1], f[a : b + 1]
     k, q = np.polyfit(xs, fs, 1)
     r2 = 1.0 - np.var(fs - (k * xs + q)) / max(np.var(fs), 1e-300)
     return (float(k), float(q)) if k > 0 and r2 >= R2_MIN else None
@@ -140,8 +141,9 @@ class HalfCycle:
     plateau: tuple[int, int] | None = field(default=None, repr=False)
 
 
-def read_half_cycle(x: np.ndarray, f: np.ndarray, fs: np.ndarray, t: np.ndarray,
-                    f0: float, band: float) -> HalfCycle:
+def read_half_cycle(
+    x: np.ndarray, f: np.ndarray, fs: np.ndarray, t: np.ndarray, f0: float, band: float
+) -> HalfCycle:
     """Read one half-cycle (arrays cut from one reversal to the next; see the module text).
 
     Parameters
@@ -166,13 +168,15 @@ def read_half_cycle(x: np.ndarray, f: np.ndarray, fs: np.ndarray, t: np.ndarray,
         j0 = int(inb[0])
         hc.clearance = float(abs(x[last_in] - x[j0]))
         hc.plateau = (j0, last_in)
-        if last_in - j0 >= 3 and np.ptp(x[j0:last_in + 1]) > 0:
-            hc.k_gap = float(np.polyfit(x[j0:last_in + 1], f[j0:last_in + 1], 1)[0])
+        if last_in - j0 >= 3 and np.ptp(x[j0 : last_in + 1]) > 0:
+            hc.k_gap = float(np.polyfit(x[j0 : last_in + 1], f[j0 : last_in + 1], 1)[0])
         g0 = -g[0]
         if g0 >= band / FLANK[0]:
-            unload = flank_line(x[:j0 + 1], f[:j0 + 1], g[:j0 + 1], -FLANK[1] * g0, -FLANK[0] * g0)
+            unload = flank_line(
+                x[: j0 + 1], f[: j0 + 1], g[: j0 + 1], -FLANK[1] * g0, -FLANK[0] * g0
+            )
             hc.k_unload = unload[0] if unload else float("nan")
-    gf, xf, ff = g[last_in + 1:], x[last_in + 1:], f[last_in + 1:]
+    gf, xf, ff = g[last_in + 1 :], x[last_in + 1 :], f[last_in + 1 :]
     hc.peak = float(gf.max())
     level = float(np.percentile(gf, LEVEL_PCT))
     if level < band / FLANK[0]:
@@ -224,14 +228,24 @@ def read_record(rec: Record, band_frac: float = BAND_FRAC) -> Reading:
         near = np.abs(fs - f0) <= band
         sigma = noise_sigma(f[near]) if near.sum() > 10 else noise_sigma(f)
         band = max(band_frac * scale, BAND_SIGMA * sigma)
-        hcs = [read_half_cycle(x[i:j + 1], f[i:j + 1], fs[i:j + 1], t[i:j + 1], f0, band)
-               for i, j in pairwise(cuts)]
-        on_plateau = [f[i + p[0]:i + p[1] + 1] for i, hc in zip(cuts[:-1], hcs)
-                      if (p := hc.plateau) is not None]
+        hcs = [
+            read_half_cycle(x[i : j + 1], f[i : j + 1], fs[i : j + 1], t[i : j + 1], f0, band)
+            for i, j in pairwise(cuts)
+        ]
+        on_plateau = [
+            f[i + p[0] : i + p[1] + 1]
+            for i, hc in zip(cuts[:-1], hcs)
+            if (p := hc.plateau) is not None
+        ]
         if on_plateau:
             f0 = float(np.median(np.concatenate(on_plateau)))
-        levels = [np.median([abs(hc.slip_level - f0) for hc in hcs if hc.slips
-                             and hc.direction == d] or [np.nan]) for d in (1, -1)]
+        levels = [
+            np.median(
+                [abs(hc.slip_level - f0) for hc in hcs if hc.slips and hc.direction == d]
+                or [np.nan]
+            )
+            for d in (1, -1)
+        ]
         if np.any(np.isfinite(levels)):
             scale = float(np.nanmean(levels))
     return Reading(rec.name, f0, band, sigma, h, hcs, channel_checks(rec))
@@ -299,8 +313,11 @@ def summarize(r: Reading) -> dict[str, dict[str, float]]:
     """
     hcs = r.half_cycles
     slips = [h for h in hcs if h.slips]
-    pairs = [(a.slip_level, b.slip_level) if a.direction > 0 else (b.slip_level, a.slip_level)
-             for a, b in pairwise(slips) if a.direction != b.direction]
+    pairs = [
+        (a.slip_level, b.slip_level) if a.direction > 0 else (b.slip_level, a.slip_level)
+        for a, b in pairwise(slips)
+        if a.direction != b.direction
+    ]
     out = {
         "slip_pos": stats([h.slip_level for h in hcs if h.slips and h.direction > 0]),
         "slip_neg": stats([h.slip_level for h in hcs if h.slips and h.direction < 0]),
@@ -311,7 +328,8 @@ def summarize(r: Reading) -> dict[str, dict[str, float]]:
         "k_load": stats([h.k_load for h in hcs]),
         "k_unload": stats([h.k_unload for h in hcs]),
         "k_gap": stats([h.k_gap for h in hcs]),
-        "breakaway": stats([h.peak / (h.direction * (h.slip_level - r.f0))
-                            for h in hcs if h.slips]),
+        "breakaway": stats(
+            [h.peak / (h.direction * (h.slip_level - r.f0)) for h in hcs if h.slips]
+        ),
     }
     return out

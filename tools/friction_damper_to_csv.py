@@ -42,8 +42,10 @@ from friction_damper_data import (
 )
 from friction_damper_reading import velocity
 
-ATTRIBUTION = ("ARTS Laboratory, University of South Carolina; Downey et al., Engineering "
-               "Structures 113 (2016) 287-298 (CC BY-SA 4.0)")
+ATTRIBUTION = (
+    "ARTS Laboratory, University of South Carolina; Downey et al., Engineering "
+    "Structures 113 (2016) 287-298 (CC BY-SA 4.0)"
+)
 HEADER = "time,command,measured,force"
 
 
@@ -93,8 +95,12 @@ def main(argv: list[str] | None = None) -> int:
     if unknown:
         p.error(f"unknown record(s) {', '.join(unknown)}; have: {', '.join(names)}")
     names = [n for n in names if not args.records or n in args.records]
-    manifest: dict[str, object] = {"attribution": ATTRIBUTION, "header": HEADER,
-                                   "units": "s, m, m, N", "records": {}}
+    manifest: dict[str, object] = {
+        "attribution": ATTRIBUTION,
+        "header": HEADER,
+        "units": "s, m, m, N",
+        "records": {},
+    }
     try:
         args.out.mkdir(parents=True, exist_ok=True)
         for n in names:
@@ -102,14 +108,20 @@ def main(argv: list[str] | None = None) -> int:
             table, sign = columns(rec)
             write_csv(args.out / f"{n}.csv", table)
             manifest["records"][n] = {  # type: ignore[index]
-                "kind": rec.kind, "frequency_hz": rec.frequency_hz, "tension_lb": rec.tension_lb,
+                "kind": rec.kind,
+                "frequency_hz": rec.frequency_hz,
+                "tension_lb": rec.tension_lb,
                 "amplitude_in": rec.amplitude_in,
                 "amplitude_m": None if rec.amplitude_in is None else rec.amplitude_in * IN_M,
-                "file": f"{n}.csv", "samples": int(table.shape[0]), "dt_s": rec.dt,
+                "file": f"{n}.csv",
+                "samples": int(table.shape[0]),
+                "dt_s": rec.dt,
                 "force_sign": sign,
             }
-            print(f"{args.out / (n + '.csv')}: {table.shape[0]} samples at {1 / rec.dt:g} Hz, "
-                  f"force sign {sign:+d}")
+            print(
+                f"{args.out / (n + '.csv')}: {table.shape[0]} samples at {1 / rec.dt:g} Hz, "
+                f"force sign {sign:+d}"
+            )
         (args.out / "manifest.json").write_text(json.dumps(manifest, indent=1) + "\n")
     except OSError as e:
         print(f"friction_damper_to_csv.py: error: {e.filename}: {e.strerror}", file=sys.stderr)

@@ -1,7 +1,7 @@
 """Linear (python-control) models behind the actuators: build, close, check, discretise.
 
-Private helpers of :mod:`plants.actuator.models`; everything here runs once at construction, never in
-the stepping loop.
+Private helpers of :mod:`plants.actuator.models`; everything here runs once at construction, never
+in the stepping loop.
 """
 
 from __future__ import annotations
@@ -51,9 +51,7 @@ def servo_hydraulic_model(
         ``[displacement, velocity, acceleration, hydraulic_force]`` [m, m/s, m/s^2, N].
     """
     m, c = moving_mass, moving_damping
-    valve = control.tf(
-        [p.a1_beta0], [1.0, p.beta1, p.beta2], inputs="e", outputs="q", name="valve"
-    )
+    valve = control.tf([p.a1_beta0], [1.0, p.beta1, p.beta2], inputs="e", outputs="q", name="valve")
     hydraulics = control.tf([1.0], [1.0, p.a3], inputs="h", outputs="F_a", name="hydraulics")
     mechanics = control.ss(
         [[0.0, 1.0], [0.0, -c / m]],
@@ -103,7 +101,12 @@ def close_remainder(
     else:
         rest = control.ss([], [], [], [[float(remainder)]])
     rest = control.ss(
-        rest.A, rest.B, rest.C, rest.D, inputs="displacement", outputs="remainder_force",
+        rest.A,
+        rest.B,
+        rest.C,
+        rest.D,
+        inputs="displacement",
+        outputs="remainder_force",
         name="remainder",
     )
     closed = control.interconnect(

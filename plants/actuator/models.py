@@ -164,7 +164,10 @@ class ServoHydraulicActuator(Actuator):
             substeps = default_substeps(check_positive(dt, "time step dt"))
         self.substeps: int = check_positive_int(substeps, "substeps")
         super().__init__(
-            specimen, dt, delay=delay, velocity_limit=velocity_limit,
+            specimen,
+            dt,
+            delay=delay,
+            velocity_limit=velocity_limit,
             limiter_step=dt / self.substeps,
         )
         self.parameters: BenchmarkParameters = parameters
@@ -214,8 +217,14 @@ class ServoHydraulicActuator(Actuator):
         hydraulics = options.hydraulics
         if rng is not None:
             hydraulics = hydraulics.sample(rng)
-        return cls(specimen, dt, hydraulics, substeps=options.substeps, delay=options.delay,
-                   velocity_limit=options.velocity_limit)  # fmt: skip
+        return cls(
+            specimen,
+            dt,
+            hydraulics,
+            substeps=options.substeps,
+            delay=options.delay,
+            velocity_limit=options.velocity_limit,
+        )
 
     @classmethod
     def nominal_plant(
@@ -372,8 +381,14 @@ class TransferFunctionActuator(Actuator):
     ) -> TransferFunctionActuator:
         """The ``transfer_function`` kind driving ``specimen``."""
         assert options.num is not None and options.den is not None  # options validate it
-        return cls(list(options.num), list(options.den), specimen, dt, delay=options.delay,
-                   velocity_limit=options.velocity_limit)  # fmt: skip
+        return cls(
+            list(options.num),
+            list(options.den),
+            specimen,
+            dt,
+            delay=options.delay,
+            velocity_limit=options.velocity_limit,
+        )
 
     @classmethod
     def nominal_plant(

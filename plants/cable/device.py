@@ -31,7 +31,8 @@ spring on a 1-D lattice always binds one mode above the band, decaying by ``r`` 
 with ``1/r - r = k_s h/T`` (lumped lattice), so ``h = h_max`` means ``r = sqrt(5) - 2 = 0.24``
 and finer meshes spread it further (measured, seed values, average mass: the damper node holds
 ``phi_j^2 M_jj/phi^T M phi`` = 98 % of that mode at ``N = 300``, 87 % at 641, 74 % at 1000).
-:class:`plants.cable.model.Cable` does not enforce the rule (convergence studies need coarse meshes);
+:class:`plants.cable.model.Cable` does not enforce the rule (convergence studies need coarse
+meshes);
 :func:`elements_for` gives the smallest mesh that meets it.
 """
 

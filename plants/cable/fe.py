@@ -1,4 +1,5 @@
-"""Linear finite elements of a taut string with a node at the damper (private to plants.cable.model).
+"""Linear finite elements of a taut string with a node at the damper (private to
+plants.cable.model).
 
 Everything here is a symmetric tridiagonal matrix over the free nodes (the two fixed ends are
 removed), stored as its diagonal and first off-diagonal so that assembly, products and the

@@ -40,7 +40,8 @@ Three independent ways to the same numbers are provided:
   (``(n - 1/2) pi <= Re beta < (n + 1/2) pi``, ``0 <= Im beta <= max_imag``): the argument
   principle counts them, vectorised Newton iterations from a grid of starts find them, and the
   grid is refined until the two agree.
-* :func:`fe_roots` -- complex eigenvalues ``s`` of the FE model of :mod:`plants.cable.model` with the
+* :func:`fe_roots` -- complex eigenvalues ``s`` of the FE model of :mod:`plants.cable.model` with
+the
   damper inside it, from the state-space generalised eigenproblem
   ``[[0, I], [-K, -C]] z = s [[I, 0], [0, M]] z`` (``beta = -i s L/c``,
   ``zeta = -Re s/|s|``).
@@ -169,7 +170,7 @@ def device_impedance(
     beta: ArrayLike, properties: CableProperties, device: InterfaceDevice
 ) -> NDArray[np.complex128]:
     """Normalised impedance ``Z = K(omega) L/(T beta)``, ``omega = beta c/L``, of any physical
-    device on a physical cable (``K``: :meth:`plants.cable.model.InterfaceDevice.dynamic_stiffness`)."""
+    device on a physical cable (``K``: :meth:`plants.cable.InterfaceDevice.dynamic_stiffness`)."""
     b = np.asarray(beta, dtype=complex)
     p = properties
     return device.dynamic_stiffness(b * p.wave_speed / p.length) * p.length / (p.tension * b)
@@ -241,8 +242,10 @@ def _winding(corners: list[complex], system: _System) -> int:
         jumps = np.angle(f[1:] / f[:-1])
         if np.max(np.abs(jumps)) < math.pi / 4:
             return round(float(np.sum(jumps)) / (2.0 * math.pi))
-    raise NumericalError("a root of the frequency equation lies on the search window's boundary; "
-                    "change max_imag slightly")
+    raise NumericalError(
+        "a root of the frequency equation lies on the search window's boundary; "
+        "change max_imag slightly"
+    )
 
 
 def exact_roots(
@@ -292,9 +295,14 @@ def exact_roots(
         im = np.arange(0.0, top + spacing / 2, spacing)
         starts = (re[:, None] + 1j * im[None, :]).ravel()
         roots, converged, _ = so.newton(
-            _function, starts, fprime=_derivative, args=system,
-            tol=1e-13, maxiter=100, full_output=True,
-        )  # fmt: skip
+            _function,
+            starts,
+            fprime=_derivative,
+            args=system,
+            tol=1e-13,
+            maxiter=100,
+            full_output=True,
+        )
         inside = (roots.real >= lo) & (roots.real < hi)
         inside &= (roots.imag >= _LOWER_IMAG) & (roots.imag <= top)
         for z in roots[converged & inside]:

@@ -10,14 +10,14 @@ Modelling choices (with the evidence)
 * **Mass matrix: the average of the consistent and lumped matrices**, element
   ``m h/12 [[5,1],[1,5]]``.  On a uniform mesh its frequencies are fourth-order accurate (the
   consistent matrix overestimates by ``(kh)^2/24``, the lumped one underestimates by the same).
-  Measured against the exact frequency equation (:mod:`plants.cable.frequency_equation`), viscous damper at
-  ``x_d = 0.02``, ``kappa = 1``, mode 1, relative error of the damping ratio for N = 50/100/200/400
-  elements: consistent 3.4e-4/8.5e-5/2.1e-5/5.3e-6, lumped -3.3e-4/-8.1e-5/-2.0e-5/-5.1e-6,
-  average 7.0e-6/1.8e-6/4.5e-7/1.1e-7.  For the IMD optimum of mode 3 the error is dominated by
-  the sensitivity of the two nearly coalescent roots and all three converge as 1/N^2 with the
-  same constant (consistent 7.6e-4, lumped 8.8e-4, average 8.1e-4 at N = 400, worst root), so
-  the average matrix costs nothing there and gains 50x elsewhere; it stays tridiagonal.
-  Reproduce with ``python tools/bench_cable.py --mass-study``.
+  Measured against the exact frequency equation (:mod:`plants.cable.frequency_equation`), viscous
+  damper at ``x_d = 0.02``, ``kappa = 1``, mode 1, relative error of the damping ratio for N =
+  50/100/200/400 elements: consistent 3.4e-4/8.5e-5/2.1e-5/5.3e-6, lumped
+  -3.3e-4/-8.1e-5/-2.0e-5/-5.1e-6, average 7.0e-6/1.8e-6/4.5e-7/1.1e-7.  For the IMD optimum of mode
+  3 the error is dominated by the sensitivity of the two nearly coalescent roots and all three
+  converge as 1/N^2 with the same constant (consistent 7.6e-4, lumped 8.8e-4, average 8.1e-4 at N =
+  400, worst root), so the average matrix costs nothing there and gains 50x elsewhere; it stays
+  tridiagonal. Reproduce with ``python tools/bench_cable.py --mass-study``.
 * **Intrinsic damping: Rayleigh** ``C = a0 M + a1 K`` anchored at two string modes (default
   modes 1 and 3, 0.1 %, S0 §1).  It keeps ``C`` tridiagonal and the damping classical, unlike
   dense modal damping; pure stiffness-proportional damping would triple the ratio of mode 3 (the
@@ -38,9 +38,9 @@ Modelling choices (with the evidence)
   actuator with residual delay ``tau``) into a flexible FE cable is unstable -- a delayed
   stiffness acts as negative damping ``k tau`` and a string's driving-point impedance is only
   ``2 sqrt(T m)``.  So the cable carries a nominal model of the device and the loop feeds back
-  only the (filtered) correction ``force_scale F - device_force`` (:mod:`rths.runtime.loop`).  For the
-  S0 Type II IMD the nominal device needs the series stiffness, otherwise the correction is large
-  above its 13.8 Hz self-vibration and the loop diverges.  The same device serves the fully
+  only the (filtered) correction ``force_scale F - device_force`` (:mod:`rths.runtime.loop`).  For
+  the S0 Type II IMD the nominal device needs the series stiffness, otherwise the correction is
+  large above its 13.8 Hz self-vibration and the loop diverges.  The same device serves the fully
   numerical "mock" RTHS and the eigen-analysis (:mod:`plants.cable.frequency_equation`).
 * **Mesh rule** with a series branch: elements shorter than ``h_max = 4 T/k_s``
   (:func:`max_element_size`, :func:`elements_for`), so that the damper node's local frequency on
@@ -93,9 +93,7 @@ from rths.core.errors import (
 from rths.core.registry import SUBSTRUCTURES
 
 #: nodal displacement, velocity, acceleration and the flywheel's ``(x, x', x'')``
-_State = tuple[
-    NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]
-]
+_State = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
 
 __all__ = [
     "Cable",
@@ -323,10 +321,27 @@ class Cable(Substructure):
         u1, v1, a1, fly1 = out
         m, c = self._mass, self._damping
         step_kernel(
-            m.diag, m.off, c.diag, c.off, self._l_diag, self._l_sub, self.dt,
-            self._u, self._v, self._a, self._load_shape, load_scale, j, -force,
-            self._series_args, self._fly, u1, v1, a1, fly1,
-        )  # fmt: skip
+            m.diag,
+            m.off,
+            c.diag,
+            c.off,
+            self._l_diag,
+            self._l_sub,
+            self.dt,
+            self._u,
+            self._v,
+            self._a,
+            self._load_shape,
+            load_scale,
+            j,
+            -force,
+            self._series_args,
+            self._fly,
+            u1,
+            v1,
+            a1,
+            fly1,
+        )
         return out
 
     # ------------------------------------------------------------------ state and views

@@ -74,7 +74,9 @@ class CableOptions:
         check_positive(self.mass_per_length, "mass_per_length")
         check_in_range(self.damper_position, "damper_position", 1e-6, 1.0 - 1e-6)
         if self.elements != "auto" and (isinstance(self.elements, bool) or self.elements < 2):
-            raise ParameterError(f'elements must be an integer >= 2 or "auto"; got {self.elements!r}')
+            raise ParameterError(
+                f'elements must be an integer >= 2 or "auto"; got {self.elements!r}'
+            )
         check_in_range(self.intrinsic_damping, "intrinsic_damping", 0.0, 0.99)
 
     @property

@@ -203,7 +203,8 @@ class InterfaceDevice:
         Flywheel viscous coefficient ``c_s`` [N s/m], >= 0; ``m_s`` and ``c_s`` are not both 0.
     stiffness
         Rigid grounded stiffness ``k_r`` [N/m], >= 0 (the linear nominal model of the diagnosis,
-        design.md §7).  The mesh rule of :func:`plants.cable.model.max_element_size` applies to it too.
+        design.md §7).  The mesh rule of :func:`plants.cable.model.max_element_size` applies to it
+        too.
 
     Notes
     -----

@@ -1,4 +1,5 @@
-"""Stepped-sine excitation of a shaking table (private; used by :mod:`rths.experiments.s1_shake_table.sweep`).
+"""Stepped-sine excitation of a shaking table (private; used by
+:mod:`rths.experiments.s1_shake_table.sweep`).
 
 S1 §2.3: a sine sweep over [1 Hz, 10 Hz] "with stepped frequency changes at 0.05 Hz near system
 resonant frequencies and at 0.1 Hz away from resonant frequencies", up and down, "20 full cycles
@@ -56,9 +57,9 @@ def frequency_grid(
     The grid is the union of the multiples of ``coarse_step`` in ``[f_start, f_stop]`` (plus the
     end points) and the multiples of ``fine_step`` in ``[band[0] f_c, band[1] f_c]`` for each
     centre ``f_c`` (clipped to ``[f_start, f_stop]``).  The centres are the small-amplitude
-    (``k1``) natural frequencies of the models swept (:func:`plants.tmdi.structure.linearised_frequencies`);
-    the band reaches further below them than above because the HDRBs soften (S1 §3.1: ``f1``
-    falls by 32 % from 0.05 g to 0.15 g).
+    (``k1``) natural frequencies of the models swept
+    (:func:`plants.tmdi.structure.linearised_frequencies`); the band reaches further below them than
+    above because the HDRBs soften (S1 §3.1: ``f1`` falls by 32 % from 0.05 g to 0.15 g).
 
     Parameters
     ----------
@@ -243,7 +244,9 @@ class SteppedSineOptions:
     def __post_init__(self) -> None:
         check_positive(self.pga, "PGA")
         if any(not f > 0 for f in self.frequencies):
-            raise ParameterError(f"step frequencies must be positive; got {list(self.frequencies)!r}")
+            raise ParameterError(
+                f"step frequencies must be positive; got {list(self.frequencies)!r}"
+            )
         check_positive_int(self.cycles, "cycles per step")
 
     def acceleration(self) -> Callable[[float], float]:

@@ -87,8 +87,12 @@ def advance_flywheel(
     def drive(s: float) -> float:
         s2 = s * s
         s3 = s2 * s
-        return ((2.0 * s3 - 3.0 * s2 + 1.0) * u0 + (s3 - 2.0 * s2 + s) * dt * v0
-                + (3.0 * s2 - 2.0 * s3) * u1 + (s3 - s2) * dt * v1)  # fmt: skip
+        return (
+            (2.0 * s3 - 3.0 * s2 + 1.0) * u0
+            + (s3 - 2.0 * s2 + s) * dt * v0
+            + (3.0 * s2 - 2.0 * s3) * u1
+            + (s3 - s2) * dt * v1
+        )
 
     def acceleration(xi: float, wi: float, u: float) -> float:
         return (spring_force(xi, u) - damping * wi) / inertance

@@ -90,8 +90,8 @@ class _DampingMixin:
 
     def _init_damping(self) -> None:
         law = self.parameters.damping_law
-        self._tracker = None if law is None else AmplitudeTracker(
-            law.reversal_tolerance, law.reversal_fraction
+        self._tracker = (
+            None if law is None else AmplitudeTracker(law.reversal_tolerance, law.reversal_fraction)
         )
         self._damping = self.parameters.damping_coefficient(0.0)
 
@@ -134,7 +134,6 @@ class SimplifiedIMD(_DampingMixin, Specimen):
     keep the value read once -- the difference is then part of the remainder force, which is
     still correct, only explicit).
     """
-
 
     def __init__(self, parameters: IMDParameters) -> None:
         super().__init__()
@@ -207,7 +206,6 @@ class InternalStiffnessIMD(_DampingMixin, Specimen):
         source as plain Python (the reference path).
     """
 
-
     def __init__(
         self,
         parameters: IMDParameters,
@@ -276,9 +274,20 @@ class InternalStiffnessIMD(_DampingMixin, Specimen):
     def _step_impl(self, u: float, v: float, a: float, dt: float) -> float:
         n_sub = self.substeps(_check_dt(dt), self._u, u)
         self._x, self._w, self._spring = self._advance(
-            self._x, self._w, self._u, self._v, u, v, dt, n_sub,
-            self._m, self._damping, self._k0, self._lf, self._half_gap,
-        )  # fmt: skip
+            self._x,
+            self._w,
+            self._u,
+            self._v,
+            u,
+            v,
+            dt,
+            n_sub,
+            self._m,
+            self._damping,
+            self._k0,
+            self._lf,
+            self._half_gap,
+        )
         force = self._spring
         if self._friction > 0.0:
             force += self._friction * regularised_sign(v, self._v_eps)
@@ -337,7 +346,9 @@ def imd_from_parameters(parameters: IMDParameters, kind: str = "imd") -> Specime
         :class:`SimplifiedIMD`.  Or ``"imd_simplified"`` / ``"imd_internal"`` to force a model.
     """
     if kind not in _IMD_KINDS:
-        raise ParameterError(f"unknown IMD kind {kind!r}; choose one of {format_choices(_IMD_KINDS)}")
+        raise ParameterError(
+            f"unknown IMD kind {kind!r}; choose one of {format_choices(_IMD_KINDS)}"
+        )
     model: Specimen = SPECIMENS.get(kind).build(parameters)
     return model
 

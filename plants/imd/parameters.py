@@ -1,8 +1,8 @@
 """Parameters of the inertial mass damper (IMD) models and the seed-paper presets.
 
 Everything here is plain data plus the closed-form relations of S0 §4 (Eq.3–5, Eq.17–18); the
-models that use it live in :mod:`plants.imd.models`.  Units are SI except where the paper fits a law in
-millimetres (S0 Eq.17), which is converted at the boundary and says so.
+models that use it live in :mod:`plants.imd.models`.  Units are SI except where the paper fits a law
+in millimetres (S0 Eq.17), which is converted at the boundary and says so.
 """
 
 from __future__ import annotations
@@ -360,13 +360,27 @@ class IMDParameters:
 
 _PRESETS: dict[str, dict[str, object]] = {
     # S0 Table 4 (SMS-B snubbers, tested at UIUC)
-    "type_i": {"inertance": 1509.0, "stiffness": 0.9e7,
-               "damping_law": AmplitudeDamping(c1=0.100, c2=0.236)},
-    "type_ii": {"inertance": 1589.0, "stiffness": 1.2e7,
-                "damping_law": AmplitudeDamping(c1=0.079, c2=0.153)},
+    "type_i": {
+        "inertance": 1509.0,
+        "stiffness": 0.9e7,
+        "damping_law": AmplitudeDamping(c1=0.100, c2=0.236),
+    },
+    "type_ii": {
+        "inertance": 1589.0,
+        "stiffness": 1.2e7,
+        "damping_law": AmplitudeDamping(c1=0.079, c2=0.153),
+    },
     # S0 Table 6 (EIMDs of Nakamura et al. 2014)
-    "eimd_small": {"inertance": 6.00e3, "damping": 1.61e3, "stiffness": 1.03e8,
-                   "clearance": 0.01e-3},
-    "eimd_full": {"inertance": 2.20e6, "damping": 2.72e6, "stiffness": 1.37e8,
-                  "clearance": 0.40e-3},
-}  # fmt: skip
+    "eimd_small": {
+        "inertance": 6.00e3,
+        "damping": 1.61e3,
+        "stiffness": 1.03e8,
+        "clearance": 0.01e-3,
+    },
+    "eimd_full": {
+        "inertance": 2.20e6,
+        "damping": 2.72e6,
+        "stiffness": 1.37e8,
+        "clearance": 0.40e-3,
+    },
+}

@@ -18,12 +18,12 @@ Model.  The PS of S1 Eq.12 without TMDI, ``m_I ü + c(A) u̇ + s F_E(u) = -m_I �
 ``(c_ref, n, s)``, or ``(c_ref, n)`` with ``s = 1``.
 
 Prediction.  Harmonic balance with the describing-function stiffness ``k(A)``
-(:meth:`plants.tmdi.hdrb.HDRB.equivalent_stiffness`): a harmonic response of amplitude ``A`` at ``ω``
-satisfies ``A²[(k(A) - mω²)² + (c(A)ω)²] = (m a_g)²``.  Its crest -- the largest amplitude of
-the branch that grows from rest, which a down sweep climbs to before it drops (S1 Fig.5) -- is
-the first root of ``A c(A) sqrt(4 m k(A) - c(A)²) = 2 m² a_g``, at ``ω² = k/m - c²/(2m²)``
-(:func:`harmonic_balance_crest`).  The crest amplitude is compared with the reported peak and
-the crest frequency at 0.10 g with ``f0``.  Harmonic balance misses the time-domain crest of the
+(:meth:`plants.tmdi.hdrb.HDRB.equivalent_stiffness`): a harmonic response of amplitude ``A`` at
+``ω`` satisfies ``A²[(k(A) - mω²)² + (c(A)ω)²] = (m a_g)²``.  Its crest -- the largest amplitude of
+the branch that grows from rest, which a down sweep climbs to before it drops (S1 Fig.5) -- is the
+first root of ``A c(A) sqrt(4 m k(A) - c(A)²) = 2 m² a_g``, at ``ω² = k/m - c²/(2m²)``
+(:func:`harmonic_balance_crest`).  The crest amplitude is compared with the reported peak and the
+crest frequency at 0.10 g with ``f0``.  Harmonic balance misses the time-domain crest of the
 emulated sweep (online amplitude estimate, ``max |u|`` rather than the first harmonic, the
 describing function) by up to 1.6 % at 38 mm, so the fit is corrected to the time domain:
 :func:`stepped_sine_crest` runs the PS through a fine (5 mHz) down sweep around the crest, and
@@ -68,7 +68,8 @@ __all__ = [
 
 _GRAVITY: Final[float] = 9.80665  # m/s², the unit of S1's PGA
 _CYCLES: Final[int] = 20  # cycles per step (S1 §2.3)
-_STEADY: Final[int] = 5  # final cycles of a step whose peak is its amplitude (rths.experiments.s1_shake_table.sweep default)
+#: final cycles of a step whose peak is its amplitude (the S1 sweep's default)
+_STEADY: Final[int] = 5
 #: The output correction stops when the emulated crests move by less than this many reading
 #: uncertainties between iterations (2 %: 10 µm on a peak, 0.5 mHz on f0), a few times the
 #: jitter of the parabola-refined crest frequency of the 5 mHz grid.
@@ -103,8 +104,11 @@ class UncontrolledObservations:
 #: S1's uncontrolled-PS numbers: 5 mm at 0.05 g, 38 mm at 0.15 g (S1 §3.1, printed to 1 mm:
 #: ±0.5 mm); f0 = 2.25 Hz at 0.10 g (S1 Fig.12, on the 0.05 Hz grid of S1 §2.3: ±0.025 Hz).
 S1_UNCONTROLLED: Final[UncontrolledObservations] = UncontrolledObservations(
-    mass=125.0, peaks=((0.05, 0.005), (0.15, 0.038)), peak_uncertainty=0.0005,
-    resonance=(0.10, 2.25), resonance_uncertainty=0.025,
+    mass=125.0,
+    peaks=((0.05, 0.005), (0.15, 0.038)),
+    peak_uncertainty=0.0005,
+    resonance=(0.10, 2.25),
+    resonance_uncertainty=0.025,
 )
 
 
@@ -164,10 +168,11 @@ def stepped_sine_crest(
     """Crest of the PS response to a fine down sweep, integrated in time (module docstring).
 
     ``ü_G = PGA g sin(2π f_k τ)`` for 20 whole cycles per step (S1 §2.3; a perfect table) from
-    ``band[1]`` down to ``band[0]`` in steps of ``step``; the PS (:class:`plants.tmdi.structure.TMDIStructure`
-    kernel, online damping law) starts from rest.  Each step's amplitude is ``max |u_I|`` over its
-    last 5 cycles (S1's "peak", :mod:`rths.experiments.s1_shake_table.frf`); the crest is refined by the parabola through
-    the largest step and its two neighbours.
+    ``band[1]`` down to ``band[0]`` in steps of ``step``; the PS
+    (:class:`plants.tmdi.structure.TMDIStructure` kernel, online damping law) starts from rest.
+    Each step's amplitude is ``max |u_I|`` over its last 5 cycles (S1's "peak",
+    :mod:`rths.experiments.s1_shake_table.frf`); the crest is refined by the parabola through the
+    largest step and its two neighbours.
 
     Parameters
     ----------
@@ -208,10 +213,12 @@ def stepped_sine_crest(
     if failures or not np.all(np.isfinite(out)):
         raise NumericalError(f"PS time integration failed at PGA {pga!r} g")
     u = np.abs(out[:, layout.O_U_I])
-    peaks = np.array([
-        np.max(u[math.ceil((b - _STEADY / f) / dt - 1e-9):math.ceil(b / dt - 1e-9)])
-        for f, b in zip(freqs, bounds[1:])
-    ])
+    peaks = np.array(
+        [
+            np.max(u[math.ceil((b - _STEADY / f) / dt - 1e-9) : math.ceil(b / dt - 1e-9)])
+            for f, b in zip(freqs, bounds[1:])
+        ]
+    )
     i = int(np.argmax(peaks))
     if i in (0, freqs.size - 1):
         raise NumericalError(
@@ -310,8 +317,11 @@ def calibrate_uncontrolled_ps(
     a_ref = check_positive(reference_amplitude, "reference amplitude A_ref")
     if not obs.peaks:
         raise ParameterError("the calibration needs at least one observed peak; got none")
-    if (isinstance(max_iterations, bool) or not isinstance(max_iterations, int)
-            or max_iterations < 1):
+    if (
+        isinstance(max_iterations, bool)
+        or not isinstance(max_iterations, int)
+        or max_iterations < 1
+    ):
         raise ParameterError(f"max_iterations must be a positive integer; got {max_iterations!r}")
     pgas = [pga for pga, _ in obs.peaks] + [obs.resonance[0]]
     observed = np.array([u for _, u in obs.peaks] + [obs.resonance[1]])
@@ -320,8 +330,11 @@ def calibrate_uncontrolled_ps(
 
     def bearing(x: NDArray[np.float64]) -> HDRB:
         law = AmplitudeDamping(float(x[1]), a_ref, AMPLITUDE_RANGE)
-        return (base.with_damping(float(math.exp(x[0]))).with_damping_law(law)
-                .with_stiffness_scale(float(x[2]) if fit_stiffness else 1.0))
+        return (
+            base.with_damping(float(math.exp(x[0])))
+            .with_damping_law(law)
+            .with_stiffness_scale(float(x[2]) if fit_stiffness else 1.0)
+        )
 
     def harmonic(iso: HDRB) -> list[tuple[float, float]]:
         return [harmonic_balance_crest(iso, obs.mass, pga) for pga in pgas]
@@ -338,19 +351,23 @@ def calibrate_uncontrolled_ps(
 
         lower = [-np.inf, 0.0] + ([0.5] if fit_stiffness else [])
         upper = [np.inf, 1.0] + ([1.5] if fit_stiffness else [])
-        sol = scipy.optimize.least_squares(residuals, x0, bounds=(lower, upper),
-                                           xtol=1e-14, ftol=1e-14, gtol=1e-14)
+        sol = scipy.optimize.least_squares(
+            residuals, x0, bounds=(lower, upper), xtol=1e-14, ftol=1e-14, gtol=1e-14
+        )
         if not sol.success:
             raise NumericalError(f"PS calibration did not converge: {sol.message}")
         return np.asarray(sol.x)
 
     def simulated(iso: HDRB, crests: list[tuple[float, float]]) -> NDArray[np.float64]:
-        td = [stepped_sine_crest(iso, obs.mass, pga, (0.95 * f, 1.05 * f))
-              for pga, (_, f) in zip(pgas, crests)]
+        td = [
+            stepped_sine_crest(iso, obs.mass, pga, (0.95 * f, 1.05 * f))
+            for pga, (_, f) in zip(pgas, crests)
+        ]
         return measured(td)
 
-    x = fit(observed, np.array([math.log(max(base.c, 1.0)), 0.3] + ([1.0] if fit_stiffness
-                                                                    else [])))
+    x = fit(
+        observed, np.array([math.log(max(base.c, 1.0)), 0.3] + ([1.0] if fit_stiffness else []))
+    )
     iterations = 0
     crests = harmonic(bearing(x))
     predicted = measured(crests)
@@ -369,9 +386,13 @@ def calibrate_uncontrolled_ps(
             raise NumericalError(f"PS calibration did not settle in {max_iterations} iterations")
     iso = bearing(x)
     return PSCalibration(
-        isolator=iso, reference_damping=iso.c, exponent=float(x[1]),
+        isolator=iso,
+        reference_damping=iso.c,
+        exponent=float(x[1]),
         stiffness_scale=float(x[2]) if fit_stiffness else 1.0,
-        peaks=tuple(float(p) for p in predicted[:n_peaks]), resonance=float(predicted[-1]),
+        peaks=tuple(float(p) for p in predicted[:n_peaks]),
+        resonance=float(predicted[-1]),
         residuals=tuple(float(r) for r in (predicted - observed) / scale),
-        harmonic_balance=tuple((float(a), float(f)) for a, f in crests), iterations=iterations,
+        harmonic_balance=tuple((float(a), float(f)) for a, f in crests),
+        iterations=iterations,
     )

@@ -71,8 +71,9 @@ def s1_configuration(
     if mass is None:
         if flywheel is not None:
             raise ParameterError(f"the uncontrolled PS has no inerter; got flywheel {flywheel!r}")
-        return TMDIParameters(PRIMARY_MASS, S1_PRIMARY_UNCONTROLLED if amplitude else S1_PRIMARY
-                              ), None
+        return TMDIParameters(
+            PRIMARY_MASS, S1_PRIMARY_UNCONTROLLED if amplitude else S1_PRIMARY
+        ), None
     if mass not in SECONDARY_MASSES:
         raise ParameterError(
             f"secondary mass must be one of {format_choices(list(SECONDARY_MASSES))} or None; "

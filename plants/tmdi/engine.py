@@ -126,6 +126,7 @@ def _ground_motion(
 ) -> Callable[[float], float]:
     """``ü_G(t)`` from a callable or from samples (linear interpolation, 0 after the end)."""
     if callable(source):
+
         def checked(t: float) -> float:
             value = float(source(t))
             if not math.isfinite(value):
@@ -133,6 +134,7 @@ def _ground_motion(
                     f"ground acceleration at t={t!r} s must be finite; got {value!r}"
                 )
             return value
+
         return checked
     samples = np.asarray(source, dtype=float)
     if samples.ndim != 1 or samples.size == 0:

@@ -31,8 +31,8 @@ Eq.17-18 (same functional role, ``c1/(A + c2)`` there): half the
 peak-to-peak excursion between the last two reversals, a reversal being a retreat of more than
 ``reversal_tolerance`` from the running extremum; ``A = 0`` (hence ``c(A_lo)``) until two reversals
 have been seen.  ``c(A)`` is therefore piecewise constant, changing at reversals, where the
-deformation rate and the dashpot force are near zero.  The kernel of :mod:`plants.tmdi.structure` runs the
-same rule per loop step (:func:`plants.tmdi.kernel.track_amplitude`).
+deformation rate and the dashpot force are near zero.  The kernel of :mod:`plants.tmdi.structure`
+runs the same rule per loop step (:func:`plants.tmdi.kernel.track_amplitude`).
 
 Presets (the numbers of S1, and of the calibration in :mod:`plants.tmdi.calibration`):
 
@@ -148,8 +148,9 @@ class AmplitudeDamping:
 
     def anchored(self, amplitude: float) -> AmplitudeDamping:
         """The same law with the reference amplitude ``amplitude`` [m] (same ``n`` and range)."""
-        return AmplitudeDamping(self.exponent, amplitude, self.amplitude_range,
-                                self.reversal_tolerance)
+        return AmplitudeDamping(
+            self.exponent, amplitude, self.amplitude_range, self.reversal_tolerance
+        )
 
 
 @dataclass(frozen=True, slots=True)
@@ -198,9 +199,7 @@ class HDRB:
     def elastic_force(self, u: ArrayLike) -> FloatOrArray:
         """Spring force ``F_E(u)`` [N] for the deformation ``u`` [m] (S1 Eq.8)."""
         x = np.asarray(u, dtype=float)
-        return _as_float_or_array(
-            self.k1 * x + self.k2 * x * np.abs(x) + self.k3 * x**3
-        )
+        return _as_float_or_array(self.k1 * x + self.k2 * x * np.abs(x) + self.k3 * x**3)
 
     def damping_coefficient(self, amplitude: ArrayLike | None = None) -> FloatOrArray:
         """Dashpot coefficient [N s/m] at the deformation amplitude [m].
@@ -219,16 +218,13 @@ class HDRB:
         c = np.asarray(self.damping_coefficient(amplitude))
         return _as_float_or_array(c * np.asarray(v, dtype=float))
 
-    def force(
-        self, u: ArrayLike, v: ArrayLike, amplitude: ArrayLike | None = None
-    ) -> FloatOrArray:
+    def force(self, u: ArrayLike, v: ArrayLike, amplitude: ArrayLike | None = None) -> FloatOrArray:
         """Total bearing force ``F_E(u) + c(A) v`` [N] (``amplitude`` [m] as in
         :meth:`damping_force`)."""
         x = np.asarray(u, dtype=float)
         c = np.asarray(self.damping_coefficient(amplitude))
         return _as_float_or_array(
-            self.k1 * x + self.k2 * x * np.abs(x) + self.k3 * x**3
-            + c * np.asarray(v, dtype=float)
+            self.k1 * x + self.k2 * x * np.abs(x) + self.k3 * x**3 + c * np.asarray(v, dtype=float)
         )
 
     def elastic_energy(self, u: ArrayLike) -> FloatOrArray:

@@ -70,6 +70,7 @@ __all__ = [
     "rack_pinion_preset",
 ]
 
+
 @dataclass(frozen=True)
 class IdealInerterOptions:
     """Options of the ``ideal_inerter`` specimen kind.

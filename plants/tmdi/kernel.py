@@ -30,8 +30,8 @@ reading ``c`` costs one multiplication.
 
 Between ``u_T`` and the ground the secondary DOF may also carry a rigid inertance ``b`` [kg] (the
 ideal inerter of :class:`plants.tmdi.structure.TMDIStructure`, or the nominal device of
-:class:`plants.tmdi.structure.TMDISubstructure`) and a viscous ``c_G`` [N s/m] (nominal device only); both
-join the implicit system, adding ``b ü_T + c_G u̇_T`` to ``F_B``.
+:class:`plants.tmdi.structure.TMDISubstructure`) and a viscous ``c_G`` [N s/m] (nominal device
+only); both join the implicit system, adding ``b ü_T + c_G u̇_T`` to ``F_B``.
 
 Scheme
 ------
@@ -169,8 +169,10 @@ def _spring(u: float, k1: float, k2: float, k3: float) -> tuple:
 @njit(cache=True, error_model="numpy")
 def dashpots(s: np.ndarray, p: np.ndarray) -> tuple:
     """Current dashpot coefficients ``(c_I, c_T)`` [N s/m] of the two HDRBs (S1 Eq.8)."""
-    return (p[P_LAW_I + LAW_C0] * (1.0 + s[S_AMP_I + TRK_DC]),
-            p[P_LAW_T + LAW_C0] * (1.0 + s[S_AMP_T + TRK_DC]))
+    return (
+        p[P_LAW_I + LAW_C0] * (1.0 + s[S_AMP_I + TRK_DC]),
+        p[P_LAW_T + LAW_C0] * (1.0 + s[S_AMP_T + TRK_DC]),
+    )
 
 
 @njit(cache=True, error_model="numpy")
@@ -273,8 +275,15 @@ def _solve3(a: np.ndarray, b: np.ndarray) -> None:
 
 @njit(cache=True, error_model="numpy")
 def _advance(
-    s0: np.ndarray, s1: np.ndarray, mode: int, sig0: float, sig1: float, dt: float,
-    inp: np.ndarray, p: np.ndarray, work: np.ndarray,
+    s0: np.ndarray,
+    s1: np.ndarray,
+    mode: int,
+    sig0: float,
+    sig1: float,
+    dt: float,
+    inp: np.ndarray,
+    p: np.ndarray,
+    work: np.ndarray,
 ) -> bool:
     """Trapezoidal step of the given contact mode from ``s0`` (loop-step fraction ``sig0``) to
     ``s1`` (fraction ``sig1``); ``work`` is a ``(7, 3)`` scratch array.  Returns False if Newton
@@ -478,9 +487,7 @@ def outputs(s: np.ndarray, ag: float, f_ext: float, p: np.ndarray, out: np.ndarr
     out[O_F_I] = _spring(s[S_U_I], p[P_K1_I], p[P_K2_I], p[P_K3_I])[0] + c_i * s[S_V_I]
     out[O_U_TI] = u_ti
     out[O_A_T_TOT] = a_t + ag
-    out[O_F_T] = _spring(u_ti, p[P_K1_T], p[P_K2_T], p[P_K3_T])[0] + c_t * (
-        s[S_V_T] - s[S_V_I]
-    )
+    out[O_F_T] = _spring(u_ti, p[P_K1_T], p[P_K2_T], p[P_K3_T])[0] + c_t * (s[S_V_T] - s[S_V_I])
     out[O_U_T] = s[S_U_T]
     out[O_A_T] = a_t
     tq = torque(s, mode, p)

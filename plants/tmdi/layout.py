@@ -99,8 +99,8 @@ P_RACK = 11  # 1.0 when the rack-and-pinion inerter is present
 P_R, P_J, P_KS, P_CS, P_CB = 12, 13, 14, 15, 16
 P_EPS1, P_EPS2, P_FY, P_VEPS = 17, 18, 19, 20
 P_C_G = 21  # viscous coefficient between u_T and the ground (nominal device) [N s/m]
-# amplitude-dependent dashpot of each HDRB (plants.tmdi.hdrb.AmplitudeDamping); block offsets + 0..5:
-# active flag, exponent n, A_lo [m], A_hi [m], reversal tolerance [m], dashpot at rest c(A_lo)
+# amplitude-dependent dashpot of each HDRB (plants.tmdi.hdrb.AmplitudeDamping); block offsets +
+# 0..5: active flag, exponent n, A_lo [m], A_hi [m], reversal tolerance [m], dashpot at rest c(A_lo)
 # [N s/m] (without a law: the block is zero except c(A_lo) = c)
 P_LAW_I, P_LAW_T = 22, 28
 LAW_N, LAW_ALO, LAW_AHI, LAW_TOL, LAW_C0 = 1, 2, 3, 4, 5
@@ -127,15 +127,27 @@ O_C_I, O_C_T = 16, 17
 N_OUTPUT = 18
 #: Output column of each named response quantity (S1 Eq.7 names and internal states).
 OUTPUT_FIELDS: dict[str, int] = {
-    "u_I": O_U_I, "a_I_tot": O_A_I_TOT, "F_I": O_F_I, "u_TI": O_U_TI,
-    "a_T_tot": O_A_T_TOT, "F_T": O_F_T, "u_T": O_U_T, "a_T": O_A_T,
-    "F_B": O_F_B, "v_I": O_V_I, "v_T": O_V_T, "theta_S": O_TH_S,
-    "theta_G": O_TH_G, "omega_G": O_OM_G, "torque": O_TORQUE,
-    "contact": O_MODE, "c_I": O_C_I, "c_T": O_C_T,
+    "u_I": O_U_I,
+    "a_I_tot": O_A_I_TOT,
+    "F_I": O_F_I,
+    "u_TI": O_U_TI,
+    "a_T_tot": O_A_T_TOT,
+    "F_T": O_F_T,
+    "u_T": O_U_T,
+    "a_T": O_A_T,
+    "F_B": O_F_B,
+    "v_I": O_V_I,
+    "v_T": O_V_T,
+    "theta_S": O_TH_S,
+    "theta_G": O_TH_G,
+    "omega_G": O_OM_G,
+    "torque": O_TORQUE,
+    "contact": O_MODE,
+    "c_I": O_C_I,
+    "c_T": O_C_T,
 }
 
 OPEN, FORWARD, BACKWARD = 0, 1, -1
-
 
 
 def pack_parameters(
@@ -146,11 +158,11 @@ def pack_parameters(
 ) -> np.ndarray:
     """The kernel's parameter vector from validated parameter objects.
 
-    ``structure`` is a :class:`plants.tmdi.structure.TMDIParameters` (None for the inerter alone, which
-    gets a placeholder primary mass), ``inertance`` the ideal inerter's ``b`` [kg],
-    ``device`` a :class:`plants.tmdi.inerter.RackPinionParameters` or None and
-    ``grounded_damping`` a viscous coefficient [N s/m] between ``u_T`` and the ground (the
-    nominal interface device of :class:`plants.tmdi.structure.TMDISubstructure`).
+    ``structure`` is a :class:`plants.tmdi.structure.TMDIParameters` (None for the inerter alone,
+    which gets a placeholder primary mass), ``inertance`` the ideal inerter's ``b`` [kg], ``device``
+    a :class:`plants.tmdi.inerter.RackPinionParameters` or None and ``grounded_damping`` a viscous
+    coefficient [N s/m] between ``u_T`` and the ground (the nominal interface device of
+    :class:`plants.tmdi.structure.TMDISubstructure`).
     """
     p = np.zeros(N_PARAM)
     p[P_M_I] = 1.0
@@ -167,9 +179,15 @@ def pack_parameters(
     if device is not None:
         p[P_RACK] = 1.0
         p[P_R : P_VEPS + 1] = (
-            device.pinion_radius, device.flywheel_inertia, device.series_stiffness,
-            device.series_damping, device.flywheel_damping, device.clearance_forward,
-            device.clearance_backward, device.friction_force, device.friction_velocity,
+            device.pinion_radius,
+            device.flywheel_inertia,
+            device.series_stiffness,
+            device.series_damping,
+            device.flywheel_damping,
+            device.clearance_forward,
+            device.clearance_backward,
+            device.friction_force,
+            device.friction_velocity,
         )
     return p
 

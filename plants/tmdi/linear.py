@@ -18,7 +18,15 @@ __all__ = ["linear_frf", "linearised_frequencies"]
 
 #: Names of the S1 Eq.7 response quantities, in the paper's order.
 EQ7_QUANTITIES: tuple[str, ...] = (
-    "u_I", "a_I_tot", "F_I", "u_TI", "a_T_tot", "F_T", "u_T", "a_T", "F_B",
+    "u_I",
+    "a_I_tot",
+    "F_I",
+    "u_TI",
+    "a_T_tot",
+    "F_T",
+    "u_T",
+    "a_T",
+    "F_B",
 )
 
 

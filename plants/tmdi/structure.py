@@ -95,6 +95,7 @@ __all__ = [
     "stepped_sine_crest",
 ]
 
+
 @dataclass(frozen=True, slots=True)
 class TMDIResponse:
     """Sampled response of :class:`TMDIStructure` (arrays of shape ``(n,)``, SI units).
@@ -247,8 +248,9 @@ class TMDIStructure(S1Structure):
         if not self.parameters.has_tmd:
             for name in _SECONDARY_KINEMATICS:
                 fields[name][:] = np.nan
-        return TMDIResponse(time=np.arange(ag.size) * self.dt, ground_acceleration=ag.copy(),
-                            **fields)
+        return TMDIResponse(
+            time=np.arange(ag.size) * self.dt, ground_acceleration=ag.copy(), **fields
+        )
 
 
 def _no_excitation(t: float) -> float:

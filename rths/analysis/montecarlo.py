@@ -36,13 +36,15 @@ class MonteCarloResult:
         rows = []
         for kind, values in self.j2.items():
             finite = values[np.isfinite(values)]
-            rows.append({
-                "kind": kind,
-                "median": float(np.median(finite)) if finite.size else None,
-                "worst": float(np.max(finite)) if finite.size == values.size else None,
-                "draws": int(values.size),
-                "stopped": len(self.stopped[kind]),
-            })  # fmt: skip
+            rows.append(
+                {
+                    "kind": kind,
+                    "median": float(np.median(finite)) if finite.size else None,
+                    "worst": float(np.max(finite)) if finite.size == values.size else None,
+                    "draws": int(values.size),
+                    "stopped": len(self.stopped[kind]),
+                }
+            )
         return rows
 
 
@@ -57,9 +59,15 @@ def run_one(scn: Scenario, kind: str, draw: int, seed: int) -> tuple[float, str 
         target[k], measured[k] = r["target"], r["measured"]
 
     loop = Loop(
-        build.substructure(scn), build.compensator(scn, kind), InProcessLink(lab), scn.scaling, n,
-        sink=sink, command_limit=scn.loop.stroke, force_filter=build.correction_filter(scn),
-    )  # fmt: skip
+        build.substructure(scn),
+        build.compensator(scn, kind),
+        InProcessLink(lab),
+        scn.scaling,
+        n,
+        sink=sink,
+        command_limit=scn.loop.stroke,
+        force_filter=build.correction_filter(scn),
+    )
     result = loop.run()
     if result.stopped:
         return float("nan"), result.stopped
@@ -73,9 +81,14 @@ def run_draws(
     j2 = {k: np.full(draws, np.nan) for k in kinds}
     stopped: dict[str, list[str]] = {k: [] for k in kinds}
     # disable=None: no bar when stderr is not a terminal (CI logs)
-    bar = tqdm(total=draws * len(kinds), unit="run", disable=None if progress else True,
-               file=sys.stderr,
-               leave=False, desc=f"{scn.run.name} Monte Carlo")  # fmt: skip
+    bar = tqdm(
+        total=draws * len(kinds),
+        unit="run",
+        disable=None if progress else True,
+        file=sys.stderr,
+        leave=False,
+        desc=f"{scn.run.name} Monte Carlo",
+    )
     for i in range(draws):
         for kind in kinds:
             value, reason = run_one(scn, kind, i, seed)

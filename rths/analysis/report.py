@@ -64,14 +64,15 @@ def write_report(log: Path, out: Path, cycles: float = 3.0, mock: bool = True) -
     meta = read_metadata(log)
     scn = _scenario(meta)
     out.mkdir(parents=True, exist_ok=True)
-    t, target, command, measured, force = (loop[k] for k in
-                                           ("t", "target", "command", "measured", "force"))  # fmt: skip
+    names = ("t", "target", "command", "measured", "force")
+    t, target, command, measured, force = (loop[k] for k in names)
     if t.size < 16:
         raise DataError(f"'{log}': only {t.size} loop samples; nothing to report")
     dt = float(np.median(np.diff(t)))
     doc: dict[str, Any] = {"log": str(log), "samples": int(t.size), "dt": dt}
-    doc["tracking"] = summarize(target, measured, force, dt,
-                                max_delay=min(0.1, 0.25 * t.size * dt)).to_dict()  # fmt: skip
+    doc["tracking"] = summarize(
+        target, measured, force, dt, max_delay=min(0.1, 0.25 * t.size * dt)
+    ).to_dict()
     doc["summary"] = meta.get("rths.summary", {})
     doc["recording"] = meta.get("rths.recording", {})
     doc["scaling"] = meta.get("scaling", {})
@@ -83,8 +84,11 @@ def write_report(log: Path, out: Path, cycles: float = 3.0, mock: bool = True) -
     ax.plot(t[w], 1e3 * target[w], label="target", lw=1.6)
     ax.plot(t[w], 1e3 * command[w], label="command", lw=1.0)
     ax.plot(t[w], 1e3 * measured[w], "--", label="measured", lw=1.0)
-    ax.set(xlabel="time [s]", ylabel="displacement [mm]",
-           title="Target, command and measured displacement (cf. S0 Fig.32)")  # fmt: skip
+    ax.set(
+        xlabel="time [s]",
+        ylabel="displacement [mm]",
+        title="Target, command and measured displacement (cf. S0 Fig.32)",
+    )
     ax.legend(loc="upper right")
     ax.grid(alpha=0.3)
     fig.tight_layout()
@@ -97,8 +101,13 @@ def write_report(log: Path, out: Path, cycles: float = 3.0, mock: bool = True) -
     lim = 1.05e3 * float(np.max(np.abs(target)))
     ax.plot(1e3 * target, 1e3 * measured, ".", ms=1.0, alpha=0.5, label="test data")
     ax.plot([-lim, lim], [-lim, lim], "k--", lw=1.0, label="perfect tracking")
-    ax.set(xlim=(-lim, lim), ylim=(-lim, lim), xlabel="target [mm]", ylabel="measured [mm]",
-           title=f"Synchronisation subspace (S0 Fig.33)\nRMSE {100 * rmse:.3f} %")  # fmt: skip
+    ax.set(
+        xlim=(-lim, lim),
+        ylim=(-lim, lim),
+        xlabel="target [mm]",
+        ylabel="measured [mm]",
+        title=f"Synchronisation subspace (S0 Fig.33)\nRMSE {100 * rmse:.3f} %",
+    )
     ax.set_aspect("equal")
     ax.legend(loc="upper left")
     ax.grid(alpha=0.3)
@@ -127,13 +136,19 @@ def _mock_figure(plt: Any, scn: Any, loop: dict[str, np.ndarray], w: np.ndarray,
     }
     for v, r in runs.items():
         ax1.plot(1e3 * r["target"][w], r["force"][w], "--", lw=1.0, label=labels[v])
-    ax1.set(xlabel="damper displacement [mm]", ylabel="damper force [N]",
-            title="Damper hysteresis (specimen scale)")  # fmt: skip
+    ax1.set(
+        xlabel="damper displacement [mm]",
+        ylabel="damper force [N]",
+        title="Damper hysteresis (specimen scale)",
+    )
     ax1.legend(fontsize=8)
     ax1.grid(alpha=0.3)
     comparison: dict[str, Any] = {}
-    name, what = ("u_I", "primary structure displacement") if "sub_u_I" in loop else (
-        "midspan_displacement", "midspan displacement")  # fmt: skip
+    name, what = (
+        ("u_I", "primary structure displacement")
+        if "sub_u_I" in loop
+        else ("midspan_displacement", "midspan displacement")
+    )
     key = "sub_" + name
     if key in loop:
         rths_mid = loop[key]
@@ -142,11 +157,13 @@ def _mock_figure(plt: Any, scn: Any, loop: dict[str, np.ndarray], w: np.ndarray,
             ax2.plot(r["t"][w], 1e3 * r[name][w], "--", lw=1.0, label=labels[v])
             comparison[v] = {
                 "response_nrmse": normalised_rms_error(r[name][w], rths_mid[w]),
-                "peak_force_ratio": float(np.max(np.abs(loop["force"][w]))
-                                          / np.max(np.abs(r["force"][w]))),  # fmt: skip
+                "peak_force_ratio": float(
+                    np.max(np.abs(loop["force"][w])) / np.max(np.abs(r["force"][w]))
+                ),
             }
-        ax2.set(xlabel="time [s]", ylabel=f"{what} [mm]",
-                title="Structure response (prototype scale)")  # fmt: skip
+        ax2.set(
+            xlabel="time [s]", ylabel=f"{what} [mm]", title="Structure response (prototype scale)"
+        )
         ax2.legend(fontsize=8)
         ax2.grid(alpha=0.3)
     fig.suptitle("RTHS vs. fully numerical mock runs (cf. S0 Fig.34)")

@@ -16,9 +16,9 @@ or ``--ke`` (normalised, ``k_e = K L/(pi^2 T)``) puts the damper's inertance and
 an internal series spring (S0 Eq.12); without it the damper is rigid (simplified S0 Eq.1).  The
 command prints, for every root of the exact frequency equation near mode N, its complex
 wavenumber ``beta``, damping ratio and frequency ratio, paired with the nearest FE eigenvalue
-(:mod:`plants.cable.frequency_equation`).  With a series spring it also says where the device's own mode
-(node held, ``beta = pi sqrt(k_e/m_e)``) lies: a root of the device (a soft spring gives one) is
-listed only when it falls in the window of mode N.
+(:mod:`plants.cable.frequency_equation`).  With a series spring it also says where the device's own
+mode (node held, ``beta = pi sqrt(k_e/m_e)``) lies: a root of the device (a soft spring gives one)
+is listed only when it falls in the window of mode N.
 """
 
 from __future__ import annotations
@@ -76,11 +76,15 @@ def _normalised_parameters(args: argparse.Namespace) -> tuple[float, float, floa
     physical = [
         v
         for v in (
-            args.length, args.tension, args.mass_per_length, args.inertance, args.damping,
+            args.length,
+            args.tension,
+            args.mass_per_length,
+            args.inertance,
+            args.damping,
             args.stiffness,
         )
         if v is not None
-    ]  # fmt: skip
+    ]
     if normalised and physical:
         raise ParameterError(
             "give the damper either normalised (--me/--cd/--ke) or physically (--length, "

@@ -50,8 +50,10 @@ def describe(families: tuple[str, ...] = _FAMILIES, markdown: bool = False) -> s
             out.append(f"  {kind.name:<18} {kind.summary}  ({kind.module})")
             for o in options:
                 default = "required" if o.default is None else f"default {o.default}"
-                out.append(f"      {o.key:<22} {o.type}; {default}" +
-                           (f" -- {o.description}" if o.description else ""))  # fmt: skip
+                out.append(
+                    f"      {o.key:<22} {o.type}; {default}"
+                    + (f" -- {o.description}" if o.description else "")
+                )
         out.append("")
     return "\n".join(out).rstrip() + "\n"
 

@@ -18,8 +18,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     )
     p.add_argument("log", type=Path, help="MCAP log written by 'rths run'")
     p.add_argument("--out", type=Path, help="output directory (default <log>.report/)")
-    p.add_argument("--cycles", type=float, default=3.0,
-                   help="steady-state cycles of the load shown in the figures")  # fmt: skip
+    p.add_argument(
+        "--cycles",
+        type=float,
+        default=3.0,
+        help="steady-state cycles of the load shown in the figures",
+    )
     p.add_argument("--no-mock", action="store_true", help="skip the fully numerical mock runs")
     return p
 
@@ -34,6 +38,8 @@ def run(args: argparse.Namespace) -> int:
     out = args.out or args.log.with_suffix(".report")
     doc = write_report(args.log, out, cycles=args.cycles, mock=not args.no_mock)
     tr = doc["tracking"]
-    print(f"J1 {1e3 * tr['j1_delay']:.3f} ms, J2 {100 * tr['j2']:.3f} %, "
-          f"J3 {100 * tr['j3']:.3f} %, sync RMSE {100 * tr['sync_rmse']:.3f} % -> {out}/")
+    print(
+        f"J1 {1e3 * tr['j1_delay']:.3f} ms, J2 {100 * tr['j2']:.3f} %, "
+        f"J3 {100 * tr['j3']:.3f} %, sync RMSE {100 * tr['sync_rmse']:.3f} % -> {out}/"
+    )
     return 0

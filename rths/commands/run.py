@@ -40,24 +40,52 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         "overruns, recording gaps.",
     )
     p.add_argument("scenario", type=Path, help="scenario TOML file")
-    p.add_argument("--clock", choices=("lockstep", "realtime", "fast"),
-                   help="override the scenario's clock")  # fmt: skip
+    p.add_argument(
+        "--clock", choices=("lockstep", "realtime", "fast"), help="override the scenario's clock"
+    )
     p.add_argument("--out", type=Path, help="MCAP log path (default runs/<run-id>.mcap)")
-    p.add_argument("--compensator", help="override the compensator kind (see the list below); "
-                   "with --monte-carlo also 'all'")  # fmt: skip
-    p.add_argument("--monte-carlo", type=int, metavar="N", default=None, nargs="?", const=0,
-                   help="run N perturbed draws of the lab on the fast clock instead (no N: the "
-                   "scenario's [monte_carlo] draws)")  # fmt: skip
+    p.add_argument(
+        "--compensator",
+        help="override the compensator kind (see the list below); with --monte-carlo also 'all'",
+    )
+    p.add_argument(
+        "--monte-carlo",
+        type=int,
+        metavar="N",
+        default=None,
+        nargs="?",
+        const=0,
+        help="run N perturbed draws of the lab on the fast clock instead (no N: the "
+        "scenario's [monte_carlo] draws)",
+    )
     p.add_argument("--seed", type=int, help="noise seed (default: the scenario's)")
-    p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
-                   help="zenoh endpoint to listen on (default tcp/127.0.0.1:<free port>)")  # fmt: skip
-    p.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
-                   help="zenoh endpoint to connect to")  # fmt: skip
-    p.add_argument("--external-specimen", action="store_true",
-                   help="do not start 'rths specimen'; wait for one started elsewhere")  # fmt: skip
+    p.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="zenoh endpoint to listen on (default tcp/127.0.0.1:<free port>)",
+    )
+    p.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="zenoh endpoint to connect to",
+    )
+    p.add_argument(
+        "--external-specimen",
+        action="store_true",
+        help="do not start 'rths specimen'; wait for one started elsewhere",
+    )
     p.add_argument("--run-id", help="run id (zenoh keys rths/<run-id>/); default generated")
-    p.add_argument("--ready-timeout", type=float, default=30.0, metavar="S",
-                   help="how long to wait for the specimen process [s]")  # fmt: skip
+    p.add_argument(
+        "--ready-timeout",
+        type=float,
+        default=30.0,
+        metavar="S",
+        help="how long to wait for the specimen process [s]",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     return p
@@ -75,31 +103,53 @@ def run(args: argparse.Namespace) -> int:
     from rths.session.runner import RunOptions, run_scenario
 
     # disable=None: no bar when stderr is not a terminal (CI logs stay free of carriage returns)
-    bar = None if args.no_progress else tqdm(total=scn.run.steps, unit="step", leave=False,
-                                             desc=scn.run.name, file=sys.stderr, disable=None)  # fmt: skip
+    bar = (
+        None
+        if args.no_progress
+        else tqdm(
+            total=scn.run.steps,
+            unit="step",
+            leave=False,
+            desc=scn.run.name,
+            file=sys.stderr,
+            disable=None,
+        )
+    )
 
     def progress(done: int, total: int) -> None:
         if bar is not None:
             bar.update(done - bar.n)
 
     options = RunOptions(
-        clock=args.clock, out=args.out, compensator=args.compensator, listen=tuple(args.listen),
-        connect=tuple(args.connect), external_specimen=args.external_specimen,
-        ready_timeout=args.ready_timeout, progress=progress if bar else None, seed=args.seed,
+        clock=args.clock,
+        out=args.out,
+        compensator=args.compensator,
+        listen=tuple(args.listen),
+        connect=tuple(args.connect),
+        external_specimen=args.external_specimen,
+        ready_timeout=args.ready_timeout,
+        progress=progress if bar else None,
+        seed=args.seed,
         run_id=args.run_id,
-        on_waiting=lambda cmd: print(f"waiting for the specimen; start it with:\n  {cmd}",
-                                     file=sys.stderr, flush=True),
-    )  # fmt: skip
+        on_waiting=lambda cmd: print(
+            f"waiting for the specimen; start it with:\n  {cmd}", file=sys.stderr, flush=True
+        ),
+    )
     try:
         outcome = run_scenario(scn, options)
     finally:
         if bar is not None:
             bar.close()
     if args.json:
-        doc = {"path": str(outcome.path), "run_id": outcome.run_id, "clock": outcome.clock,
-               "steps": outcome.result.steps, "stopped": outcome.result.stopped,
-               "overruns": outcome.result.timing.overruns,
-               "metrics": outcome.metrics.to_dict() if outcome.metrics else None}  # fmt: skip
+        doc = {
+            "path": str(outcome.path),
+            "run_id": outcome.run_id,
+            "clock": outcome.clock,
+            "steps": outcome.result.steps,
+            "stopped": outcome.result.stopped,
+            "overruns": outcome.result.timing.overruns,
+            "metrics": outcome.metrics.to_dict() if outcome.metrics else None,
+        }
         print(json.dumps(doc, indent=2))
     else:
         print(outcome.line())
@@ -123,8 +173,18 @@ def _monte_carlo(scn: Scenario, args: argparse.Namespace) -> int:
     result = run_draws(scn, chosen, draws, seed, progress=not args.no_progress)
     rows = result.table()
     if args.json:
-        print(json.dumps({"scenario": scn.run.name, "draws": draws, "seed": seed, "rows": rows,
-                          "j2": {k: v.tolist() for k, v in result.j2.items()}}, indent=2))  # fmt: skip
+        print(
+            json.dumps(
+                {
+                    "scenario": scn.run.name,
+                    "draws": draws,
+                    "seed": seed,
+                    "rows": rows,
+                    "j2": {k: v.tolist() for k, v in result.j2.items()},
+                },
+                indent=2,
+            )
+        )
     else:
         print(f"{scn.run.name}: J2 over {draws} perturbed labs (seed {seed})")
         print(f"{'compensator':<12} {'median %':>9} {'worst %':>9} {'stopped':>8}")

@@ -1,4 +1,5 @@
-"""Build the plants, the emulated lab and the compensator of a :class:`rths.config.scenario.Scenario`.
+"""Build the plants, the emulated lab and the compensator of a
+:class:`rths.config.scenario.Scenario`.
 
 Every component is built through its registry (:mod:`rths.core.registry`): the scenario names
 a kind, the kind's factory receives the validated options and the family's context.  The
@@ -147,8 +148,9 @@ def compensator(scn: Scenario, kind: str | None = None, extra_delay: float = 0.0
     entry = registry("compensator").get(name)
     options = scn.compensator.options if name == scn.compensator.kind else entry.options()
     with _table(scn, "compensator"):
-        built: Compensator = entry.build(options, dt=scn.run.dt, nominal=plant,
-                                         delay=delay + extra_delay)  # fmt: skip
+        built: Compensator = entry.build(
+            options, dt=scn.run.dt, nominal=plant, delay=delay + extra_delay
+        )
     return built
 
 

@@ -97,8 +97,14 @@ def describe_options(options_cls: type) -> list[OptionDoc]:
     out = []
     presets = _presets(options_cls)
     if presets is not None:
-        out.append(OptionDoc("preset", " | ".join(repr(p) for p in presets), "none",
-                             "start from these values; other keys override them"))
+        out.append(
+            OptionDoc(
+                "preset",
+                " | ".join(repr(p) for p in presets),
+                "none",
+                "start from these values; other keys override them",
+            )
+        )
     for f in dataclasses.fields(options_cls):
         if not f.init:
             continue
@@ -211,15 +217,17 @@ def _default_text(f: dataclasses.Field[Any]) -> str:
 
 
 def _numpydoc_parameters(doc: str) -> Iterator[tuple[str, str]]:
-    """``(name, first sentence of its description)`` from a ``Parameters``/``Attributes`` section."""
+    """``(name, description)`` from a ``Parameters``/``Attributes`` section."""
     lines = [line.rstrip() for line in doc.expandtabs().splitlines()]
     section = False
     i = 0
     while i < len(lines):
         text = lines[i].strip()
-        if text in ("Parameters", "Attributes") and i + 1 < len(lines) and set(
-            lines[i + 1].strip()
-        ) == {"-"}:
+        if (
+            text in ("Parameters", "Attributes")
+            and i + 1 < len(lines)
+            and set(lines[i + 1].strip()) == {"-"}
+        ):
             section, i = True, i + 2
             continue
         if section and text and set(lines[i + 1].strip() if i + 1 < len(lines) else "") == {"-"}:
@@ -229,8 +237,9 @@ def _numpydoc_parameters(doc: str) -> Iterator[tuple[str, str]]:
             names = [n.strip() for n in text.split(":")[0].split(",")]
             body: list[str] = []
             i += 1
-            while i < len(lines) and (not lines[i].strip() or
-                                      len(lines[i]) - len(lines[i].lstrip()) > indent):
+            while i < len(lines) and (
+                not lines[i].strip() or len(lines[i]) - len(lines[i].lstrip()) > indent
+            ):
                 body.append(lines[i].strip())
                 i += 1
             description = " ".join(b for b in body if b)

@@ -200,8 +200,9 @@ def _lab(t: Table) -> LabSpec:
     spec = LabSpec(
         bits=t.integer("bits", d.bits, minimum=1),
         full_scale=t.number("full_scale", d.full_scale, positive=True),
-        displacement_per_volt=t.number("displacement_per_volt", d.displacement_per_volt,
-                                       positive=True),  # fmt: skip
+        displacement_per_volt=t.number(
+            "displacement_per_volt", d.displacement_per_volt, positive=True
+        ),
         force_per_volt=t.number("force_per_volt", d.force_per_volt, positive=True),
         command_noise=t.number("command_noise", d.command_noise, nonnegative=True),
         displacement_noise=t.number("displacement_noise", d.displacement_noise, nonnegative=True),

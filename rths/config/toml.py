@@ -71,7 +71,7 @@ class Table:
         lo: float | None = None,
         hi: float | None = None,
     ) -> float:
-        """A finite float (ints accepted) with optional range checks (the default is not checked)."""
+        """A finite float (ints accepted) with range checks (the default is not checked)."""
         if key not in self._data and default is not _MISSING:
             self._seen.add(key)
             return default
@@ -131,7 +131,9 @@ class Table:
         if value is None:
             return value
         if not isinstance(value, list) or len(value) < min_length:
-            raise self.error(key, f"must be a list of at least {min_length} number(s); got {value!r}")
+            raise self.error(
+                key, f"must be a list of at least {min_length} number(s); got {value!r}"
+            )
         out = []
         for v in value:
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):

@@ -38,7 +38,8 @@ class LowPass:
         order = check_positive_int(order, "filter order")
         if cutoff >= 0.5 / dt:
             raise ParameterError(
-                f"filter cutoff must lie below the Nyquist frequency {0.5 / dt:g} Hz; got {cutoff!r}"
+                f"filter cutoff must lie below the Nyquist frequency {0.5 / dt:g} Hz; "
+                f"got {cutoff!r}"
             )
         self.cutoff, self.dt, self.order = cutoff, dt, order
         self.sos: np.ndarray = signal.butter(order, cutoff, fs=1.0 / dt, output="sos")

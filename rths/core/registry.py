@@ -170,8 +170,7 @@ class Registry:
             old = self._kinds.get(name)
             if old is not None and _qualname(old.target) != _qualname(target):
                 raise ValueError(
-                    f"{self.family} kind {name!r} is already registered by "
-                    f"{_qualname(old.target)}"
+                    f"{self.family} kind {name!r} is already registered by {_qualname(old.target)}"
                 )
             self._kinds[name] = Kind(self.family, name, opts, factory, target)
             return target

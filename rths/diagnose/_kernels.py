@@ -22,7 +22,7 @@ __all__ = ["series_force_per_mass", "series_force_per_mass_py"]
 _MAX_STEP_PHASE = 0.2
 
 
-def _loop(advance, u, v, dt, damping_per_mass, omega, half_gap):  # noqa: ANN001, ANN202
+def _loop(advance, u, v, dt, damping_per_mass, omega, half_gap):
     """Reference loop (plain Python); :func:`_run_jit` is the same with the numba kernel."""
     n = u.size
     out = np.empty(n)
@@ -34,15 +34,26 @@ def _loop(advance, u, v, dt, damping_per_mass, omega, half_gap):  # noqa: ANN001
     out[0] = 0.0
     for i in range(1, n):
         x, w, f = advance(
-            x, w, u[i - 1], v[i - 1], u[i], v[i], dt, n_sub,
-            1.0, damping_per_mass[i], stiffness, 0.0, half_gap,
-        )  # fmt: skip
+            x,
+            w,
+            u[i - 1],
+            v[i - 1],
+            u[i],
+            v[i],
+            dt,
+            n_sub,
+            1.0,
+            damping_per_mass[i],
+            stiffness,
+            0.0,
+            half_gap,
+        )
         out[i] = f
     return out
 
 
 @njit(cache=True)
-def _run_jit(u, v, dt, damping_per_mass, omega, half_gap):  # noqa: ANN001, ANN202
+def _run_jit(u, v, dt, damping_per_mass, omega, half_gap):
     n = u.size
     out = np.empty(n)
     stiffness = omega * omega
@@ -53,9 +64,20 @@ def _run_jit(u, v, dt, damping_per_mass, omega, half_gap):  # noqa: ANN001, ANN2
     out[0] = 0.0
     for i in range(1, n):
         x, w, f = advance_flywheel_jit(
-            x, w, u[i - 1], v[i - 1], u[i], v[i], dt, n_sub,
-            1.0, damping_per_mass[i], stiffness, 0.0, half_gap,
-        )  # fmt: skip
+            x,
+            w,
+            u[i - 1],
+            v[i - 1],
+            u[i],
+            v[i],
+            dt,
+            n_sub,
+            1.0,
+            damping_per_mass[i],
+            stiffness,
+            0.0,
+            half_gap,
+        )
         out[i] = f
     return out
 
@@ -98,9 +120,13 @@ def series_force_per_mass(
         Total clearance [m] (0: internal stiffness only).
     """
     return _run_jit(
-        np.ascontiguousarray(u), np.ascontiguousarray(v), float(dt),
-        _damping_array(damping_per_mass, len(u)), float(omega), 0.5 * float(gap),
-    )  # fmt: skip
+        np.ascontiguousarray(u),
+        np.ascontiguousarray(v),
+        float(dt),
+        _damping_array(damping_per_mass, len(u)),
+        float(omega),
+        0.5 * float(gap),
+    )
 
 
 def series_force_per_mass_py(
@@ -113,6 +139,11 @@ def series_force_per_mass_py(
 ) -> NDArray[np.float64]:
     """Plain-Python reference of :func:`series_force_per_mass` (same source, no numba)."""
     return _loop(
-        advance_flywheel, np.asarray(u, float), np.asarray(v, float), float(dt),
-        _damping_array(damping_per_mass, len(u)), float(omega), 0.5 * float(gap),
-    )  # fmt: skip
+        advance_flywheel,
+        np.asarray(u, float),
+        np.asarray(v, float),
+        float(dt),
+        _damping_array(damping_per_mass, len(u)),
+        float(omega),
+        0.5 * float(gap),
+    )

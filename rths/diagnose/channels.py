@@ -174,9 +174,10 @@ class Channel:
             impulse = np.zeros(n)
             impulse[0] = 1.0
             k_u = actuator_replay(g.num, g.den, dt, impulse)
-            psd = self.noise["measured"] ** 2 + self.noise["command"] ** 2 * np.abs(
-                np.fft.rfft(k_u)
-            ) ** 2
+            psd = (
+                self.noise["measured"] ** 2
+                + self.noise["command"] ** 2 * np.abs(np.fft.rfft(k_u)) ** 2
+            )
             return f, psd * scale
         sos = self.segments[0].sos
         assert sos is not None

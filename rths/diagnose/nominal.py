@@ -167,4 +167,3 @@ def nominal_toml(model: NominalModel, comment: str = "") -> str:
         f"stiffness = {float(s.stiffness)!r}  # N/m\n"
         f"friction = {float(s.friction)!r}  # N\n"
     )
-

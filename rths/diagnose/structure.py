@@ -1,8 +1,8 @@
 """The structure channel of an ``rths run`` log: the RTHS against the fully numerical run.
 
 For an MCAP log that carries the scenario text in its metadata (``scenario.text``), the
-scenario is re-run with :func:`rths.session.mock.numerical_run` (variant ``"model"``: the scenario's own
-``[model]`` device, no specimen) for as many steps as the log holds, and the logged ``target``
+scenario is re-run with :func:`rths.session.mock.numerical_run` (variant ``"model"``: the scenario's
+own ``[model]`` device, no specimen) for as many steps as the log holds, and the logged ``target``
 (the interface displacement of the numerical substructure) is compared with the mock's.  This
 channel says how far the specimen's departure from the model moved the structure; it has no
 candidate effects of its own.

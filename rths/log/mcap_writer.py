@@ -36,7 +36,11 @@ STOP = object()
 #: Seconds between two drains of the writer's queue.
 POLL = 0.005
 EVENTS_TOPIC = "rths/events"
-_COMPRESSION = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}
+_COMPRESSION = {
+    "zstd": CompressionType.ZSTD,
+    "lz4": CompressionType.LZ4,
+    "none": CompressionType.NONE,
+}
 _COUNTS = ("written", "missing", "reordered", "first_seq", "last_seq", "nonfinite", "rejected")
 
 
@@ -156,9 +160,7 @@ class WriterThread(threading.Thread):
         self._stream = stream
         self._inbox = inbox
         self._metadata = metadata
-        self._writer = Writer(
-            stream, chunk_size=chunk_size, compression=_COMPRESSION[compression]
-        )
+        self._writer = Writer(stream, chunk_size=chunk_size, compression=_COMPRESSION[compression])
         self._flush_interval = flush_interval
         self._topics: dict[str, _Topic] = {}
         self._dirty = False
@@ -285,7 +287,11 @@ class WriterThread(threading.Thread):
             entry.reordered += 1
             self._event(
                 log_time,
-                {"kind": "reordered", "message": f"{topic}: seq {seq} after {last}", "topic": topic},
+                {
+                    "kind": "reordered",
+                    "message": f"{topic}: seq {seq} after {last}",
+                    "topic": topic,
+                },
             )
         entry.last_seq = max(last, seq)
 

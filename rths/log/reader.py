@@ -23,8 +23,7 @@ from mcap.stream_reader import StreamReader
 
 from rths.core.errors import DataError
 
-__all__ = [
-    "iter_messages","is_complete", "list_topics", "read_metadata", "read_topic"]
+__all__ = ["iter_messages", "is_complete", "list_topics", "read_metadata", "read_topic"]
 
 _Record = Channel | Message | Metadata | Footer
 
@@ -54,7 +53,7 @@ def _records(path: str | os.PathLike[str]) -> Iterator[_Record]:
     """
     p = Path(path)
     try:
-        stream = open(p, "rb")  # noqa: SIM115 -- closed in finally below
+        stream = open(p, "rb")
     except OSError as exc:
         raise DataError(f"cannot open MCAP log '{p}': {exc.strerror}") from None
     started = False

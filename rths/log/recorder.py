@@ -11,9 +11,9 @@ Log contract (read it with ``mcap.reader.make_reader``, no project code needed):
 
 * every message is UTF-8 JSON; its channel's schema (encoding ``jsonschema``) documents the
   required fields with their units (further fields, e.g. ``ctrl_*`` and ``sub_*`` on
-  ``rths/loop``, are allowed and described in the README's log contract); ``Message.sequence`` is the producer's step counter (mod 2**32);
-  ``log_time`` and ``publish_time`` are simulated time [ns] unless the producer passed another
-  ``publish_time``;
+  ``rths/loop``, are allowed and described in the README's log contract); ``Message.sequence`` is
+  the producer's step counter (mod 2**32); ``log_time`` and ``publish_time`` are simulated time [ns]
+  unless the producer passed another ``publish_time``;
 * ``rths/loop`` (:data:`LOOP_SCHEMA`) carries one record per loop step; ``rths/events``
   (:data:`EVENTS_SCHEMA`) carries run events, including ``gap`` events the recorder writes itself
   when a sequence number is skipped and an ``error`` event when the run ends by an exception;
@@ -21,8 +21,8 @@ Log contract (read it with ``mcap.reader.make_reader``, no project code needed):
 * run metadata are MCAP metadata records (name → string map) written first; a record named
   ``rths.recording`` with the per-topic counts is written last.
 
-:class:`rths.wire.transport.LogBridge` feeds the :class:`rths.wire.codec.LogRecord` s that another process
-publishes on ``rths/<run>/log/**`` into :meth:`Recorder.put_record`; they are decoded on the
+:class:`rths.wire.transport.LogBridge` feeds the :class:`rths.wire.codec.LogRecord` s that another
+process publishes on ``rths/<run>/log/**`` into :meth:`Recorder.put_record`; they are decoded on the
 writer thread too.  This module does not import zenoh.
 """
 
@@ -174,7 +174,9 @@ class Recorder:
     ) -> None:
         self.path = Path(path)
         if compression not in ("zstd", "lz4", "none"):
-            raise ParameterError(f"compression must be 'zstd', 'lz4' or 'none'; got {compression!r}")
+            raise ParameterError(
+                f"compression must be 'zstd', 'lz4' or 'none'; got {compression!r}"
+            )
         self._compression = compression
         self._chunk_size = check_positive_int(chunk_size, "chunk_size")
         self._flush_interval = check_positive(flush_interval, "flush_interval")
@@ -202,7 +204,7 @@ class Recorder:
         if self._writer is not None:
             raise DataError(f"recorder for '{self.path}' was already started")
         try:
-            stream = open(self.path, "wb")  # noqa: SIM115 -- the writer thread closes it
+            stream = open(self.path, "wb")
         except OSError as exc:
             raise DataError(f"cannot create MCAP log '{self.path}': {exc}") from None
         self._writer = WriterThread(
@@ -233,9 +235,13 @@ class Recorder:
             raise DataError(f"recorder for '{self.path}' was never started")
         self._queue.put(STOP)
         writer.join()
-        self.summary = RecordingSummary(self.path, writer.stats(), writer.events, writer.max_backlog)
+        self.summary = RecordingSummary(
+            self.path, writer.stats(), writer.events, writer.max_backlog
+        )
         if writer.error is not None:
-            raise DataError(f"recording to '{self.path}' failed: {writer.error!r}") from writer.error
+            raise DataError(
+                f"recording to '{self.path}' failed: {writer.error!r}"
+            ) from writer.error
         return self.summary
 
     def __enter__(self) -> Recorder:

@@ -83,8 +83,10 @@ def replay(
     wanted = list(topics) if topics else [t for t in DEFAULT_TOPICS if t in available]
     missing = [t for t in wanted if t not in available]
     if missing or not wanted:
-        raise DataError(f"'{path}' has no topic {missing[0] if missing else 'rths/loop'!r}; "
-                        f"it has {sorted(available)}")  # fmt: skip
+        raise DataError(
+            f"'{path}' has no topic {missing[0] if missing else 'rths/loop'!r}; "
+            f"it has {sorted(available)}"
+        )
     recorded = read_metadata(path).get("rths", {}).get("run_id")
     keys = RunKeys(run_id or recorded or new_run_id())
     count = 0

@@ -1,4 +1,5 @@
-"""Pacing of the fixed-step loop: free-running (``lockstep``, ``fast``) or wall-clock (``realtime``).
+"""Pacing of the fixed-step loop: free-running (``lockstep``, ``fast``) or wall-clock
+(``realtime``).
 
 The loop asks its pacer to wait for the scheduled start of step ``k`` and tells it when the step's
 work is done.  The real-time pacer keeps a fixed schedule ``t0 + k*dt`` on a monotonic clock (like

@@ -2,12 +2,12 @@
 
 Each step ``k`` (covering ``[t_k, t_{k+1}]``, ``dt`` fixed)::
 
-    c_k     = force_scale * F_k - device_force      # correction on the substructure's nominal device
-    r       = substructure.step(filter(c_k))        # target at t_{k+1} (prototype scale)
-    r_spec  = displacement_scale * r                # → specimen scale
-    u_k     = compensator.step(r_spec, y_k)         # command held over the step
-    y, F    = link.exchange(k, t_{k+1}, u_k)        # the specimen answers (in process / zenoh)
-    sink(record)                                    # publish; never I/O beyond that
+    c_k     = force_scale * F_k - device_force      # correction on the substructure's nominal
+    device r       = substructure.step(filter(c_k))        # target at t_{k+1} (prototype scale)
+    r_spec  = displacement_scale * r                # → specimen scale u_k     =
+    compensator.step(r_spec, y_k)         # command held over the step y, F    = link.exchange(k,
+    t_{k+1}, u_k)        # the specimen answers (in process / zenoh) sink(record)
+    # publish; never I/O beyond that
 
 The same loop serves the three clocks; only the pacer and the link differ:
 
@@ -24,11 +24,11 @@ A safety interlock stops the run (as a lab's would) when the command leaves the 
 any signal stops being finite; the run's record then ends with the reason.
 
 Force correction.  Feeding the measured force of a stiff or heavy specimen straight back into a
-flexible structure is unstable: with any lag (one loop step, the actuator's residual delay ``tau``) a
-delayed stiffness ``k`` acts as a negative damper ``k tau``, a delayed inertance turns into negative
-damping above ``omega tau = pi``, and a string's driving-point impedance is only ``2 sqrt(T m)``.  For
-the seed cable and the S0 Type II IMD (internal stiffness 6.4e7 N/m at prototype scale) the tolerable
-residual delay is far below a millisecond.  So, as in the operator-splitting method of
+flexible structure is unstable: with any lag (one loop step, the actuator's residual delay ``tau``)
+a delayed stiffness ``k`` acts as a negative damper ``k tau``, a delayed inertance turns into
+negative damping above ``omega tau = pi``, and a string's driving-point impedance is only ``2 sqrt(T
+m)``. For the seed cable and the S0 Type II IMD (internal stiffness 6.4e7 N/m at prototype scale)
+the tolerable residual delay is far below a millisecond.  So, as in the operator-splitting method of
 pseudo-dynamic testing, the substructure carries a *nominal model of the device* implicitly at the
 interface (:attr:`plants.base.Substructure.device_force`), and the loop feeds back only the
 correction ``force_scale * F - device_force``, optionally low-pass filtered (``force_filter``).  In
@@ -171,7 +171,9 @@ class Loop:
         self.pacer = pacer or FreeRunning(self.dt, self.n_steps)
         self.sink = sink or (lambda record: None)
         if not (isinstance(command_limit, int | float) and command_limit > 0):
-            raise ParameterError(f"command limit must be positive (inf: none); got {command_limit!r}")
+            raise ParameterError(
+                f"command limit must be positive (inf: none); got {command_limit!r}"
+            )
         self.command_limit = float(command_limit)
         self.force_filter = force_filter
         self._stop = threading.Event()
@@ -185,7 +187,11 @@ class Loop:
     def run(self, progress: Callable[[int], None] | None = None) -> LoopResult:
         """Run the steps; ``progress(k)`` is called every 256 steps from the loop thread."""
         sub, comp, link, sink, pacer = (
-            self.substructure, self.compensator, self.link, self.sink, self.pacer
+            self.substructure,
+            self.compensator,
+            self.link,
+            self.sink,
+            self.pacer,
         )
         lam_u, lam_f = self.scaling.displacement, self.scaling.force
         measured, force, fed = 0.0, 0.0, 0.0

@@ -6,13 +6,13 @@
               (or elsewhere, ``external_specimen=True``).  Commands and measurements cross zenoh;
               the specimen's own stream (its truth each step) arrives on ``rths/<run>/log/
               specimen`` and the recorder, subscribed through a
-              :class:`rths.wire.transport.LogBridge`, writes it into the MCAP log.  The loop's record
-              goes to the recorder's queue (never lost) and a live copy to ``rths/<run>/loop``
-              for monitors, published from a background thread: the loop thread only enqueues
-              and publishes the command.
+              :class:`rths.wire.transport.LogBridge`, writes it into the MCAP log.  The loop's
+              record goes to the recorder's queue (never lost) and a live copy to
+              ``rths/<run>/loop`` for monitors, published from a background thread: the loop thread
+              only enqueues and publishes the command.
 
-A crashed or vanished specimen ends the run with a :class:`rths.core.errors.TransportError`; the log is
-finished, carries an ``error`` event with the specimen's last words (its stderr), and the summary
+A crashed or vanished specimen ends the run with a :class:`rths.core.errors.TransportError`; the log
+is finished, carries an ``error`` event with the specimen's last words (its stderr), and the summary
 of what was recorded.
 """
 
@@ -204,21 +204,31 @@ def _metadata(
         "scenario": {"path": scn.source, "text": scn.text, "name": scn.run.name},
         "rths": {"version": __version__, "run_id": run_id, "python": sys.version.split()[0]},
         "run": {
-            "clock": clock, "rate_hz": repr(scn.run.rate), "dt_s": repr(scn.run.dt),
-            "steps": str(scn.run.steps), "seed": str(seed), "compensator": comp_kind,
+            "clock": clock,
+            "rate_hz": repr(scn.run.rate),
+            "dt_s": repr(scn.run.dt),
+            "steps": str(scn.run.steps),
+            "seed": str(seed),
+            "compensator": comp_kind,
             "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-        },  # fmt: skip
+        },
         "scaling": {
-            "displacement": repr(s.displacement), "force": repr(s.force),
+            "displacement": repr(s.displacement),
+            "force": repr(s.force),
             "impedance": repr(s.impedance),
             "meaning": "specimen displacement = displacement * prototype displacement; "
             "prototype force = force * specimen force",
-        },  # fmt: skip
+        },
         "units": {
-            "t": "s", "target": "m", "command": "m", "measured": "m", "force": "N",
-            "correction": "N (prototype scale)", "age": "s",
+            "t": "s",
+            "target": "m",
+            "command": "m",
+            "measured": "m",
+            "force": "N",
+            "correction": "N (prototype scale)",
+            "age": "s",
             "scale": "target/command/measured/force are at specimen scale",
-        },  # fmt: skip
+        },
     }
 
 
@@ -251,7 +261,9 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
     progress = _Progress(opts.progress, n) if opts.progress else None
     topics = {LOOP_TOPIC: LOOP_SCHEMA, SPECIMEN_TOPIC: SPECIMEN_SCHEMA}
     outcome = RunOutcome(path, run_id, clock, LoopResult(0, pacer.stats()), None)
-    with Recorder(path, topics=topics, metadata=_metadata(scn, run_id, clock, comp_kind, seed)) as rec:
+    with Recorder(
+        path, topics=topics, metadata=_metadata(scn, run_id, clock, comp_kind, seed)
+    ) as rec:
         rec.event(0, "start", f"run {run_id}: {scn.run.name}, clock {clock}, {n} steps")
 
         def make_loop(link: Any, sink: Callable[[dict[str, float]], None]) -> Loop:
@@ -260,9 +272,16 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
                 sink(r)
 
             return Loop(
-                substructure, compensator, link, scn.scaling, n, pacer, record,
-                command_limit=scn.loop.stroke, force_filter=build.correction_filter(scn),
-            )  # fmt: skip
+                substructure,
+                compensator,
+                link,
+                scn.scaling,
+                n,
+                pacer,
+                record,
+                command_limit=scn.loop.stroke,
+                force_filter=build.correction_filter(scn),
+            )
 
         def on_progress(k: int) -> None:
             if progress is not None:
@@ -287,10 +306,17 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
                 )
 
                 outcome.result = run_over_zenoh(
-                    scn, opts, clock, run_id, rec, make_loop, on_progress,
-                    path.with_suffix(".specimen.log"), lambda: round(collector.count * dt * 1e9),
+                    scn,
+                    opts,
+                    clock,
+                    run_id,
+                    rec,
+                    make_loop,
+                    on_progress,
+                    path.with_suffix(".specimen.log"),
+                    lambda: round(collector.count * dt * 1e9),
                     seed,
-                )  # fmt: skip
+                )
         finally:
             sys.setswitchinterval(switch)
             if progress is not None:
@@ -301,16 +327,22 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
         k = collector.count
         try:
             outcome.metrics = summarize(
-                collector.target[:k], collector.measured[:k], collector.force[:k], dt,
+                collector.target[:k],
+                collector.measured[:k],
+                collector.force[:k],
+                dt,
                 max_delay=min(0.1, 0.25 * k * dt),
-            )  # fmt: skip
+            )
         except DataError as exc:  # too short or too quiet a record for some metric
             outcome.events.append(f"metrics not computed: {exc}")
         outcome.saturated = _saturations(scn, collector.measured[:k], collector.force[:k])
         for channel, count in outcome.saturated.items():
             if count:
-                rec.event(t_end, "saturation",
-                          f"{count} {channel} samples at the ADC's full scale: clipped")  # fmt: skip
+                rec.event(
+                    t_end,
+                    "saturation",
+                    f"{count} {channel} samples at the ADC's full scale: clipped",
+                )
         rec.add_metadata("rths.summary", _summary(outcome))
         rec.event(t_end, "end", f"{outcome.result.steps} steps")
     outcome.recording = rec.summary
@@ -321,25 +353,31 @@ def _saturations(scn: Scenario, measured: np.ndarray, force: np.ndarray) -> dict
     """Samples at an ADC's extreme code (the converter clipped them), per channel."""
     conv = build.converters(scn)
     out = {}
-    for name, values, c in (("displacement", measured, conv.displacement), ("force", force, conv.force)):
+    for name, values, c in (
+        ("displacement", measured, conv.displacement),
+        ("force", force, conv.force),
+    ):
         top = 2 ** (c.bits - 1)
         high, low = (top - 1) * c.resolution, -top * c.resolution
-        out[name] = int(np.count_nonzero((values >= high * (1 - 1e-12)) | (values <= low * (1 - 1e-12))))
+        out[name] = int(
+            np.count_nonzero((values >= high * (1 - 1e-12)) | (values <= low * (1 - 1e-12)))
+        )
     return out
 
 
 def _summary(outcome: RunOutcome) -> dict[str, str]:
     t = outcome.result.timing
     out = {
-        "steps": str(outcome.result.steps), "stopped": outcome.result.stopped or "",
-        "overruns": str(t.overruns), "jitter_p99_s": repr(t.jitter_p99),
-        "busy_mean_s": repr(t.busy_mean), "busy_max_s": repr(t.busy_max),
-    }  # fmt: skip
+        "steps": str(outcome.result.steps),
+        "stopped": outcome.result.stopped or "",
+        "overruns": str(t.overruns),
+        "jitter_p99_s": repr(t.jitter_p99),
+        "busy_mean_s": repr(t.busy_mean),
+        "busy_max_s": repr(t.busy_max),
+    }
     if outcome.metrics is not None:
         out.update({k: repr(v) for k, v in outcome.metrics.to_dict().items()})
     if outcome.events:
         out["notes"] = "; ".join(outcome.events)
     out.update({f"saturated_{k}": str(v) for k, v in outcome.saturated.items()})
     return out
-
-

@@ -85,28 +85,39 @@ def serve(
     lab = build.lab(scn, seed)
     _warm_up(lab)
     keys = RunKeys(run_id)
-    with open_session(endpoints) as session, BackgroundPublisher(
-        session, keys.specimen_state
-    ) as log, BackgroundPublisher(session, keys.log("specimen/summary")) as summary:
+    with (
+        open_session(endpoints) as session,
+        BackgroundPublisher(session, keys.specimen_state) as log,
+        BackgroundPublisher(session, keys.log("specimen/summary")) as summary,
+    ):
         try:
             if clock == "lockstep":
                 served = _lockstep(lab, session, keys, endpoints, log, ready_timeout, log_state)
             else:
-                served = _realtime(scn, lab, session, keys, endpoints, log, ready_timeout,
-                                   log_state, summary)  # fmt: skip
+                served = _realtime(
+                    scn, lab, session, keys, endpoints, log, ready_timeout, log_state, summary
+                )
         except Exception as exc:
-            summary.put(round(lab.time * 1e9), {"error": f"specimen process failed: {exc!r}",
-                                                "traceback": traceback.format_exc()})  # fmt: skip
+            summary.put(
+                round(lab.time * 1e9),
+                {"error": f"specimen process failed: {exc!r}", "traceback": traceback.format_exc()},
+            )
             raise
-        summary.put(round(lab.time * 1e9), {"steps": served, **{
-            f"saturated_{name}": count for name, count in lab.saturation_counts.items()}})
+        summary.put(
+            round(lab.time * 1e9),
+            {
+                "steps": served,
+                **{f"saturated_{name}": count for name, count in lab.saturation_counts.items()},
+            },
+        )
         return served
 
 
-def _lockstep(lab, session, keys, endpoints, log, ready_timeout, log_state) -> int:  # noqa: ANN001
-    with LockstepServer(session, keys) as link, Presence(
-        session, keys, "specimen", endpoints.describe()
-    ) as presence:
+def _lockstep(lab, session, keys, endpoints, log, ready_timeout, log_state) -> int:
+    with (
+        LockstepServer(session, keys) as link,
+        Presence(session, keys, "specimen", endpoints.describe()) as presence,
+    ):
         presence.wait_for_peer(ready_timeout, [link.publisher])
         sys.setswitchinterval(SWITCH_INTERVAL)
         served = 0
@@ -115,22 +126,24 @@ def _lockstep(lab, session, keys, endpoints, log, ready_timeout, log_state) -> i
             if command is None:
                 continue
             displacement, force = lab.step(command.command)
-            link.reply(Measurement(command.seq, command.t_ns, displacement, force,
-                                   time.monotonic_ns()))  # fmt: skip
+            link.reply(
+                Measurement(command.seq, command.t_ns, displacement, force, time.monotonic_ns())
+            )
             if log_state:  # after the reply: logging is off the round trip
                 log.put(command.t_ns, lab.truth())
             served += 1
         return served
 
 
-def _realtime(scn, lab, session, keys, endpoints, log, ready_timeout, log_state, summary) -> int:  # noqa: ANN001, PLR0913
+def _realtime(scn, lab, session, keys, endpoints, log, ready_timeout, log_state, summary) -> int:
     dt = scn.run.dt
     dt_ns = round(dt * 1e9)
     # run up to 10 s past the scenario's end if the coordinator is late to stop us
     horizon = scn.run.steps + round(10.0 / dt)
-    with RealtimeServer(session, keys) as link, Presence(
-        session, keys, "specimen", endpoints.describe()
-    ) as presence:
+    with (
+        RealtimeServer(session, keys) as link,
+        Presence(session, keys, "specimen", endpoints.describe()) as presence,
+    ):
         presence.wait_for_peer(ready_timeout, [link.publisher])
         sys.setswitchinterval(SWITCH_INTERVAL)
         pacer = WallClock(dt, horizon)

@@ -1,4 +1,5 @@
-"""The zenoh side of ``rths run`` (``lockstep`` and ``realtime`` clocks; private to rths.session.runner).
+"""The zenoh side of ``rths run`` (``lockstep`` and ``realtime`` clocks; private to
+rths.session.runner).
 
 Starts the specimen process (or waits for an external one), wires the links, the log bridge and
 the live copy of the loop record, runs the loop and, when the specimen fails or vanishes, ends the
@@ -87,15 +88,26 @@ def _spawn_specimen(
     scenario = log.with_suffix(".scenario.toml")
     scenario.write_text(scn.text, encoding="utf-8")
     args = [
-        sys.executable, "-m", "rths", "specimen", str(scenario), "--run-id", run_id,
-        "--connect", endpoint, "--clock", clock, "--seed", str(seed),
-    ]  # fmt: skip
+        sys.executable,
+        "-m",
+        "rths",
+        "specimen",
+        str(scenario),
+        "--run-id",
+        run_id,
+        "--connect",
+        endpoint,
+        "--clock",
+        clock,
+        "--seed",
+        str(seed),
+    ]
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     with log.open("wb") as stderr:  # the child keeps its own descriptor
         return subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=stderr, env=env)
 
 
-def run_over_zenoh(  # noqa: PLR0913 -- the run's parts, handed over by rths.session.runner
+def run_over_zenoh(
     scn: Scenario,
     opts: Any,
     clock: str,
@@ -109,21 +121,24 @@ def run_over_zenoh(  # noqa: PLR0913 -- the run's parts, handed over by rths.ses
 ) -> LoopResult:
     """Run the loop against a specimen process over zenoh; see the module docstring.
 
-    ``opts`` is the run's :class:`rths.session.runner.RunOptions`; ``make_loop(link, sink)`` builds the
-    loop; ``stderr_log`` receives the spawned specimen's stderr; ``now_ns()`` gives the
+    ``opts`` is the run's :class:`rths.session.runner.RunOptions`; ``make_loop(link, sink)`` builds
+    the loop; ``stderr_log`` receives the spawned specimen's stderr; ``now_ns()`` gives the
     simulated time of the last recorded step for error events; ``seed`` seeds the lab's noise.
     """
     keys = RunKeys(run_id)
     listen = opts.listen or (() if opts.connect else (loopback_endpoint(),))
     endpoints = ZenohEndpoints(listen=tuple(listen), connect=tuple(opts.connect))
     process = None
-    with open_session(endpoints) as session, LogBridge(session, keys, rec), BackgroundPublisher(
-        session, keys.loop, reliable=False
-    ) as live:
+    with (
+        open_session(endpoints) as session,
+        LogBridge(session, keys, rec),
+        BackgroundPublisher(session, keys.loop, reliable=False) as live,
+    ):
         client = (
-            LockstepClient(session, keys, opts.step_timeout) if clock == "lockstep"
+            LockstepClient(session, keys, opts.step_timeout)
+            if clock == "lockstep"
             else RealtimeClient(session, keys)
-        )  # fmt: skip
+        )
         with client, Presence(session, keys, "coordinator", endpoints.describe()) as presence:
             if not opts.external_specimen:
                 if not listen:
@@ -131,12 +146,17 @@ def run_over_zenoh(  # noqa: PLR0913 -- the run's parts, handed over by rths.ses
                 process = _spawn_specimen(scn, run_id, listen[0], clock, stderr_log, seed)
             elif opts.on_waiting is not None:
                 where = f"--connect {listen[0]}" if listen else "--listen <endpoint>"
-                opts.on_waiting(f"rths specimen {scn.source} --run-id {run_id} {where} "
-                                f"--clock {clock} --seed {seed}")  # fmt: skip
+                opts.on_waiting(
+                    f"rths specimen {scn.source} --run-id {run_id} {where} "
+                    f"--clock {clock} --seed {seed}"
+                )
             try:
                 _wait_for_specimen(presence, [client.publisher], opts.ready_timeout, process)
-                link = _LockstepLink(client, opts.step_timeout) if clock == "lockstep" else (
-                    _RealtimeLink(client))  # fmt: skip
+                link = (
+                    _LockstepLink(client, opts.step_timeout)
+                    if clock == "lockstep"
+                    else (_RealtimeLink(client))
+                )
 
                 def sink(r: dict[str, float]) -> None:
                     t_ns = round(r["t"] * 1e9)
@@ -144,8 +164,9 @@ def run_over_zenoh(  # noqa: PLR0913 -- the run's parts, handed over by rths.ses
                     live.put(t_ns, r)
 
                 loop = make_loop(link, sink)
-                watcher = threading.Thread(target=_stop_on_peer_loss, args=(presence, loop),
-                                           daemon=True)  # fmt: skip
+                watcher = threading.Thread(
+                    target=_stop_on_peer_loss, args=(presence, loop), daemon=True
+                )
                 watcher.start()
                 result = loop.run(on_progress)
                 presence.request_stop("run complete")
@@ -154,10 +175,14 @@ def run_over_zenoh(  # noqa: PLR0913 -- the run's parts, handed over by rths.ses
                 last = _last_words(process, stderr_log)
                 why = presence.stop_reason or (
                     "the specimen process stopped answering (crashed or stuck?)"
-                    if isinstance(exc, TransportError) else ""
-                )  # fmt: skip
-                message = str(exc) + (f"; {why}" if why else "") + (
-                    f"; specimen process said: {last}" if last else "")  # fmt: skip
+                    if isinstance(exc, TransportError)
+                    else ""
+                )
+                message = (
+                    str(exc)
+                    + (f"; {why}" if why else "")
+                    + (f"; specimen process said: {last}" if last else "")
+                )
                 rec.event(now_ns(), "error", message)
                 presence.request_stop(f"coordinator failed: {exc}")
                 raise TransportError(message) if isinstance(exc, TransportError) else exc from None

@@ -9,8 +9,8 @@ alone.  Layouts (byte offsets)::
     Measurement  (40 bytes)  0 seq u64 | 8 t_ns i64 | 16 displacement f64 | 24 force f64
                              | 32 sample_ns i64
 
-``seq`` is the loop step ``k``; ``t_ns`` is the simulated time the step ends at [ns] (``(k + 1) * dt``);
-``sample_ns`` is the specimen's monotonic clock [ns] when it sampled the measurement, so the
+``seq`` is the loop step ``k``; ``t_ns`` is the simulated time the step ends at [ns] (``(k + 1) *
+dt``); ``sample_ns`` is the specimen's monotonic clock [ns] when it sampled the measurement, so the
 realtime clock can tell how old the newest sample is.
 
 :class:`LogRecord` is the (slower, self-describing) JSON record another process publishes on
@@ -197,7 +197,9 @@ class LogRecord:
         """
         raw = bytes(data)
         if len(raw) < _LOG_HEADER.size + 2 or raw[_LOG_HEADER.size] != 0x7B or raw[-1] != 0x7D:
-            raise DataError(f"log record must be a 16-byte header and a JSON object; got {raw[:40]!r}")
+            raise DataError(
+                f"log record must be a 16-byte header and a JSON object; got {raw[:40]!r}"
+            )
         seq, log_time = _LOG_HEADER.unpack_from(raw)
         return seq, log_time, raw[_LOG_HEADER.size :]
 

@@ -1,5 +1,6 @@
 """Coordinator and specimen ends of the lockstep and realtime links (private; import them from
-:mod:`rths.wire.transport`).  Each pairs a hot publisher with a receive side from :mod:`rths.wire.inbox`.
+:mod:`rths.wire.transport`).  Each pairs a hot publisher with a receive side from
+:mod:`rths.wire.inbox`.
 """
 
 from __future__ import annotations
@@ -99,7 +100,7 @@ class LockstepClient(_Link):
             self.stale += 1
 
     def exchange(self, command: Command, timeout: float | None = None) -> Measurement:
-        """Send ``command`` and return the measurement with the same ``seq`` (see :meth:`receive`)."""
+        """Send ``command``; return the measurement with the same ``seq`` (:meth:`receive`)."""
         self.publisher.put(command.pack())
         return self.receive(command.seq, timeout)
 

@@ -19,7 +19,6 @@ from rths.wire.keys import ROLES, Role
 __all__ = ["ROLES", "Presence", "Role"]
 
 
-
 class _ControlKeys(Protocol):
     """The keys a :class:`Presence` needs (:class:`rths.wire.transport.RunKeys` provides them)."""
 

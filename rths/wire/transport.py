@@ -125,7 +125,9 @@ class ZenohEndpoints:
         for name in ("listen", "connect"):
             value = getattr(self, name)
             if isinstance(value, str) or not isinstance(value, Sequence):
-                raise ParameterError(f"{name} endpoints must be a sequence of strings; got {value!r}")
+                raise ParameterError(
+                    f"{name} endpoints must be a sequence of strings; got {value!r}"
+                )
             for ep in value:
                 if not isinstance(ep, str) or not _ENDPOINT.match(ep):
                     raise ParameterError(
@@ -175,7 +177,7 @@ def session_config(endpoints: ZenohEndpoints) -> zenoh.Config:
     config.insert_json5("connect/endpoints", json.dumps(list(endpoints.connect)))
     # A specimen may start before the coordinator listens: retry every 0.1-0.5 s, forever (the
     # readiness handshake, not the session, owns the timeout and its error message).
-    config.insert_json5("connect/retry", '{period_init_ms: 100, period_max_ms: 500}')
+    config.insert_json5("connect/retry", "{period_init_ms: 100, period_max_ms: 500}")
     # open() need not wait (up to 0.5 s) for the peer's initial declarations: Presence does.
     config.insert_json5("open/return_conditions/declares", "false")
     return config

@@ -87,6 +87,7 @@ nominal_miscalibration, true_nominal, nominal_written, actuator, specimen,
 aa_filter, integration, references}}``; effects ordered strongest first; a
 no-effect case has ``[{"effect": "none", "channel": null, "params": {}}]``.
 """
+
 from __future__ import annotations
 
 import sys

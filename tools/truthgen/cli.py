@@ -1,4 +1,5 @@
 """Command line of the truth generator (see ``__main__`` for the full description)."""
+
 from __future__ import annotations
 
 import argparse
@@ -27,6 +28,7 @@ def _fail(msg: str) -> None:
 def _clean(obj):
     """JSON-safe copy (numpy scalars -> Python, non-finite -> None)."""
     import numpy as np
+
     if isinstance(obj, dict):
         return {str(k): _clean(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
@@ -52,14 +54,25 @@ def _job(args: tuple) -> tuple[str, dict, float]:
 def parse(argv: list[str] | None) -> argparse.Namespace:
     """Parse and validate arguments (one-line error and exit 2 on misuse)."""
     p = _Parser(prog="truthgen", description="Independent sim-to-real truth suite generator.")
-    p.add_argument("--out", required=True, help="suite folder to create (must not exist or be empty)")
+    p.add_argument(
+        "--out", required=True, help="suite folder to create (must not exist or be empty)"
+    )
     p.add_argument("--cases", required=True, type=int, help="number of cases (>= 1)")
     p.add_argument("--seed", required=True, type=int, help="master seed (>= 0)")
-    p.add_argument("--rates", default="1000,1024,2048,4096",
-                   help="comma-separated output rates drawn from, Hz (subset of 1000,1024,2048,4096)")
-    p.add_argument("--max-duration", type=float, default=40.0,
-                   help="cap on each record's length, s (3-40; default 40 = no cap)")
-    p.add_argument("--jobs", type=int, default=1, help="worker processes (output does not depend on it)")
+    p.add_argument(
+        "--rates",
+        default="1000,1024,2048,4096",
+        help="comma-separated output rates drawn from, Hz (subset of 1000,1024,2048,4096)",
+    )
+    p.add_argument(
+        "--max-duration",
+        type=float,
+        default=40.0,
+        help="cap on each record's length, s (3-40; default 40 = no cap)",
+    )
+    p.add_argument(
+        "--jobs", type=int, default=1, help="worker processes (output does not depend on it)"
+    )
     a = p.parse_args(argv)
     if a.cases < 1:
         _fail("--cases must be >= 1")
@@ -88,6 +101,7 @@ def main(argv: list[str] | None = None) -> int:
     import numpy as np
 
     from . import design
+
     out = Path(a.out)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -98,8 +112,10 @@ def main(argv: list[str] | None = None) -> int:
     plans = design.plan_cases(np.random.default_rng(plan_ss), a.cases)
     width = max(3, len(str(a.cases - 1)))
     names = [f"case_{i:0{width}d}" for i in range(a.cases)]
-    jobs = [(nm, ss, pl, a.rate_list, a.max_duration, str(out))
-            for nm, ss, pl in zip(names, case_root.spawn(a.cases), plans)]
+    jobs = [
+        (nm, ss, pl, a.rate_list, a.max_duration, str(out))
+        for nm, ss, pl in zip(names, case_root.spawn(a.cases), plans)
+    ]
     labels: dict[str, dict] = {}
     t_start = time.time()
     done = 0
@@ -109,8 +125,10 @@ def main(argv: list[str] | None = None) -> int:
         done += 1
         eff = "+".join(e["effect"] for e in label["effects"])
         secs = sum(r["duration"] for r in label["records"])
-        sys.stderr.write(f"truthgen: [{done}/{a.cases}] {name}: {eff}, {label['rate']:g} Hz, "
-                         f"{len(label['records'])} records ({secs:.0f} s) in {cpu:.1f} s cpu\n")
+        sys.stderr.write(
+            f"truthgen: [{done}/{a.cases}] {name}: {eff}, {label['rate']:g} Hz, "
+            f"{len(label['records'])} records ({secs:.0f} s) in {cpu:.1f} s cpu\n"
+        )
         labels[name] = label
 
     try:
@@ -126,10 +144,16 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     ordered = {nm: _clean(labels[nm]) for nm in names}
     (out / "labels.json").write_text(json.dumps(ordered, indent=1) + "\n")
-    meta = {"generator": "truthgen", "version": VERSION, "seed": a.seed, "cases": a.cases,
-            "rates": a.rate_list, "max_duration": a.max_duration,
-            "effect_classes": list(design.EFFECTS) + ["none"],
-            "channels": {k: v for k, v in design.CHANNEL.items()}}
+    meta = {
+        "generator": "truthgen",
+        "version": VERSION,
+        "seed": a.seed,
+        "cases": a.cases,
+        "rates": a.rate_list,
+        "max_duration": a.max_duration,
+        "effect_classes": list(design.EFFECTS) + ["none"],
+        "channels": {k: v for k, v in design.CHANNEL.items()},
+    }
     (out / "generator.json").write_text(json.dumps(meta, indent=1) + "\n")
     sys.stderr.write(f"truthgen: wrote {a.cases} cases to {out} in {time.time() - t_start:.1f} s\n")
     return 0

@@ -13,6 +13,7 @@ Conventions
 * Noise is white Gaussian added at the ADC input after the analog anti-alias
   filter (electronics noise), plus a constant offset per channel and record.
 """
+
 from __future__ import annotations
 
 import math
@@ -54,18 +55,27 @@ def quantize(x: np.ndarray, full_scale: float) -> np.ndarray:
     return codes * q + 0.0  # + 0.0: no negative zeros in the files
 
 
-def acquire(clean: np.ndarray, full_scale: float, sigma: float, offset: float,
-            rng: np.random.Generator) -> np.ndarray:
+def acquire(
+    clean: np.ndarray, full_scale: float, sigma: float, offset: float, rng: np.random.Generator
+) -> np.ndarray:
     """ADC reading of a noise-free analog signal: offset + white noise, then quantise."""
     return quantize(clean + offset + sigma * rng.standard_normal(len(clean)), full_scale)
 
 
-def write_csv(path: Path, fs: float, command: np.ndarray, measured: np.ndarray, force: np.ndarray) -> None:
+def write_csv(
+    path: Path, fs: float, command: np.ndarray, measured: np.ndarray, force: np.ndarray
+) -> None:
     """Record file with header ``time,command,measured,force`` (SI)."""
     t = np.arange(len(command)) / fs
     data = np.column_stack([t, command, measured, force])
-    np.savetxt(path, data, delimiter=",", header="time,command,measured,force", comments="",
-               fmt=["%.15g", "%.10g", "%.10g", "%.10g"])
+    np.savetxt(
+        path,
+        data,
+        delimiter=",",
+        header="time,command,measured,force",
+        comments="",
+        fmt=["%.15g", "%.10g", "%.10g", "%.10g"],
+    )
 
 
 def _num(x: float) -> str:
@@ -74,8 +84,15 @@ def _num(x: float) -> str:
     return r if ("." in r or "e" in r or "inf" in r or "nan" in r) else r + ".0"
 
 
-def write_nominal(path: Path, num: np.ndarray, den: np.ndarray, delay: float, inertance: float,
-                  damping: float, stiffness: float) -> None:
+def write_nominal(
+    path: Path,
+    num: np.ndarray,
+    den: np.ndarray,
+    delay: float,
+    inertance: float,
+    damping: float,
+    stiffness: float,
+) -> None:
     """NOMINAL.toml: the simulation's (lab-identified, mis-calibrated) linear model."""
     lines = [
         "[actuator]",

@@ -16,24 +16,46 @@ actuator_delay      logU 1.5-20 ms beyond the nominal's, floored at 1.5 output s
                     (at 1000-4096 Hz the floor never binds: 1.5 ms >= 1.5 samples)
 rate_limit          velocity limit U 40-90 % of the median (over records) nominal peak speed
 """
+
 from __future__ import annotations
 
 import math
 
 import numpy as np
 
-EFFECTS = ("internal_stiffness", "backlash", "coulomb_friction", "amplitude_damping",
-           "actuator_delay", "rate_limit")
-CHANNEL = {"internal_stiffness": "specimen", "backlash": "specimen", "coulomb_friction": "specimen",
-           "amplitude_damping": "specimen", "actuator_delay": "actuator", "rate_limit": "actuator"}
-PAIRS = (("coulomb_friction", "backlash"), ("internal_stiffness", "amplitude_damping"),
-         ("actuator_delay", "coulomb_friction"), ("rate_limit", "backlash"),
-         ("internal_stiffness", "backlash"), ("coulomb_friction", "amplitude_damping"),
-         ("actuator_delay", "backlash"), ("rate_limit", "coulomb_friction"),
-         ("internal_stiffness", "coulomb_friction"), ("actuator_delay", "internal_stiffness"),
-         ("rate_limit", "amplitude_damping"), ("backlash", "amplitude_damping"),
-         ("actuator_delay", "amplitude_damping"), ("rate_limit", "internal_stiffness"),
-         ("actuator_delay", "rate_limit"))
+EFFECTS = (
+    "internal_stiffness",
+    "backlash",
+    "coulomb_friction",
+    "amplitude_damping",
+    "actuator_delay",
+    "rate_limit",
+)
+CHANNEL = {
+    "internal_stiffness": "specimen",
+    "backlash": "specimen",
+    "coulomb_friction": "specimen",
+    "amplitude_damping": "specimen",
+    "actuator_delay": "actuator",
+    "rate_limit": "actuator",
+}
+PAIRS = (
+    ("coulomb_friction", "backlash"),
+    ("internal_stiffness", "amplitude_damping"),
+    ("actuator_delay", "coulomb_friction"),
+    ("rate_limit", "backlash"),
+    ("internal_stiffness", "backlash"),
+    ("coulomb_friction", "amplitude_damping"),
+    ("actuator_delay", "backlash"),
+    ("rate_limit", "coulomb_friction"),
+    ("internal_stiffness", "coulomb_friction"),
+    ("actuator_delay", "internal_stiffness"),
+    ("rate_limit", "amplitude_damping"),
+    ("backlash", "amplitude_damping"),
+    ("actuator_delay", "amplitude_damping"),
+    ("rate_limit", "internal_stiffness"),
+    ("actuator_delay", "rate_limit"),
+)
 DOUBLE_FRACTION = 0.3
 
 
@@ -76,12 +98,18 @@ def effect_params(rng: np.random.Generator, name: str, ref: dict) -> dict[str, f
     m_dev = ref["inertance"] + ref["rod_mass"]
     if name == "internal_stiffness":
         k = ref["inertance"] * (2 * math.pi * loguniform(rng, 5.0, 150.0)) ** 2
-        return {"stiffness": k, "series_damping": 2 * loguniform(rng, 0.02, 0.3) * math.sqrt(k * ref["inertance"])}
+        return {
+            "stiffness": k,
+            "series_damping": 2 * loguniform(rng, 0.02, 0.3) * math.sqrt(k * ref["inertance"]),
+        }
     if name == "backlash":
         gap = loguniform(rng, 20e-6, max(25e-6, min(2e-3, 0.3 * ref["min_peak_cmd"])))
         kc = loguniform(rng, 2e7, 5e8)
-        return {"gap": gap, "contact_stiffness": kc,
-                "contact_damping": 2 * loguniform(rng, 0.01, 0.3) * math.sqrt(kc * m_dev)}
+        return {
+            "gap": gap,
+            "contact_stiffness": kc,
+            "contact_damping": 2 * loguniform(rng, 0.01, 0.3) * math.sqrt(kc * m_dev),
+        }
     if name == "coulomb_friction":
         f = loguniform(rng, 0.03, 0.5) * ref["peak_force"]
         return {"friction": f, "presliding_stiffness": f / loguniform(rng, 2e-6, 50e-6)}
@@ -100,24 +128,36 @@ def derived(name: str, p: dict, ref: dict) -> dict[str, float]:
     """Human-readable derived quantities of an effect (for the labels)."""
     m_dev = ref["inertance"] + ref["rod_mass"]
     if name == "internal_stiffness":
-        return {"internal_resonance_hz": math.sqrt(p["stiffness"] / ref["inertance"]) / (2 * math.pi),
-                "series_damping_ratio": p["series_damping"] / (2 * math.sqrt(p["stiffness"] * ref["inertance"]))}
+        return {
+            "internal_resonance_hz": math.sqrt(p["stiffness"] / ref["inertance"]) / (2 * math.pi),
+            "series_damping_ratio": p["series_damping"]
+            / (2 * math.sqrt(p["stiffness"] * ref["inertance"])),
+        }
     if name == "backlash":
-        return {"contact_damping_ratio": p["contact_damping"] / (2 * math.sqrt(p["contact_stiffness"] * m_dev)),
-                "gap_over_min_peak_command": p["gap"] / ref["min_peak_cmd"]}
+        return {
+            "contact_damping_ratio": p["contact_damping"]
+            / (2 * math.sqrt(p["contact_stiffness"] * m_dev)),
+            "gap_over_min_peak_command": p["gap"] / ref["min_peak_cmd"],
+        }
     if name == "coulomb_friction":
-        return {"friction_over_peak_force": p["friction"] / ref["peak_force"],
-                "presliding_displacement": p["friction"] / p["presliding_stiffness"]}
+        return {
+            "friction_over_peak_force": p["friction"] / ref["peak_force"],
+            "presliding_displacement": p["friction"] / p["presliding_stiffness"],
+        }
     if name == "amplitude_damping":
-        return {"damping_at_ref_amplitude": p["c1"] / (ref["peak_disp"] + p["c2"]),
-                "damping_at_zero_amplitude": p["c1"] / p["c2"], "ref_amplitude": ref["peak_disp"]}
+        return {
+            "damping_at_ref_amplitude": p["c1"] / (ref["peak_disp"] + p["c2"]),
+            "damping_at_zero_amplitude": p["c1"] / p["c2"],
+            "ref_amplitude": ref["peak_disp"],
+        }
     if name == "actuator_delay":
         return {"delay_samples": p["delay"] * ref["fs"]}
     return {"limit_over_median_peak_speed": p["velocity_limit"] / ref["peak_speed"]}
 
 
-def miscalibrate(rng: np.random.Generator, num: np.ndarray, den: np.ndarray, delay: float, fs: float,
-                 spec: dict) -> tuple[np.ndarray, np.ndarray, float, dict, dict]:
+def miscalibrate(
+    rng: np.random.Generator, num: np.ndarray, den: np.ndarray, delay: float, fs: float, spec: dict
+) -> tuple[np.ndarray, np.ndarray, float, dict, dict]:
     """Lab-identified nominal: the true linearisation with up to +/-10 % errors.
 
     Gain x (1 + e_g), all poles/zeros scaled in frequency by (1 + e_w), the
@@ -131,8 +171,10 @@ def miscalibrate(rng: np.random.Generator, num: np.ndarray, den: np.ndarray, del
         Mis-calibrated TF (den[0] == 1), delay (s), specimen dict, and the
         relative errors drawn.
     """
-    e = {k: float(rng.uniform(-0.1, 0.1)) for k in ("gain", "frequency", "pole_damping", "inertance",
-                                                    "damping", "stiffness")}
+    e = {
+        k: float(rng.uniform(-0.1, 0.1))
+        for k in ("gain", "frequency", "pole_damping", "inertance", "damping", "stiffness")
+    }
     e["delay_samples"] = float(rng.uniform(-0.8, 0.8))
     poles = np.roots(den)
     new = []
@@ -151,7 +193,9 @@ def miscalibrate(rng: np.random.Generator, num: np.ndarray, den: np.ndarray, del
     num2 = num2 * a ** (n - np.arange(len(num2) - 1, -1, -1))
     num2, den2 = num2 / den2[0], den2 / den2[0]
     delay2 = max(0.0, delay + e["delay_samples"] / fs)
-    spec2 = {"inertance": spec["inertance"] * (1 + e["inertance"]),
-             "damping": spec["damping"] * (1 + e["damping"]),
-             "stiffness": spec["stiffness"] * (1 + e["stiffness"])}
+    spec2 = {
+        "inertance": spec["inertance"] * (1 + e["inertance"]),
+        "damping": spec["damping"] * (1 + e["damping"]),
+        "stiffness": spec["stiffness"] * (1 + e["stiffness"]),
+    }
     return num2, den2, delay2, spec2, e

@@ -18,6 +18,7 @@ earthquake    Kanai-Tajimi/Clough-Penzien filtered white noise (ground frequency
               envelope, driving a storey (SDOF 0.7-4 Hz, damping 2-8 %) whose
               drift is the damper command (0.1 Hz high-pass, Tukey taper)
 """
+
 from __future__ import annotations
 
 import math
@@ -35,7 +36,7 @@ def _taper(n: int, nt: int) -> np.ndarray:
     nt = max(1, min(nt, n // 2))
     ramp = 0.5 - 0.5 * np.cos(np.pi * np.arange(nt) / nt)
     w[:nt] = ramp
-    w[n - nt:] = ramp[::-1]
+    w[n - nt :] = ramp[::-1]
     return w
 
 
@@ -44,7 +45,9 @@ def _loguni(rng: np.random.Generator, lo: float, hi: float) -> float:
     return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
 
 
-def make(rng: np.random.Generator, family: str, fs: float, duration: float) -> tuple[np.ndarray, dict]:
+def make(
+    rng: np.random.Generator, family: str, fs: float, duration: float
+) -> tuple[np.ndarray, dict]:
     """Unit-peak command shape.
 
     Parameters
@@ -102,7 +105,7 @@ def make(rng: np.random.Generator, family: str, fs: float, duration: float) -> t
     elif family == "random":
         flo, fhi = rng.uniform(0.1, 0.3), _loguni(rng, 4.0, 25.0)
         sos = signal.butter(4, [flo, min(fhi, 0.4 * fs)], btype="bandpass", fs=fs, output="sos")
-        y = signal.sosfiltfilt(sos, rng.standard_normal(nm + 2 * int(fs)))[int(fs):int(fs) + nm]
+        y = signal.sosfiltfilt(sos, rng.standard_normal(nm + 2 * int(fs)))[int(fs) : int(fs) + nm]
         y *= signal.windows.tukey(nm, min(1.0, 2.0 / T))
         info.update(f_low=flo, f_high=fhi)
     elif family == "earthquake":
@@ -115,7 +118,9 @@ def make(rng: np.random.Generator, family: str, fs: float, duration: float) -> t
         _, acc, _ = signal.lsim(cp, acc, t)
         t1 = rng.uniform(0.08, 0.2) * T
         t2 = t1 + rng.uniform(0.2, 0.45) * T
-        env = np.where(t < t1, (t / t1) ** 2, np.where(t < t2, 1.0, np.exp(-3.0 * (t - t2) / (T - t2))))
+        env = np.where(
+            t < t1, (t / t1) ** 2, np.where(t < t2, 1.0, np.exp(-3.0 * (t - t2) / (T - t2)))
+        )
         acc *= env
         # the damper sees the drift of a lightly damped storey (SDOF) under that ground motion
         fsd, zsd = rng.uniform(0.7, 4.0), rng.uniform(0.02, 0.08)
@@ -123,11 +128,17 @@ def make(rng: np.random.Generator, family: str, fs: float, duration: float) -> t
         _, y, _ = signal.lsim(signal.lti([-1.0], [1, 2 * zsd * ws, ws**2]), acc, t)
         sos = signal.butter(2, 0.1, btype="highpass", fs=fs, output="sos")
         y = signal.sosfiltfilt(sos, y) * signal.windows.tukey(nm, min(1.0, 2.0 / T))
-        info.update(ground_frequency=fg, ground_damping=zg, rise=t1, decay_start=t2,
-                    storey_frequency=fsd, storey_damping=zsd)
+        info.update(
+            ground_frequency=fg,
+            ground_damping=zg,
+            rise=t1,
+            decay_start=t2,
+            storey_frequency=fsd,
+            storey_damping=zsd,
+        )
     else:
         raise ValueError(f"unknown excitation family {family!r}")
     out = np.zeros(n)
-    out[nr:nr + nm] = y
+    out[nr : nr + nm] = y
     out /= np.max(np.abs(out))
     return out, info

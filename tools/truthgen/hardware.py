@@ -6,6 +6,7 @@ displacement P gain is set for a gain margin of 2-3.5 with the nominal specimen
 installed.  Draws whose closed-loop low-frequency lag falls outside 8-30 ms are
 rejected (the brief asks for ~10-25 ms).
 """
+
 from __future__ import annotations
 
 import math
@@ -66,7 +67,9 @@ def tune(act: Actuator, spec: Specimen, zeta_target: float, gain_margin: float) 
     """
     m = act.piston_mass + spec.total_inertance
     root = math.sqrt(act.bulk_modulus * m / act.volume)
-    zeta_other = (act.leakage / act.area) * root + (act.piston_damping + spec.damping) / (4 * act.area * root)
+    zeta_other = (act.leakage / act.area) * root + (act.piston_damping + spec.damping) / (
+        4 * act.area * root
+    )
     kce_needed = max(0.0, (zeta_target - zeta_other) * act.area / root)
     kdp = max(0.0, kce_needed - act.leakage) / act.rated_flow
     act = Actuator(**{**act.__dict__, "kdp": kdp, "kp": 1.0})
@@ -107,11 +110,22 @@ def sample_actuator(rng: np.random.Generator, spec: Specimen, tries: int = 400) 
         mp = loguniform(rng, 10.0, 60.0)
         m = mp + spec.total_inertance
         leak = rng.uniform(0.02, 0.15) * area / math.sqrt(beta * m / volume)
-        act = Actuator(area=area, volume=volume, bulk_modulus=beta, piston_mass=mp,
-                       piston_damping=loguniform(rng, 200.0, 3000.0), leakage=leak,
-                       rated_flow=rng.uniform(0.25, 0.8) * area, valve_freq=rng.uniform(60.0, 200.0),
-                       valve_zeta=rng.uniform(0.5, 0.9), kp=1.0, kdp=0.0,
-                       latency=rng.uniform(1e-4, 1e-3), stroke=stroke, supply_pressure=ps)
+        act = Actuator(
+            area=area,
+            volume=volume,
+            bulk_modulus=beta,
+            piston_mass=mp,
+            piston_damping=loguniform(rng, 200.0, 3000.0),
+            leakage=leak,
+            rated_flow=rng.uniform(0.25, 0.8) * area,
+            valve_freq=rng.uniform(60.0, 200.0),
+            valve_zeta=rng.uniform(0.5, 0.9),
+            kp=1.0,
+            kdp=0.0,
+            latency=rng.uniform(1e-4, 1e-3),
+            stroke=stroke,
+            supply_pressure=ps,
+        )
         try:
             act = tune(act, spec, rng.uniform(0.3, 0.7), rng.uniform(2.0, 3.5))
         except ValueError:

@@ -15,6 +15,7 @@ The recorded channels are the plant's analog anti-alias filter states, sampled
 at the output instants t_k = k Ts: exactly what a DAQ with an analog AA filter
 does, so no digital decimation is needed.
 """
+
 from __future__ import annotations
 
 import math
@@ -26,8 +27,15 @@ from .plant import U_FAD, U_ONE, U_R, Plant
 
 _TRANS = {"contact": 0, "friction": 1, "sat": 2}
 _THETA = np.linspace(0.0, 1.0, 17)[1:]
-_H = np.stack([2 * _THETA**3 - 3 * _THETA**2 + 1, _THETA**3 - 2 * _THETA**2 + _THETA,
-               -2 * _THETA**3 + 3 * _THETA**2, _THETA**3 - _THETA**2], axis=1)
+_H = np.stack(
+    [
+        2 * _THETA**3 - 3 * _THETA**2 + 1,
+        _THETA**3 - 2 * _THETA**2 + _THETA,
+        -2 * _THETA**3 + 3 * _THETA**2,
+        _THETA**3 - _THETA**2,
+    ],
+    axis=1,
+)
 
 
 KBITS = 24  # an internal step is 2**KBITS ticks: event times resolved to h * 2**-24
@@ -85,8 +93,15 @@ class _Mode:
                 tail = np.hstack([np.zeros((nu, n)), np.eye(nu)])
                 G1 = self.G[:, :n] @ psi + self.G[:, n:] @ tail
                 GD1 = self.GF[:, :n] @ psi + self.GF[:, n:] @ tail
-                chk = np.vstack([_H[i, 0] * self.G + _H[i, 1] * dt * self.GF + _H[i, 2] * G1
-                                 + _H[i, 3] * dt * GD1 for i in range(_H.shape[0])])
+                chk = np.vstack(
+                    [
+                        _H[i, 0] * self.G
+                        + _H[i, 1] * dt * self.GF
+                        + _H[i, 2] * G1
+                        + _H[i, 3] * dt * GD1
+                        for i in range(_H.shape[0])
+                    ]
+                )
                 chk[:, n + U_ONE] -= np.tile(self.tols, _H.shape[0])
             got = self._psi[key] = (psi, chk)
         return got
@@ -165,7 +180,9 @@ class Simulator:
         self.cap_hits += 1
         return m
 
-    def _switch(self, xa: np.ndarray, m: tuple[int, int, int], tgt: tuple[str, int]) -> tuple[int, int, int]:
+    def _switch(
+        self, xa: np.ndarray, m: tuple[int, int, int], tgt: tuple[str, int]
+    ) -> tuple[int, int, int]:
         """New mode after one element transition (projects z onto its bound on slip)."""
         lst = list(m)
         lst[_TRANS[tgt[0]]] = tgt[1]
@@ -294,8 +311,7 @@ class Simulator:
         rec = np.zeros((N, 2))
         kin = p._kinematics()
         names = ["xP", "vP", "xI", "vI", "delta"]
-        trows = np.array([kin["xP"], kin["vP"], kin["xI"], kin["vI"],
-                          kin["xP"] - kin["xR"]])
+        trows = np.array([kin["xP"], kin["vP"], kin["xI"], kin["vI"], kin["xP"] - kin["xR"]])
         tr = np.zeros((N, len(names) + 6)) if truth else None
         h, q, phi = self.h, self.q, self.phi_ticks
         full = 1 << KBITS
@@ -368,8 +384,14 @@ def _first_root(c: tuple[float, float, float, float]) -> float:
     w = np.array(c)
     for _ in range(30):
         mid = 0.5 * (lo + hi)
-        hv = np.array([2 * mid**3 - 3 * mid**2 + 1, mid**3 - 2 * mid**2 + mid,
-                       -2 * mid**3 + 3 * mid**2, mid**3 - mid**2])
+        hv = np.array(
+            [
+                2 * mid**3 - 3 * mid**2 + 1,
+                mid**3 - 2 * mid**2 + mid,
+                -2 * mid**3 + 3 * mid**2,
+                mid**3 - mid**2,
+            ]
+        )
         if hv @ w > 0:
             hi = mid
         else:

@@ -34,9 +34,11 @@ Amplitude damping enters as an explicit force input held over an internal step.
 Input vector ``u = [r, f_ad, 1]``: delayed controller command r (m),
 amplitude-damping force on the flywheel f_ad (N), constant 1 (affine terms).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+
 import numpy as np
 from scipy import signal
 
@@ -211,7 +213,11 @@ class Plant:
 
     def modes_of(self, kind: str) -> tuple[int, ...]:
         """Discrete states an element can take (0 only if absent)."""
-        present = {"contact": self.has_backlash, "friction": self.has_friction, "sat": self.has_sat}[kind]
+        present = {
+            "contact": self.has_backlash,
+            "friction": self.has_friction,
+            "sat": self.has_sat,
+        }[kind]
         if not present:
             return (0,)
         return (-2, -1, 0, 1, 2) if kind == "contact" else (-1, 0, 1)
@@ -220,8 +226,14 @@ class Plant:
         """Rows of the node positions (m) and velocities (m/s): P, R, I."""
         e = self._e
         bp, br, bi = self.body_of["P"], self.body_of["R"], self.body_of["I"]
-        out = {"xP": e(self.i_x[bp]), "vP": e(self.i_v[bp]), "xR": e(self.i_x[br]),
-               "vR": e(self.i_v[br]), "xI": e(self.i_x[bi]), "vI": e(self.i_v[bi])}
+        out = {
+            "xP": e(self.i_x[bp]),
+            "vP": e(self.i_v[bp]),
+            "xR": e(self.i_x[br]),
+            "vR": e(self.i_v[br]),
+            "xI": e(self.i_x[bi]),
+            "vI": e(self.i_v[bi]),
+        }
         return out
 
     def contact_rows(self) -> dict[str, np.ndarray]:
@@ -234,7 +246,13 @@ class Plant:
         pen_pos, pen_neg = delta - half * one, -delta - half * one
         f_pos = p["contact_stiffness"] * pen_pos + p["contact_damping"] * ddelta
         f_neg = p["contact_stiffness"] * pen_neg - p["contact_damping"] * ddelta
-        return {"pen_pos": pen_pos, "pen_neg": pen_neg, "f_pos": f_pos, "f_neg": f_neg, "delta": delta}
+        return {
+            "pen_pos": pen_pos,
+            "pen_neg": pen_neg,
+            "f_pos": f_pos,
+            "f_neg": f_neg,
+            "delta": delta,
+        }
 
     def current_row(self) -> np.ndarray:
         """Unsaturated normalised valve current, row over [x; u]."""
@@ -278,11 +296,17 @@ class Plant:
         f_fric = np.zeros(self.n_aug)
         if self.has_friction:
             fp = eff["coulomb_friction"]
-            f_fric = fp["presliding_stiffness"] * e(self.i_z) if fric == 0 else fric * fp["friction"] * u(U_ONE)
+            f_fric = (
+                fp["presliding_stiffness"] * e(self.i_z)
+                if fric == 0
+                else fric * fp["friction"] * u(U_ONE)
+            )
             force[bi] -= f_fric
         if self.has_series:
             sp = eff["internal_stiffness"]
-            fs = sp["stiffness"] * (kin["xR"] - kin["xI"]) + sp["series_damping"] * (kin["vR"] - kin["vI"])
+            fs = sp["stiffness"] * (kin["xR"] - kin["xI"]) + sp["series_damping"] * (
+                kin["vR"] - kin["vI"]
+            )
             force[bi] += fs
             force[br] -= fs
         f_con = np.zeros(self.n_aug)
@@ -298,9 +322,13 @@ class Plant:
             force[br] += f_con
             force[bp] -= f_con
             tp, tf = 1e-12, 1e-4  # guard tolerances: penetration (m), force (N)
-            g = {0: [(c["pen_pos"], 1, tp), (c["pen_neg"], -1, tp)],
-                 1: [(-c["f_pos"], 2, tf)], 2: [(c["f_pos"], 1, tf), (-c["pen_pos"], 0, tp)],
-                 -1: [(-c["f_neg"], -2, tf)], -2: [(c["f_neg"], -1, tf), (-c["pen_neg"], 0, tp)]}[contact]
+            g = {
+                0: [(c["pen_pos"], 1, tp), (c["pen_neg"], -1, tp)],
+                1: [(-c["f_pos"], 2, tf)],
+                2: [(c["f_pos"], 1, tf), (-c["pen_pos"], 0, tp)],
+                -1: [(-c["f_neg"], -2, tf)],
+                -2: [(c["f_neg"], -1, tf), (-c["pen_neg"], 0, tp)],
+            }[contact]
             for row, tgt, tol in g:
                 guards.append(row)
                 targets.append(("contact", tgt))
@@ -310,8 +338,11 @@ class Plant:
         if self.has_sat:
             imax = self.i_max
             i_eff = cur if sat == 0 else sat * imax * u(U_ONE)
-            g = {0: [(cur - imax * u(U_ONE), 1), (-cur - imax * u(U_ONE), -1)],
-                 1: [(imax * u(U_ONE) - cur, 0)], -1: [(cur + imax * u(U_ONE), 0)]}[sat]
+            g = {
+                0: [(cur - imax * u(U_ONE), 1), (-cur - imax * u(U_ONE), -1)],
+                1: [(imax * u(U_ONE) - cur, 0)],
+                -1: [(cur + imax * u(U_ONE), 0)],
+            }[sat]
             for row, tgt in g:
                 guards.append(row)
                 targets.append(("sat", tgt))
@@ -319,9 +350,15 @@ class Plant:
         else:
             i_eff = cur
         if self.has_friction:
-            zmax = eff["coulomb_friction"]["friction"] / eff["coulomb_friction"]["presliding_stiffness"]
-            g = {0: [(e(self.i_z) - zmax * u(U_ONE), 1), (-e(self.i_z) - zmax * u(U_ONE), -1)],
-                 1: [(-kin["vI"], 0)], -1: [(kin["vI"], 0)]}[fric]
+            zmax = (
+                eff["coulomb_friction"]["friction"]
+                / eff["coulomb_friction"]["presliding_stiffness"]
+            )
+            g = {
+                0: [(e(self.i_z) - zmax * u(U_ONE), 1), (-e(self.i_z) - zmax * u(U_ONE), -1)],
+                1: [(-kin["vI"], 0)],
+                -1: [(kin["vI"], 0)],
+            }[fric]
             for row, tgt in g:
                 guards.append(row)
                 targets.append(("friction", tgt))
@@ -330,8 +367,12 @@ class Plant:
         F = np.zeros((self.n, self.n_aug))
         F[self.i_xv] = e(self.i_vv)
         F[self.i_vv] = wv * wv * (i_eff - e(self.i_xv)) - 2 * a.valve_zeta * wv * e(self.i_vv)
-        F[self.i_pl] = 4 * a.bulk_modulus / a.volume * (a.rated_flow * e(self.i_xv) - a.area * kin["vP"]
-                                                        - a.leakage * e(self.i_pl))
+        F[self.i_pl] = (
+            4
+            * a.bulk_modulus
+            / a.volume
+            * (a.rated_flow * e(self.i_xv) - a.area * kin["vP"] - a.leakage * e(self.i_pl))
+        )
         for j in range(nb):
             F[self.i_x[j]] = e(self.i_v[j])
             F[self.i_v[j]] = acc[j]
@@ -342,11 +383,21 @@ class Plant:
         for base, sig in ((self.i_fx, kin["xP"]), (self.i_ff, load)):
             for r in range(na):
                 row = np.zeros(self.n_aug)
-                row[base:base + na] = self.aa_a[r]
+                row[base : base + na] = self.aa_a[r]
                 F[base + r] = row + self.aa_b[r, 0] * sig
         G = np.array(guards).reshape(len(guards), self.n_aug)
-        return {"F": F, "load": load, "fric": f_fric, "contact": f_con, "current": i_eff,
-                "guards": G, "targets": targets, "tols": np.array(tols), "acc_I": acc[bi], "acc_P": acc[bp]}
+        return {
+            "F": F,
+            "load": load,
+            "fric": f_fric,
+            "contact": f_con,
+            "current": i_eff,
+            "guards": G,
+            "targets": targets,
+            "tols": np.array(tols),
+            "acc_I": acc[bi],
+            "acc_P": acc[bp],
+        }
 
     @property
     def i_max(self) -> float:
@@ -361,8 +412,8 @@ class Plant:
         """Rows of the two recorded (anti-alias filtered) channels: displacement, force."""
         na = self.aa_a.shape[0]
         C = np.zeros((2, self.n_aug))
-        C[0, self.i_fx:self.i_fx + na] = self.aa_c[0]
-        C[1, self.i_ff:self.i_ff + na] = self.aa_c[0]
+        C[0, self.i_fx : self.i_fx + na] = self.aa_c[0]
+        C[1, self.i_ff : self.i_ff + na] = self.aa_c[0]
         return C
 
 
@@ -385,13 +436,15 @@ def nominal_linear_model(act: Actuator, spec: Specimen) -> tuple[np.ndarray, np.
     wv = 2 * np.pi * act.valve_freq
     kq = 4 * act.bulk_modulus / act.volume
     # states: xv, vv, pl, x, v ; input r
-    A = np.array([
-        [0, 1, 0, 0, 0],
-        [-wv * wv, -2 * act.valve_zeta * wv, -wv * wv * act.kdp, -wv * wv * act.kp, 0],
-        [kq * act.rated_flow, 0, -kq * act.leakage, 0, -kq * act.area],
-        [0, 0, 0, 0, 1],
-        [0, 0, act.area / m, -spec.stiffness / m, -(spec.damping + act.piston_damping) / m],
-    ])
+    A = np.array(
+        [
+            [0, 1, 0, 0, 0],
+            [-wv * wv, -2 * act.valve_zeta * wv, -wv * wv * act.kdp, -wv * wv * act.kp, 0],
+            [kq * act.rated_flow, 0, -kq * act.leakage, 0, -kq * act.area],
+            [0, 0, 0, 0, 1],
+            [0, 0, act.area / m, -spec.stiffness / m, -(spec.damping + act.piston_damping) / m],
+        ]
+    )
     B = np.array([[0], [wv * wv * act.kp], [0], [0], [0]])
     C = np.array([[0, 0, 0, 1, 0]])
     num, den = signal.ss2tf(A, B, C, np.zeros((1, 1)))

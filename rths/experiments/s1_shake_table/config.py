@@ -1,4 +1,5 @@
-"""The shake-table scenario file of ``rths sweep`` (private; re-exported by :mod:`rths.experiments.s1_shake_table.sweep`).
+"""The shake-table scenario file of ``rths sweep`` (private; re-exported by
+:mod:`rths.experiments.s1_shake_table.sweep`).
 
 Schema (all SI except the PGA, given in units of standard gravity ``g = 9.80665 m/s²`` as S1
 does; every key is checked and an unknown key is an error naming the file, table and key)::
@@ -214,8 +215,21 @@ def _config(doc: Table) -> SweepConfig:
     spec.finish()
     table = _table(doc.table("table", {}))
     doc.finish()
-    return SweepConfig(name, rate, pga, directions, cycles, steady, amplitude, grid, mass,
-                       flywheel, models, table, hdrb)
+    return SweepConfig(
+        name,
+        rate,
+        pga,
+        directions,
+        cycles,
+        steady,
+        amplitude,
+        grid,
+        mass,
+        flywheel,
+        models,
+        table,
+        hdrb,
+    )
 
 
 def parse_sweep(text: str, source: str = "<string>") -> SweepConfig:
@@ -230,4 +244,3 @@ def load_sweep(path: str | Path) -> SweepConfig:
     """Read a shake-table scenario file (:class:`rths.core.errors.ConfigError` on any problem)."""
     doc, _ = load_toml(path)
     return _config(doc)
-

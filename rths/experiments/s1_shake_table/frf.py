@@ -309,4 +309,3 @@ def frf_nrmse(
     ref = reference.normalised(channel)[mask]
     diff = other.normalised(channel)[mask] - ref
     return float(np.sqrt(np.mean(diff * diff) / np.mean(ref * ref)))
-

@@ -88,8 +88,15 @@ _LABELS: Final[dict[str, str]] = {
 
 #: Unit of the normalised FRF (S1 Eq.7) of each quantity.
 FRF_UNITS: Final[dict[str, str]] = {
-    "u_I": "s^2", "a_I_tot": "-", "F_I": "kg", "u_TI": "s^2", "a_T_tot": "-", "F_T": "kg",
-    "u_T": "s^2", "a_T": "-", "F_B": "kg",
+    "u_I": "s^2",
+    "a_I_tot": "-",
+    "F_I": "kg",
+    "u_TI": "s^2",
+    "a_T_tot": "-",
+    "F_T": "kg",
+    "u_T": "s^2",
+    "a_T": "-",
+    "F_B": "kg",
 }
 
 
@@ -123,18 +130,25 @@ def frf_records(result: SweepResult) -> dict[str, Any]:
     runs = []
     for run in result.runs:
         frf = run.frf
-        runs.append({
-            "pga": run.pga, "model": run.model, "direction": run.direction,
-            "frequency_hz": frf.frequency.tolist(), "a_G": frf.excitation.tolist(),
-            "frf": {n: frf.normalised(n).tolist() for n in FRF_UNITS if n in frf.response},
-        })
+        runs.append(
+            {
+                "pga": run.pga,
+                "model": run.model,
+                "direction": run.direction,
+                "frequency_hz": frf.frequency.tolist(),
+                "a_G": frf.excitation.tolist(),
+                "frf": {n: frf.normalised(n).tolist() for n in FRF_UNITS if n in frf.response},
+            }
+        )
     return {"units": dict(FRF_UNITS), "runs": runs}
 
 
 def _resonances(run: SweepRun) -> dict[str, float | None]:
     first = resonance(run.frf, "u_I")
-    out: dict[str, float | None] = {"peak_H_u_I": first.value,
-                                    "peak_u_I": float(np.max(run.frf.response["u_I"]))}
+    out: dict[str, float | None] = {
+        "peak_H_u_I": first.value,
+        "peak_u_I": float(np.max(run.frf.response["u_I"])),
+    }
     if run.model == "uncontrolled":
         out["f0"] = first.frequency
         return out
@@ -159,9 +173,12 @@ def summarise(result: SweepResult) -> dict[str, Any]:
     cfg = result.config
     per_pga: dict[str, Any] = {}
     for pga in result.pgas:
-        entry: dict[str, Any] = {"resonances": {}, "ps_peak_change": {},
-                                 "nrmse_ideal_vs_rack_pinion": {},
-                                 "s1": dict(S1_REPORTED.get(f"{pga:g}", {}))}
+        entry: dict[str, Any] = {
+            "resonances": {},
+            "ps_peak_change": {},
+            "nrmse_ideal_vs_rack_pinion": {},
+            "s1": dict(S1_REPORTED.get(f"{pga:g}", {})),
+        }
         for model in cfg.models:
             entry["resonances"][model] = {
                 d: _resonances(result.get(model, d, pga)) for d in cfg.directions
@@ -172,7 +189,8 @@ def summarise(result: SweepResult) -> dict[str, Any]:
                     continue
                 entry["ps_peak_change"][model] = {
                     d: resonance(result.get(model, d, pga).frf).value
-                    / resonance(result.get("uncontrolled", d, pga).frf).value - 1.0
+                    / resonance(result.get("uncontrolled", d, pga).frf).value
+                    - 1.0
                     for d in cfg.directions
                 }
         for d in cfg.directions:
@@ -182,17 +200,23 @@ def summarise(result: SweepResult) -> dict[str, Any]:
             f1 = resonance(rack).frequency
             band = ((1.0 - NEAR_F1) * f1, (1.0 + NEAR_F1) * f1)
             entry["nrmse_ideal_vs_rack_pinion"][d] = {
-                ch: {"full": frf_nrmse(rack, ideal, ch),
-                     "near_f1": frf_nrmse(rack, ideal, ch, band)}
+                ch: {
+                    "full": frf_nrmse(rack, ideal, ch),
+                    "near_f1": frf_nrmse(rack, ideal, ch, band),
+                }
                 for ch in rack.channels
             }
         per_pga[f"{pga:g}"] = entry
-    return {"scenario": cfg.name, "wall_time_s": result.wall_time,
-            "grid_hz": [float(f) for f in result.grid], "pga": per_pga}
+    return {
+        "scenario": cfg.name,
+        "wall_time_s": result.wall_time,
+        "grid_hz": [float(f) for f in result.grid],
+        "pga": per_pga,
+    }
 
 
 # --- figures ------------------------------------------------------------------------------------
-def _pyplot():  # noqa: ANN202 - matplotlib's module
+def _pyplot():
     import matplotlib
 
     matplotlib.use("Agg")
@@ -212,8 +236,13 @@ _STYLE: Final[dict[tuple[str, str], dict[str, Any]]] = {
 
 
 def _plot_frf(ax: Any, frf: FRF, channel: str, model: str, direction: str) -> None:
-    ax.plot(frf.frequency, frf.normalised(channel), lw=1.1,
-            label=f"{_LABELS[model]}, {direction}", **_STYLE[(model, direction)])
+    ax.plot(
+        frf.frequency,
+        frf.normalised(channel),
+        lw=1.1,
+        label=f"{_LABELS[model]}, {direction}",
+        **_STYLE[(model, direction)],
+    )
 
 
 def frf_figure(result: SweepResult, pga: float) -> Any:
@@ -239,11 +268,21 @@ def _mark_s1(ax: Any, pga: float) -> None:
     reported = S1_REPORTED.get(f"{pga:g}", {})
     if "ps_peak_u_I" in reported:
         level = reported["ps_peak_u_I"] / (pga * STANDARD_GRAVITY)
-        ax.axhline(level, color="k", ls=":", lw=0.9,
-                   label=f"S1 §3.1: peak {1e3 * reported['ps_peak_u_I']:g} mm")
+        ax.axhline(
+            level,
+            color="k",
+            ls=":",
+            lw=0.9,
+            label=f"S1 §3.1: peak {1e3 * reported['ps_peak_u_I']:g} mm",
+        )
     if "f0" in reported:
-        ax.axvline(reported["f0"], color="k", ls=":", lw=0.9,
-                   label=f"S1 Fig.12: f0 = {reported['f0']:g} Hz")
+        ax.axvline(
+            reported["f0"],
+            color="k",
+            ls=":",
+            lw=0.9,
+            label=f"S1 Fig.12: f0 = {reported['f0']:g} Hz",
+        )
 
 
 def ps_displacement_figure(result: SweepResult) -> Any:
@@ -251,8 +290,13 @@ def ps_displacement_figure(result: SweepResult) -> Any:
     plt = _pyplot()
     models = [m for m in result.config.models]
     pgas = result.pgas
-    fig, axes = plt.subplots(len(models), len(pgas), figsize=(4 * len(pgas), 3 * len(models)),
-                             squeeze=False, constrained_layout=True)
+    fig, axes = plt.subplots(
+        len(models),
+        len(pgas),
+        figsize=(4 * len(pgas), 3 * len(models)),
+        squeeze=False,
+        constrained_layout=True,
+    )
     for i, model in enumerate(models):
         for j, pga in enumerate(pgas):
             ax = axes[i, j]
@@ -260,9 +304,13 @@ def ps_displacement_figure(result: SweepResult) -> Any:
                 run = result.get(model, d, pga)
                 _plot_frf(ax, run.frf, "u_I", model, d)
                 peak = resonance(run.frf)
-                ax.annotate(f"{d}: {peak.frequency:.2f} Hz", (peak.frequency, peak.value),
-                            fontsize=7, xytext=(8, -12 if d == "down" else -2),
-                            textcoords="offset points")
+                ax.annotate(
+                    f"{d}: {peak.frequency:.2f} Hz",
+                    (peak.frequency, peak.value),
+                    fontsize=7,
+                    xytext=(8, -12 if d == "down" else -2),
+                    textcoords="offset points",
+                )
             if model == "uncontrolled":  # zoom on the single peak and its up/down fold
                 _mark_s1(ax, pga)
                 ax.set_xlim(result.grid[0], min(result.grid[-1], 4.0))
@@ -299,8 +347,13 @@ def loops_figure(result: SweepResult, pga: float, direction: str = "down") -> An
     models = [m for m in _TMDI_MODELS if m in result.config.models]
     if not models:
         raise ParameterError("force-deformation loops need a TMDI model in the sweep")
-    fig, axes = plt.subplots(len(models), len(_LOOPS), figsize=(15, 3.6 * len(models)),
-                             squeeze=False, constrained_layout=True)
+    fig, axes = plt.subplots(
+        len(models),
+        len(_LOOPS),
+        figsize=(15, 3.6 * len(models)),
+        squeeze=False,
+        constrained_layout=True,
+    )
     for i, model in enumerate(models):
         run = result.get(model, direction, pga)
         res = _resonances(run)

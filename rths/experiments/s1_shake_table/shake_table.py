@@ -1,4 +1,5 @@
-"""Shaking-table models for the stepped-sine emulation (private; used by :mod:`rths.experiments.s1_shake_table.sweep`).
+"""Shaking-table models for the stepped-sine emulation (private; used by
+:mod:`rths.experiments.s1_shake_table.sweep`).
 
 S1 §2.3 runs the table in displacement control.  For a target peak ground acceleration ``PGA``
 at frequency ``ω`` the displacement command is a sine of amplitude ``A = PGA / ω²``; the table's
@@ -10,9 +11,9 @@ at frequency ``ω`` the displacement command is a sine of amplitude ``A = PGA / 
     :class:`plants.actuator.models.TransferFunctionActuator`; no control-structure interaction), the
     command being held over each sample (zero-order hold).  ``ü_G`` is the model's acceleration
     *output* ``C A² z`` of a realisation with outputs ``[C; CA; CA²]``: for a relative degree >= 3
-    (e.g. :data:`plants.actuator.models.MTS_IDENTIFIED`) the displacement and its first two derivatives
-    are continuous state outputs, so no numerical differentiation of the displacement is needed.
-    The ZOH-discretised outputs are evaluated with :func:`scipy.signal.lfilter`.  With
+    (e.g. :data:`plants.actuator.models.MTS_IDENTIFIED`) the displacement and its first two
+    derivatives are continuous state outputs, so no numerical differentiation of the displacement is
+    needed. The ZOH-discretised outputs are evaluated with :func:`scipy.signal.lfilter`.  With
     ``amplitude_correction`` the command amplitude of each step is divided by the discrete model's
     steady-state acceleration gain ``|H_a(e^{iωΔt})| / ω²`` -- what a table controller's
     amplitude/drive iteration (S1: Moog Replication Software) achieves -- so the table's steady

@@ -11,12 +11,13 @@ Per PGA and direction::
     command ──► table model (rths.experiments.s1_shake_table.shake_table) ──► measured ü_G
     ü_G ──► TMDIStructure.run  (uncontrolled PS; TMDI with rack-and-pinion inerter, S1 Eq.9-12;
                                 TMDI with the ideal inerter of S1 §4.2; HDRBs per ``hdrb``)
-    responses ──► rths.experiments.s1_shake_table.frf.estimate_frf (S1 Eq.7) + the last cycle of every step (loops)
+    responses ──► frf.estimate_frf (S1 Eq.7) + the last cycle of every step (loops)
 
 The table signal does not depend on the specimen (no control-structure interaction: the table
 transfer function is understood as identified with the specimen on it), so it is computed once
 per PGA and direction and shared by the specimens.  The scenario file is described in
-:mod:`rths.experiments.s1_shake_table.config`.  :func:`plants.excitation.stepped_sine.stepped_sine_acceleration` gives the same excitation as a
+:mod:`rths.experiments.s1_shake_table.config`.
+:func:`plants.excitation.stepped_sine.stepped_sine_acceleration` gives the same excitation as a
 function of time for an RTHS substructure (:class:`plants.tmdi.structure.TMDISubstructure`).
 """
 
@@ -134,8 +135,8 @@ def step_frequencies(config: SweepConfig) -> NDArray[np.float64]:
     """The scenario's ascending step frequencies [Hz] (:func:`frequency_grid`).
 
     "Near resonance" is defined reproducibly as ``fine_band`` times each small-amplitude natural
-    frequency (:func:`plants.tmdi.structure.linearised_frequencies`, HDRB ``k1``, nominal inertance) of the
-    models swept: ``f0`` of the PS, ``f1`` and ``f2`` of each TMDI.
+    frequency (:func:`plants.tmdi.structure.linearised_frequencies`, HDRB ``k1``, nominal inertance)
+    of the models swept: ``f0`` of the PS, ``f1`` and ``f2`` of each TMDI.
 
     Parameters
     ----------
@@ -144,8 +145,7 @@ def step_frequencies(config: SweepConfig) -> NDArray[np.float64]:
     """
     centres: list[float] = []
     for model in config.models:
-        structure, inerter = model_configuration(model, config.mass, config.flywheel,
-                                                 config.hdrb)
+        structure, inerter = model_configuration(model, config.mass, config.flywheel, config.hdrb)
         centres.extend(linearised_frequencies(structure, _inertance(inerter)))
     g = config.grid
     return frequency_grid(g.f_start, g.f_stop, g.coarse_step, g.fine_step, centres, g.fine_band)
@@ -278,10 +278,18 @@ def sweep_structure(
     response = TMDIStructure(structure, inerter, dt).run(motion.acceleration)
     names = EQ7_QUANTITIES if structure.has_tmd else PRIMARY_QUANTITIES
     signals = {name: getattr(response, name) for name in names}
-    frf = estimate_frf(signals, motion.acceleration, sine.frequencies, sine.boundaries, dt,
-                       steady_cycles, amplitude)
-    windows = steady_state_windows(sine.boundaries, sine.frequencies, dt,
-                                   motion.acceleration.size, 1.0)
+    frf = estimate_frf(
+        signals,
+        motion.acceleration,
+        sine.frequencies,
+        sine.boundaries,
+        dt,
+        steady_cycles,
+        amplitude,
+    )
+    windows = steady_state_windows(
+        sine.boundaries, sine.frequencies, dt, motion.acceleration.size, 1.0
+    )
     signals["a_G"] = motion.acceleration
     cycles = [{name: np.array(x[w]) for name, x in signals.items()} for w in windows]
     return frf, tuple(cycles[i] for i in np.argsort(sine.frequencies))
@@ -309,8 +317,9 @@ def run_model(
         Labels of the run (``pga`` in g).
     """
     structure, inerter = model_configuration(model, config.mass, config.flywheel, config.hdrb)
-    frf, cycles = sweep_structure(structure, inerter, motion, sine, config.dt,
-                                  config.steady_cycles, config.amplitude)
+    frf, cycles = sweep_structure(
+        structure, inerter, motion, sine, config.dt, config.steady_cycles, config.amplitude
+    )
     return SweepRun(model, direction, pga, frf, cycles)
 
 
@@ -339,12 +348,14 @@ def run_sweep(
     sines = {d: SteppedSine.sweep(grid, d, config.cycles) for d in config.directions}
     total = sum(s.duration for s in sines.values()) * len(pgas) * len(config.models)
     runs = []
-    with tqdm(total=round(total), unit="s", desc=f"sweep {config.name}", disable=not progress,
-              leave=False) as bar:
+    with tqdm(
+        total=round(total), unit="s", desc=f"sweep {config.name}", disable=not progress, leave=False
+    ) as bar:
         for level in pgas:
             for direction, sine in sines.items():
-                amplitudes = command_amplitudes(table, sine.frequencies, level, config.dt,
-                                                config.table.amplitude_correction)
+                amplitudes = command_amplitudes(
+                    table, sine.frequencies, level, config.dt, config.table.amplitude_correction
+                )
                 motion = table.run(sine, amplitudes, config.dt)
                 for model in config.models:
                     bar.set_postfix_str(f"{level:g} g {direction} {model}")
