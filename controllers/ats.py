@@ -190,7 +190,7 @@ class AdaptiveTimeSeries(Compensator):
         )
 
     def _record(self, u_prev: float, y: float) -> None:
-        if self._filt_u is not None:
+        if self._filt_u is not None and self._filt_y is not None:
             u_prev, y = self._filt_u(u_prev), self._filt_y(y)
         self._u_buf[self._i] = u_prev
         self._y_buf[self._i] = y

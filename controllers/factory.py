@@ -26,6 +26,7 @@ noise by 2/dt).
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import pkgutil
 from typing import Any
@@ -72,7 +73,7 @@ def make_compensator(
     """
     kinds()
     entry = COMPENSATORS.get(kind)
-    allowed = tuple(entry.options.__dataclass_fields__)
+    allowed = tuple(f.name for f in dataclasses.fields(entry.options))
     unknown = sorted(set(options) - set(allowed))
     if unknown:
         raise ParameterError(

@@ -49,7 +49,11 @@ def _check_force(value: float, what: str) -> float:
 
 def _check_output(kinematics: Kinematics, force: float | None, who: object, t: float) -> None:
     """Raise :class:`NumericalError` naming the plant if a result is not finite."""
-    values = (kinematics.displacement, kinematics.velocity, kinematics.acceleration)
+    values: tuple[float, ...] = (
+        kinematics.displacement,
+        kinematics.velocity,
+        kinematics.acceleration,
+    )
     if force is not None:
         values += (force,)
     if not all(math.isfinite(x) for x in values):

@@ -127,7 +127,7 @@ class ServoHydraulicOptions(BenchmarkParameters):
             )
         base = _SERVO_PRESETS[name]
         values = {f.name: getattr(base, f.name) for f in fields(BenchmarkParameters)}
-        return cls(**(values | overrides))  # type: ignore[arg-type]
+        return cls(**(values | overrides))
 
     @property
     def hydraulics(self) -> BenchmarkParameters:

@@ -161,7 +161,7 @@ def normalised_impedance(
     b = np.asarray(beta, dtype=complex)
     z0 = -m_e * b + 1j * math.pi * c_d
     if k_e is None:
-        return z0
+        return z0.astype(np.complex128)
     spring = math.pi**2 * k_e
     return spring * z0 / (spring + b * z0)
 

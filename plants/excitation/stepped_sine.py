@@ -152,7 +152,7 @@ class SteppedSine:
             Sampling step [s], > 0.
         """
         dt = check_positive(dt, "time step dt")
-        return np.arange(math.ceil(self.duration / dt - 1e-9) + 1) * dt
+        return np.arange(math.ceil(self.duration / dt - 1e-9) + 1, dtype=np.float64) * dt
 
     def signal(self, t: ArrayLike, amplitudes: ArrayLike) -> NDArray[np.float64]:
         """``a_k sin(2π f_k (t - t_k))`` during step ``k`` and 0 outside the sweep.

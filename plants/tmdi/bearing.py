@@ -51,7 +51,7 @@ class BearingOptions(HDRB):
             )
         base = _PRESETS[name]
         values = {f.name: getattr(base, f.name) for f in fields(HDRB)} | overrides
-        return cls(**values)  # type: ignore[arg-type]
+        return cls(**values)
 
 
 @SPECIMENS.register("hdrb", BearingOptions)

@@ -170,7 +170,7 @@ def pack_parameters(
         iso = structure.primary_isolator
         p[P_M_I : P_C_I + 1] = (structure.primary_mass, iso.k1, iso.k2, iso.k3, iso.c)
         _pack_law(p, P_LAW_I, iso)
-        if structure.has_tmd:
+        if structure.has_tmd and structure.secondary_isolator is not None:
             iso = structure.secondary_isolator
             p[P_M_T : P_C_T + 1] = (structure.secondary_mass, iso.k1, iso.k2, iso.k3, iso.c)
             _pack_law(p, P_LAW_T, iso)

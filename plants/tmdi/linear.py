@@ -70,7 +70,11 @@ def linear_frf(
     z_i = parameters.primary_isolator.k1 + 1j * w * parameters.primary_isolator.c
     if not parameters.has_tmd:
         u_i = -m_i / (-(w**2) * m_i + z_i)
-        return {"u_I": u_i, "a_I_tot": 1.0 - w**2 * u_i, "F_I": z_i * u_i}
+        return {
+            "u_I": u_i.astype(np.complex128),
+            "a_I_tot": (1.0 - w**2 * u_i).astype(np.complex128),
+            "F_I": (z_i * u_i).astype(np.complex128),
+        }
     iso = parameters.secondary_isolator
     assert iso is not None  # has_tmd
     m_t = parameters.secondary_mass

@@ -249,7 +249,9 @@ class TMDIStructure(S1Structure):
             for name in _SECONDARY_KINEMATICS:
                 fields[name][:] = np.nan
         return TMDIResponse(
-            time=np.arange(ag.size) * self.dt, ground_acceleration=ag.copy(), **fields
+            time=np.arange(ag.size, dtype=np.float64) * self.dt,
+            ground_acceleration=ag.copy(),
+            **fields,
         )
 
 

@@ -127,7 +127,7 @@ class TMDISubstructure(S1Structure):
     ) -> TMDISubstructure:
         """The ``tmdi`` kind: the S1 Table 1 structure under the stepped sine, carrying
         ``device``."""
-        params, _ = s1_configuration(
+        params, _inerter = s1_configuration(
             options.mass, options.flywheel, options.isolators, hdrb=options.hdrb
         )
         return cls(params, options.excitation.acceleration(), dt, device=device)

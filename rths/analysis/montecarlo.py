@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import sys
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from tqdm import tqdm
@@ -31,7 +32,7 @@ class MonteCarloResult:
     j2: dict[str, np.ndarray]
     stopped: dict[str, list[str]]
 
-    def table(self) -> list[dict[str, object]]:
+    def table(self) -> list[dict[str, Any]]:
         """Rows ``{kind, median, worst, stopped}`` (J2 as fractions)."""
         rows = []
         for kind, values in self.j2.items():

@@ -92,10 +92,10 @@ def _print_table(summary: dict[str, Any]) -> None:
                 cells.append(f"TMDI vs PS {_percent(s1['ps_peak_change'])}")
             print(f"{pga:>6} S1 reports: {', '.join(cells)}")
         for d, channels in entry["nrmse_ideal_vs_rack_pinion"].items():
-            cells = ", ".join(
+            joined = ", ".join(
                 f"{ch} {100 * v['full']:.0f}/{100 * v['near_f1']:.0f}" for ch, v in channels.items()
             )
-            print(f"{pga:>6} NRMSE ideal vs rack, {d} (full/near f1, %): {cells}")
+            print(f"{pga:>6} NRMSE ideal vs rack, {d} (full/near f1, %): {joined}")
 
 
 def run(args: argparse.Namespace) -> int:

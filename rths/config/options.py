@@ -208,7 +208,8 @@ def _type_text(hint: Any) -> str:
 
 
 def _default_text(f: dataclasses.Field[Any]) -> str:
-    value = f.default if f.default is not _MISSING else f.default_factory()  # type: ignore[misc]
+    factory: Any = f.default_factory
+    value = f.default if f.default is not _MISSING else factory()
     if value is None:
         return "none"
     if dataclasses.is_dataclass(value):

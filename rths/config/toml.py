@@ -1,5 +1,8 @@
 """Strict, typed access to a parsed TOML table with errors that name file, key and value.
 
+Getters return the checked value, or the ``default`` as given (often None) when the key is
+absent, hence their ``Any`` return annotations.
+
 Used by the scenario and nominal-model readers::
 
     doc = load_toml(path)                # ConfigError on a missing file or a TOML syntax error
@@ -70,7 +73,7 @@ class Table:
         nonnegative: bool = False,
         lo: float | None = None,
         hi: float | None = None,
-    ) -> float:
+    ) -> Any:
         """A finite float (ints accepted) with range checks (the default is not checked)."""
         if key not in self._data and default is not _MISSING:
             self._seen.add(key)
@@ -91,7 +94,7 @@ class Table:
             raise self.error(key, f"must lie in [{lo}, {hi}]; got {value!r}")
         return x
 
-    def integer(self, key: str, default: Any = _MISSING, *, minimum: int | None = None) -> int:
+    def integer(self, key: str, default: Any = _MISSING, *, minimum: int | None = None) -> Any:
         """An integer with an optional lower bound."""
         value = self._get(key, default)
         if value is None:
@@ -109,7 +112,7 @@ class Table:
             raise self.error(key, f"must be true or false; got {value!r}")
         return value
 
-    def string(self, key: str, default: Any = _MISSING) -> str:
+    def string(self, key: str, default: Any = _MISSING) -> Any:
         """A string."""
         value = self._get(key, default)
         if value is None:
@@ -125,7 +128,7 @@ class Table:
             raise self.error(key, f"must be one of {format_choices(choices)}; got {value!r}")
         return value
 
-    def numbers(self, key: str, default: Any = _MISSING, *, min_length: int = 1) -> list[float]:
+    def numbers(self, key: str, default: Any = _MISSING, *, min_length: int = 1) -> Any:
         """A non-empty list of finite numbers."""
         value = self._get(key, default)
         if value is None:

@@ -178,7 +178,7 @@ class Channel:
                 self.noise["measured"] ** 2
                 + self.noise["command"] ** 2 * np.abs(np.fft.rfft(k_u)) ** 2
             )
-            return f, psd * scale
+            return np.asarray(f, dtype=np.float64), psd * scale
         sos = self.segments[0].sos
         assert sos is not None
         spec = self.nominal.specimen
@@ -186,7 +186,7 @@ class Channel:
         k_f = np.abs(np.fft.rfft(impulse_kernel(sos, dt))) ** 2
         k_x = np.abs(np.fft.rfft(impulse_kernel(sos, dt, lin))) ** 2
         psd = self.noise["force"] ** 2 * k_f + self.noise["drive"] ** 2 * k_x
-        return f, psd * scale
+        return np.asarray(f, dtype=np.float64), psd * scale
 
 
 def split_roles(records: list[Record], cutoff: float) -> list[tuple[NDArray, NDArray]]:

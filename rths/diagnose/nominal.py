@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -145,7 +146,7 @@ def load_nominal(path: str | os.PathLike[str]) -> NominalModel:
         Missing file, TOML syntax error, missing/unknown key, wrong type or out-of-range value,
         improper or unstable actuator transfer function.
     """
-    doc, _ = load_toml(path)
+    doc, _ = load_toml(Path(path))
     return _parse(doc)
 
 

@@ -65,11 +65,11 @@ def table(d: Diagnosis) -> str:
         "",
         f"{'candidate':20} {'subsystem':9} {'held-out':>9} {'closed':>8} {'score':>6}  parameters",
     ]
-    for c in d.candidates:
-        mark = "*" if c.eligible else " "
+    for cand in d.candidates:
+        mark = "*" if cand.eligible else " "
         lines.append(
-            f"{mark}{c.name:19} {c.subsystem:9} {_pct(c.held_nrmse):>9} "
-            f"{100 * c.closed:7.1f}% {c.score:6.2f}  {_params(c.fit.params)}"
+            f"{mark}{cand.name:19} {cand.subsystem:9} {_pct(cand.held_nrmse):>9} "
+            f"{100 * cand.closed:7.1f}% {cand.score:6.2f}  {_params(cand.fit.params)}"
         )
     lines.append("")
     if d.verdict == "none":

@@ -179,5 +179,5 @@ def lab_record(
             ),
         )
         measured, force, _, _ = _run(case, command, dt, seed, converters)
-    t = dt * np.arange(1, command.size + 1)
+    t = dt * np.arange(1, command.size + 1, dtype=np.float64)
     return Record(name, dt, t, np.asarray(command, float).copy(), measured, force)

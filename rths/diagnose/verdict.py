@@ -337,6 +337,7 @@ def diagnose(
     channels = {"measured": transfer, "force": specimen}
     candidates.sort(key=lambda c: (not c.eligible, -c.score))
     best = candidates[0] if candidates and candidates[0].eligible else None
+    where: ChannelResult | None
     if best is not None:
         where = channels[best.channel]
     else:

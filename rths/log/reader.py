@@ -58,7 +58,7 @@ def _records(path: str | os.PathLike[str]) -> Iterator[_Record]:
         raise DataError(f"cannot open MCAP log '{p}': {exc.strerror}") from None
     started = False
     try:
-        for record in StreamReader(_WholeReads(stream)).records:
+        for record in StreamReader(_WholeReads(stream)).records:  # type: ignore[arg-type]
             if isinstance(record, (Channel, Message, Metadata, Footer)):
                 yield record
             started = started or isinstance(record, Header)

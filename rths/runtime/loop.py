@@ -93,6 +93,8 @@ class SpecimenLink(Protocol):
 class _Lab(Protocol):
     def step(self, command: float) -> tuple[float, float]: ...
 
+    def truth(self) -> dict[str, float]: ...
+
 
 class InProcessLink:
     """The ``fast`` clock's link: calls an emulated lab directly in this process."""

@@ -83,7 +83,7 @@ def numerical_run(
     sub = _substructure(scn, variant)
     lam_u, lam_f = scn.scaling.displacement, scn.scaling.force
     out: dict[str, NDArray[np.float64]] = {
-        "t": scn.run.dt * np.arange(1, n + 1),
+        "t": scn.run.dt * np.arange(1, n + 1, dtype=np.float64),
         "target": np.empty(n),
         "force": np.empty(n),
     }

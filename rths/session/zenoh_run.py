@@ -221,4 +221,5 @@ def _reap(process: subprocess.Popen[bytes] | None, rec: Recorder) -> None:
         code = process.wait()
     if code not in (0, None):
         rec.event(0, "specimen", f"specimen process exited with code {code}")
-    Path(process.args[4]).unlink(missing_ok=True)  # the copy written by _spawn_specimen
+    args: Any = process.args
+    Path(args[4]).unlink(missing_ok=True)  # the copy written by _spawn_specimen

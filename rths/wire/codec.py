@@ -33,7 +33,7 @@ _COMMAND = struct.Struct("<Qqd")
 _MEASUREMENT = struct.Struct("<Qqddq")
 
 
-def _decode_error(kind: str, data: bytes, size: int) -> DataError:
+def _decode_error(kind: str, data: bytes | bytearray | memoryview, size: int) -> DataError:
     return DataError(f"{kind} payload must be {size} bytes; got {len(data)} bytes")
 
 

@@ -127,7 +127,7 @@ class Presence:
                 f"{self.peer} process did not come up within {timeout:g} s on {self.where}"
             )
         for pub in publishers:
-            while not pub.matching_status.matching:
+            while not pub.matching_status.matching:  # type: ignore[attr-defined]
                 if time.monotonic() > deadline:
                     raise TransportError(
                         f"{self.peer} process is up but did not subscribe to '{pub.key_expr}' "

@@ -361,9 +361,10 @@ def loops_figure(result: SweepResult, pga: float, direction: str = "down") -> An
         if "uncontrolled" in result.config.models:
             marks["f0"] = _resonances(result.get("uncontrolled", direction, pga))["f0"]
         for name in ("f1", "f0", "f2"):
-            if marks.get(name) is None:
+            mark = marks.get(name)
+            if mark is None:
                 continue
-            freq, cycle = run.cycle_at(marks[name])
+            freq, cycle = run.cycle_at(mark)
             for ax, (x, y, title) in zip(axes[i], _LOOPS):
                 scale = 1e3 if x.startswith("u") else 1.0
                 ax.plot(scale * cycle[x], cycle[y], lw=1.0, label=f"{name} = {freq:.2f} Hz")
