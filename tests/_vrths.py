@@ -1,7 +1,7 @@
 """Test fixtures for the compensator tests: vRTHS benchmark plants, targets, a closed loop, J2.
 
 The plants are built here with python-control from the published vRTHS benchmark transfer system
-(Silva et al. 2020) so the compensator tests do not depend on ``plants.actuator.models``.
+(Silva et al. 2020) so the compensator tests do not depend on ``plants.actuator``.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Oracles for plants.actuator.models: vRTHS benchmark plant, CSI, Delta-P preset, delay, rate limit."""
+"""Oracles for plants.actuator: vRTHS benchmark plant, CSI, Delta-P preset, delay, rate limit."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from numpy.typing import ArrayLike, NDArray
 
-from plants.actuator.models import (
+from plants.actuator import (
     BENCHMARK,
     HEAVY_INERTIAL_LOAD,
     BenchmarkParameters,
@@ -556,7 +556,7 @@ def test_mts_identified_preset_reproduces_its_documented_delays():
     provenance states: 26.6 ms at 1 Hz and 19.5 ms at 10 Hz (rounded to 0.1 ms), DC 1.0143."""
     import control as ct
 
-    from plants.actuator.models import MTS_IDENTIFIED
+    from plants.actuator import MTS_IDENTIFIED
 
     g = ct.tf(list(MTS_IDENTIFIED.num), list(MTS_IDENTIFIED.den))
     assert ct.dcgain(g) == pytest.approx(1.0143, rel=1e-12)

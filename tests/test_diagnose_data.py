@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from plants.actuator.models import MTS_IDENTIFIED
+from plants.actuator import MTS_IDENTIFIED
 from rths.core.errors import ConfigError, DataError, ParameterError
 from rths.diagnose.data import MIN_DURATION, load_record, read_csv, write_csv
 from rths.diagnose.nominal import (

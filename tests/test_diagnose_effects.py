@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from plants.actuator.models import MTS_IDENTIFIED, RateLimiter, TransferFunctionActuator
+from plants.actuator import MTS_IDENTIFIED, RateLimiter, TransferFunctionActuator
 from plants.linear_specimen import LinearSpecimen
 from rths.diagnose._kernels import series_force_per_mass, series_force_per_mass_py
 from rths.diagnose._signals import actuator_replay, white_noise_rms

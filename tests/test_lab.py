@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from plants.actuator.models import ServoHydraulicActuator, TransferFunctionActuator
+from plants.actuator import ServoHydraulicActuator, TransferFunctionActuator
 from plants.lab import Converter, EmulatedLab, LabConverters
 from plants.linear_specimen import LinearSpecimen, benchmark_specimen
 from rths.core.errors import ParameterError

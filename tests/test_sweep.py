@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from plants.actuator.models import MTS_IDENTIFIED, TransferFunctionActuator
+from plants.actuator import MTS_IDENTIFIED, TransferFunctionActuator
 from plants.base import Specimen
 from plants.tmdi import (
     NominalInerter,

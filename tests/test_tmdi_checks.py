@@ -7,7 +7,7 @@ frequency than up-sweep peaks), f1 < f0 < f2, and a peak PS displacement reducti
 but not the secondary-mass and inerter accelerations.
 
 The specimens are the ``hdrb = "amplitude"`` models of :func:`rths.experiments.s1_shake_table.sweep.model_configuration`:
-the uncontrolled PS calibrated on the numbers S1 reports for it (:mod:`plants.tmdi.calibration`:
+the uncontrolled PS calibrated on the numbers S1 reports for it (:mod:`rths.experiments.s1_shake_table.calibration`:
 5 mm at 0.05 g, 38 mm at 0.15 g, f0 = 2.25 Hz at 0.10 g), the TMDIs with the S1 §4.2 bearings
 and the same amplitude law anchored at S1's dashpots.  Each test states our numbers next to the
 seed's; where the model departs from a seed observation the test says so and checks what holds.
@@ -18,13 +18,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from plants.actuator.models import MTS_IDENTIFIED
-from plants.tmdi import (
-    S1_UNCONTROLLED,
-    calibrate_uncontrolled_ps,
-    harmonic_balance_crest,
-    stepped_sine_crest,
-)
+from plants.actuator import MTS_IDENTIFIED
 from plants.tmdi.hdrb import (
     AMPLITUDE_EXPONENT,
     HDRB,
@@ -33,6 +27,12 @@ from plants.tmdi.hdrb import (
     UNCONTROLLED_STIFFNESS_SCALE,
 )
 from rths.core.errors import NumericalError, ParameterError
+from rths.experiments.s1_shake_table.calibration import (
+    S1_UNCONTROLLED,
+    calibrate_uncontrolled_ps,
+    harmonic_balance_crest,
+    stepped_sine_crest,
+)
 from rths.experiments.s1_shake_table.frf import (
     FRF,
     frf_nrmse,

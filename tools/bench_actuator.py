@@ -27,7 +27,7 @@ from collections.abc import Callable
 import control
 import numpy as np
 
-from plants.actuator.models import (
+from plants.actuator import (
     BENCHMARK,
     HEAVY_INERTIAL_LOAD,
     ServoHydraulicActuator,

@@ -4,7 +4,7 @@
     python tools/blind_suite.py score /tmp/suite
 
 ``generate`` runs the project's emulated lab (:class:`plants.lab.EmulatedLab`: 16-bit +/-10 V
-converters with noise, :class:`plants.actuator.models.TransferFunctionActuator` with the
+converters with noise, :class:`plants.actuator.TransferFunctionActuator` with the
 MTS-identified TF, an IMD specimen) with one hidden effect per case, the six classes in turn, and
 writes per case ``case_NNN/run_1.csv``, ``run_2.csv`` (two independent band-limited random tests:
 the first identifies, the second is held out) and ``NOMINAL.toml``.  The labels and true parameters

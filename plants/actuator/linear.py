@@ -1,6 +1,6 @@
 """Linear (python-control) models behind the actuators: build, close, check, discretise.
 
-Private helpers of :mod:`plants.actuator.models`; everything here runs once at construction, never
+Private helpers of :mod:`plants.actuator`; everything here runs once at construction, never
 in the stepping loop.
 """
 

@@ -2,28 +2,23 @@
 
 :mod:`~.parameters` (S1 Table 1, §4.2), :mod:`~.kernel` (compiled S1 Eq.9-12 integrator),
 :mod:`~.structure` (the monolithic model and S1 configurations), :mod:`~.substructure` (the
-numerical side of the TMDI RTHS), :mod:`~.linear` (linear FRFs), :mod:`~.calibration` (the
-uncontrolled PS calibration).
+numerical side of the TMDI RTHS), :mod:`~.linear` (linear FRFs), :mod:`~.engine` (the shared
+stepping), :mod:`~.bearing` (the HDRB as a specimen).  The uncontrolled PS calibration on S1's
+numbers is an experiment: :mod:`rths.experiments.s1_shake_table.calibration`.
 """
 
 from plants.tmdi.structure import (
     EQ7_QUANTITIES,
     HDRB_MODELS,
     PRIMARY_MASS,
-    S1_UNCONTROLLED,
     SECONDARY_MASSES,
     IntegrationError,
-    PSCalibration,
     TMDIParameters,
     TMDIResponse,
     TMDIStructure,
-    UncontrolledObservations,
-    calibrate_uncontrolled_ps,
-    harmonic_balance_crest,
     linear_frf,
     linearised_frequencies,
     s1_configuration,
-    stepped_sine_crest,
 )
 from plants.tmdi.substructure import NominalInerter, TMDISubstructure
 
@@ -31,20 +26,14 @@ __all__ = [
     "EQ7_QUANTITIES",
     "HDRB_MODELS",
     "PRIMARY_MASS",
-    "S1_UNCONTROLLED",
     "SECONDARY_MASSES",
     "IntegrationError",
     "NominalInerter",
-    "PSCalibration",
     "TMDIParameters",
     "TMDIResponse",
     "TMDIStructure",
     "TMDISubstructure",
-    "UncontrolledObservations",
-    "calibrate_uncontrolled_ps",
-    "harmonic_balance_crest",
     "linear_frf",
     "linearised_frequencies",
     "s1_configuration",
-    "stepped_sine_crest",
 ]

@@ -34,7 +34,8 @@ have been seen.  ``c(A)`` is therefore piecewise constant, changing at reversals
 deformation rate and the dashpot force are near zero.  The kernel of :mod:`plants.tmdi.structure`
 runs the same rule per loop step (:func:`plants.tmdi.kernel.track_amplitude`).
 
-Presets (the numbers of S1, and of the calibration in :mod:`plants.tmdi.calibration`):
+Presets (the numbers of S1, and of the calibration in
+:mod:`rths.experiments.s1_shake_table.calibration`):
 
 * :data:`S1_PRIMARY` / :data:`S1_SECONDARY`: S1 §4.2 with the rack-and-pinion inerter model;
   :data:`S1_PRIMARY_IDEAL_INERTER` / :data:`S1_SECONDARY_IDEAL_INERTER`: same springs,
@@ -315,7 +316,7 @@ S1_PRIMARY_IDEAL_INERTER: Final[HDRB] = S1_PRIMARY.with_damping(743.3)
 #: Secondary isolator of the ideal-inerter variant (same springs, c_T = 324.7 N s/m), S1 §4.2.
 S1_SECONDARY_IDEAL_INERTER: Final[HDRB] = S1_SECONDARY.with_damping(324.7)
 
-# --- amplitude-dependent damping (plants.tmdi.calibration reproduces these numbers) -------------
+# --- amplitude-dependent damping (the S1 experiment's calibration.py reproduces these numbers)
 #: Range [m] of the PS peak amplitudes S1 reports for the uncontrolled tests (S1 §3.1: 5 mm at
 #: 0.05 g, 38 mm at 0.15 g): the damping law is held constant outside it.
 AMPLITUDE_RANGE: Final[tuple[float, float]] = (0.005, 0.038)

@@ -31,7 +31,7 @@ S1 identifies no model of the PS alone.  :func:`calibrate_uncontrolled_ps` fits 
 S1 reports for the uncontrolled tests (:data:`S1_UNCONTROLLED`: 5 mm at 0.05 g, 38 mm at
 0.15 g, f0 = 2.25 Hz at 0.10 g) -- harmonic balance (:func:`harmonic_balance_crest`) corrected
 to the time-domain crests of this model (:func:`stepped_sine_crest`); see
-:mod:`plants.tmdi.calibration`.  Its result is the preset
+:mod:`rths.experiments.s1_shake_table.calibration`.  Its result is the preset
 :data:`plants.tmdi.hdrb.S1_PRIMARY_UNCONTROLLED`.
 """
 
@@ -48,14 +48,6 @@ from numpy.typing import ArrayLike, NDArray
 from plants.base import Specimen
 from plants.tmdi import kernel as kern
 from plants.tmdi import layout
-from plants.tmdi.calibration import (
-    S1_UNCONTROLLED,
-    PSCalibration,
-    UncontrolledObservations,
-    calibrate_uncontrolled_ps,
-    harmonic_balance_crest,
-    stepped_sine_crest,
-)
 from plants.tmdi.configuration import HDRB_MODELS, s1_configuration
 from plants.tmdi.engine import S1Structure
 from plants.tmdi.inerter import (
@@ -80,19 +72,13 @@ __all__ = [
     "HDRB_MODELS",
     "IntegrationError",
     "PRIMARY_MASS",
-    "PSCalibration",
-    "S1_UNCONTROLLED",
     "SECONDARY_MASSES",
     "TMDIParameters",
     "TMDIResponse",
     "TMDIStructure",
-    "UncontrolledObservations",
-    "calibrate_uncontrolled_ps",
-    "harmonic_balance_crest",
     "linear_frf",
     "linearised_frequencies",
     "s1_configuration",
-    "stepped_sine_crest",
 ]
 
 

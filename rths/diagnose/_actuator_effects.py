@@ -8,7 +8,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from plants.actuator.models import delayed, rate_limited
+from plants.actuator import delayed, rate_limited
 from rths.diagnose._model import Columns, Model
 from rths.diagnose.channels import Channel, Segment
 
@@ -46,7 +46,7 @@ class ActuatorDelay(Model):
 
     The delay is applied to the nominal response rather than to the command, which is exact
     for an LTI ``G`` (both are the same linear-interpolation FIR of
-    :func:`plants.actuator.models.delayed`).  ``tau`` may be negative down to ``-tau_0`` (a nominal
+    :func:`plants.actuator.delayed`).  ``tau`` may be negative down to ``-tau_0`` (a nominal
     that over-states the delay).
     """
 
@@ -83,7 +83,7 @@ SECANT_WINDOW: float = 0.01
 class RateLimit(Model):
     """Velocity (flow) limit after the linear dynamics: ``y = RL(g e^{-s tau_0} G u; v_max) + b``.
 
-    ``RL`` is :func:`plants.actuator.models.rate_limited` (Simulink Rate Limiter semantics), exactly
+    ``RL`` is :func:`plants.actuator.rate_limited` (Simulink Rate Limiter semantics), exactly
     the limiter of the emulated actuators.  The gain sits inside the limiter, so it is a
     nonlinear parameter here: ``theta = (g, v_max)``.
     """

@@ -101,7 +101,7 @@ def actuator_replay(
 
     Row ``k`` of a record holds the command ``u_k`` held over ``[t_k - dt, t_k]`` and the
     displacement at ``t_k`` (:mod:`rths.diagnose.data`), exactly as
-    :class:`plants.actuator.models.TransferFunctionActuator` steps: ``z+ = A z + B u``,
+    :class:`plants.actuator.TransferFunctionActuator` steps: ``z+ = A z + B u``,
     ``y = C z+ + D u``.  The discrete model ``(A, B, C A, C B + D)`` is run by
     ``scipy.signal.lfilter`` from rest.
     """

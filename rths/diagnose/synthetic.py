@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import signal
 
-from plants.actuator.models import MTS_IDENTIFIED, TransferFunctionActuator
+from plants.actuator import MTS_IDENTIFIED, TransferFunctionActuator
 from plants.imd.models import IMDParameters, imd_from_parameters
 from plants.lab import Converter, EmulatedLab, LabConverters
 from rths.core.errors import ParameterError, check_positive, format_choices
@@ -69,7 +69,7 @@ class LabCase:
     gain
         True actuator gain on top of the TF ``num/den`` [-].
     num, den
-        Actuator TF (default :data:`plants.actuator.models.MTS_IDENTIFIED`).
+        Actuator TF (default :data:`plants.actuator.MTS_IDENTIFIED`).
     contact_frequency
         Backlash contact ``sqrt(k_c/m)/2pi`` [Hz].
     converters

@@ -177,7 +177,7 @@ def _table(table: Table) -> TableSpec:
         if "num" in table or "den" in table:
             raise table.error("preset", "give either preset or num/den, not both")
         table.choice("preset", TABLE_PRESETS)
-        from plants.actuator.models import MTS_IDENTIFIED
+        from plants.actuator import MTS_IDENTIFIED
 
         num, den = MTS_IDENTIFIED.num, MTS_IDENTIFIED.den
     else:

@@ -8,10 +8,10 @@ at frequency ``ω`` the displacement command is a sine of amplitude ``A = PGA / 
 :class:`TransferFunctionTable`
     The table's displacement follows the command through a command→displacement transfer function
     ``G(s)`` identified with the specimen on the table (the form of
-    :class:`plants.actuator.models.TransferFunctionActuator`; no control-structure interaction), the
+    :class:`plants.actuator.TransferFunctionActuator`; no control-structure interaction), the
     command being held over each sample (zero-order hold).  ``ü_G`` is the model's acceleration
     *output* ``C A² z`` of a realisation with outputs ``[C; CA; CA²]``: for a relative degree >= 3
-    (e.g. :data:`plants.actuator.models.MTS_IDENTIFIED`) the displacement and its first two
+    (e.g. :data:`plants.actuator.MTS_IDENTIFIED`) the displacement and its first two
     derivatives are continuous state outputs, so no numerical differentiation of the displacement is
     needed. The ZOH-discretised outputs are evaluated with :func:`scipy.signal.lfilter`.  With
     ``amplitude_correction`` the command amplitude of each step is divided by the discrete model's

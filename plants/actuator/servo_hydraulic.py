@@ -1,31 +1,23 @@
-"""Servo-hydraulic actuators: the vRTHS benchmark plant with CSI, and a generic transfer function.
+"""The vRTHS benchmark servo-hydraulic actuator built around the specimen it drives
+(control-structure interaction), with an optional differential-pressure (Delta-P) loop for heavy
+inertial specimens
+(Silva et al. 2020; design.md section 5)::
 
-:class:`ServoHydraulicActuator`
-    The benchmark plant of Silva et al. (2020) (design.md section 5) built around the specimen it
-    drives -- control-structure interaction (CSI) -- with an optional differential-pressure
-    (Delta-P) loop for heavy inertial specimens::
+    servo-valve   q   = a1b0/(s^2 + b1 s + b2) e,    e = gain*command - x - K_dp*F_a
+    hydraulics    (s + a3) F_a = q - a2 xdot
+    mechanics     (m_p + m_r) xddot + (c_p + c_r) xdot = F_a - F_rest
 
-        servo-valve   q   = a1b0/(s^2 + b1 s + b2) e,    e = gain*command - x - K_dp*F_a
-        hydraulics    (s + a3) F_a = q - a2 xdot
-        mechanics     (m_p + m_r) xddot + (c_p + c_r) xdot = F_a - F_rest
+``m_r``, ``c_r`` are the specimen's rigid part (integrated implicitly with the piston);
+``F_rest = F - m_r a - c_r v`` is the specimen's remaining force (stiffness, internal dynamics,
+friction ...), fed back one *sub-step* late.  With ``LinearSpecimen(29.13, c, 1.19e6)`` this
+reproduces the benchmark ``G_plant = gain*feedback(Gs*G0, 1)``, ``G0 = feedback(Ga*Gest, a2*s)``:
+DC gain 0.982 (x1.0261 = 1.0075), phase delay 25.0 ms at 1 Hz and 19.0 ms at 10 Hz.
 
-    ``m_r``, ``c_r`` are the specimen's rigid part (integrated implicitly with the piston);
-    ``F_rest = F - m_r a - c_r v`` is the specimen's remaining force (stiffness, internal
-    dynamics, friction ...), fed back one *sub-step* late.  With ``LinearSpecimen(29.13, c,
-    1.19e6)`` this reproduces the benchmark ``G_plant = gain*feedback(Gs*G0, 1)``,
-    ``G0 = feedback(Ga*Gest, a2*s)``: DC gain 0.982 (x1.0261 = 1.0075), phase delay 25.0 ms at
-    1 Hz and 19.0 ms at 10 Hz.
-:class:`TransferFunctionActuator`
-    ``num(s)/den(s)`` from command to displacement, identified with the specimen attached (no
-    CSI): the form of the diagnosis contract's ``NOMINAL.toml [actuator]`` (design.md section 7).
-
-Both take an optional pure delay on the command path (:class:`DelayLine`, at the loop rate) and
-an optional velocity (flow) limit ``v_max = Q_max/A`` applied to the displacement after the
-linear dynamics (:class:`RateLimiter`, Simulink Rate Limiter semantics).  The specimen is driven
-by the limited displacement; its velocity is the model's clipped to ``+/- v_max`` (exactly
-``+/- v_max`` on the ramp) and its acceleration is 0 whenever the velocity is clipped
-(:meth:`RateLimiter.clip`).  The linear dynamics (including the CSI loop) run on unaware of the
-limit: this is exactly the model the diagnosis fits as ``rate_limit``.
+The pure delay on the command path and the velocity (flow) limit are the base class's
+(:class:`plants.base.Actuator`); the limit is applied to the displacement after the linear
+dynamics, per sub-step (Simulink Rate Limiter semantics, :class:`plants.lines.RateLimiter`); the
+linear dynamics (including the CSI loop) run on unaware of it: exactly the model the diagnosis fits
+as ``rate_limit``.
 
 References
 ----------
@@ -40,28 +32,22 @@ from typing import Any
 
 import control
 import numpy as np
-from numpy.typing import ArrayLike
 
 from plants.actuator.linear import (
     check_stable,
     close_remainder,
-    derivative_model,
     discretise,
     servo_hydraulic_model,
     siso_transfer_function,
 )
-from plants.actuator.options import ServoHydraulicOptions, TransferFunctionOptions
+from plants.actuator.options import ServoHydraulicOptions
 from plants.actuator.parameters import (
     BENCHMARK,
-    HEAVY_INERTIAL_LOAD,
-    MTS_IDENTIFIED,
     BenchmarkParameters,
-    IdentifiedTransferFunction,
 )
 from plants.base import Actuator, Kinematics, Specimen
 from plants.device_model import DeviceModel
 from plants.linear_specimen import LinearSpecimen
-from plants.lines import DelayLine, RateLimiter, delayed, rate_limited
 from rths.core.errors import (
     ParameterError,
     check_nonnegative,
@@ -70,21 +56,8 @@ from rths.core.errors import (
 )
 from rths.core.registry import ACTUATORS
 
-__all__ = [
-    "BENCHMARK",
-    "HEAVY_INERTIAL_LOAD",
-    "MAX_SUBSTEP",
-    "MTS_IDENTIFIED",
-    "BenchmarkParameters",
-    "DelayLine",
-    "IdentifiedTransferFunction",
-    "RateLimiter",
-    "ServoHydraulicActuator",
-    "TransferFunctionActuator",
-    "default_substeps",
-    "delayed",
-    "rate_limited",
-]
+__all__ = ["MAX_SUBSTEP", "ServoHydraulicActuator", "default_substeps"]
+
 
 #: Longest internal sub-step [s] of :class:`ServoHydraulicActuator` by default.  The explicit
 #: (ZOH-held) remainder force lowers the damping of the benchmark's lightly damped oil-column
@@ -324,111 +297,3 @@ class ServoHydraulicActuator(Actuator):
         """``hydraulic_force`` [N] and ``displacement_linear`` (before the rate limiter) [m]."""
         x, _, _, f_a = self._outputs
         return {"hydraulic_force": f_a, "displacement_linear": x}
-
-
-@ACTUATORS.register("transfer_function", TransferFunctionOptions)
-class TransferFunctionActuator(Actuator):
-    """Command→displacement transfer function ``num(s)/den(s)`` with optional delay/rate limit.
-
-    The TF is understood as identified with the specimen attached, so there is no CSI: the
-    specimen is driven by the actuator output and its force does not act back.  The model is
-    realised by python-control (``tf2ss``) and discretised exactly by zero-order hold at the
-    loop step ``dt`` (no sub-steps; the specimen interpolates internally).
-
-    Drive kinematics: with relative degree ``r = deg den - deg num`` the derivatives of order
-    ``i < r`` are the exact state outputs ``C A^i z`` (continuous across steps); those of order
-    ``i >= r`` would jump or carry impulses where the held command jumps, so they are backward
-    differences over ``dt`` of the next lower derivative sent to the specimen (lag ``dt/2``
-    each).  For ``r >= 3`` (e.g. the ``b0/(s^3 + a2 s^2 + a1 s + a0)`` of ``NOMINAL.toml``) all
-    three are exact.  With a rate limiter the displacement is limited first, differences are
-    taken of the limited signal, and :meth:`RateLimiter.clip` bounds the velocity.
-
-    Parameters
-    ----------
-    num, den
-        Coefficients in descending powers of ``s``; proper and stable.
-    specimen
-        The specimen driven by the displacement.
-    dt
-        Loop step [s].
-    delay
-        Pure delay [s] on the command path, >= 0 (:class:`DelayLine`).
-    velocity_limit
-        Rate limit ``v_max`` [m/s] on the displacement (:class:`RateLimiter`), ``None`` for none.
-    """
-
-    def __init__(
-        self,
-        num: ArrayLike,
-        den: ArrayLike,
-        specimen: Specimen,
-        dt: float,
-        *,
-        delay: float = 0.0,
-        velocity_limit: float | None = None,
-    ) -> None:
-        super().__init__(specimen, dt, delay=delay, velocity_limit=velocity_limit)
-        model, self._tf, self.relative_degree = derivative_model(num, den)
-        self._model = discretise(model, self.dt)
-        m = self._model
-        self._A, self._B = m.A, m.B[:, 0].copy()
-        self._C, self._D = m.C, m.D[:, 0].copy()
-        self.reset()
-
-    @classmethod
-    def from_options(
-        cls, options: TransferFunctionOptions, *, specimen: Specimen, dt: float, **_: object
-    ) -> TransferFunctionActuator:
-        """The ``transfer_function`` kind driving ``specimen``."""
-        assert options.num is not None and options.den is not None  # options validate it
-        return cls(
-            list(options.num),
-            list(options.den),
-            specimen,
-            dt,
-            delay=options.delay,
-            velocity_limit=options.velocity_limit,
-        )
-
-    @classmethod
-    def nominal_plant(
-        cls, options: TransferFunctionOptions, *, model: DeviceModel | None, dt: float
-    ) -> tuple[control.TransferFunction, float]:
-        """The compensator's model: the TF itself (it was identified with the specimen on) or
-        ``nominal_num``/``nominal_den``, and the delay [s]."""
-        num, den = options.nominal
-        return control.tf(list(num), list(den)), options.delay
-
-    def _reset_impl(self) -> None:
-        """Return the state and the drive history to rest."""
-        self._z = np.zeros(self._A.shape[0])
-        self._drive = (0.0, 0.0, 0.0)
-        self._linear = 0.0
-        self._force = 0.0
-
-    def _step_impl(self, command: float) -> tuple[Kinematics, float]:
-        u = command
-        self._z = self._A @ self._z + self._B * u
-        x, v, a = (self._C @ self._z + self._D * u).tolist()
-        self._linear = x
-        x_old, v_old, _ = self._drive
-        limiter = self.limiter
-        if limiter is not None:
-            x = limiter.step(x)
-        if self.relative_degree <= 1:
-            v = (x - x_old) / self.dt
-        if self.relative_degree <= 2:
-            a = (v - v_old) / self.dt
-        if limiter is not None:
-            v, a = limiter.clip(v, a)
-        self._drive = (x, v, a)
-        self._force = self.specimen.step(x, v, a, self.dt)
-        return Kinematics(x, v, a), self._force
-
-    def transfer_function(self) -> control.TransferFunction:
-        """The rational part ``num(s)/den(s)``; the :attr:`delay` [s] is separate."""
-        return self._tf
-
-    def _state_impl(self) -> dict[str, float]:
-        """``displacement_linear`` (before the rate limiter) [m]."""
-        return {"displacement_linear": self._linear}
