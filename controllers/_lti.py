@@ -15,7 +15,7 @@ import numpy as np
 import scipy.linalg as sla
 from numpy.typing import NDArray
 
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 __all__ = [
     "balanced_realization",

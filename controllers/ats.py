@@ -32,14 +32,21 @@ Eng. Struct. Dyn. 42(11), 1697-1715, 2013.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from controllers._lti import inverse_taylor, siso_polynomials
 from controllers.base import Compensator
-from rths.filters import LowPass
-from plants.base import Kinematics
-from rths.errors import ParameterError, check_finite, check_nonnegative, check_positive
+from rths.core.errors import (
+    ParameterError,
+    check_finite,
+    check_nonnegative,
+    check_positive,
+)
+from rths.core.filters import LowPass
+from rths.core.kinematics import Kinematics
+from rths.core.registry import COMPENSATORS
 
 __all__ = ["ATSSettings", "AdaptiveTimeSeries"]
 
@@ -52,6 +59,8 @@ class ATSSettings:
     ----------
     initial
         Initial ``(a0, a1, a2)`` [-, s, s^2]; ``(1, tau, tau^2/2)`` for an expected delay ``tau``.
+        Default: the Taylor coefficients of the nominal model's inverse when built from one
+        (clipped to the bounds), else ``(1, 0, 0)``.
     window
         Length of the moving least-squares window [s].
     update_every
@@ -68,7 +77,7 @@ class ATSSettings:
         Order of that filter (even).
     """
 
-    initial: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    initial: tuple[float, float, float] | None = None
     window: float = 1.0
     update_every: int = 16
     threshold: float = 2.54e-4
@@ -78,19 +87,19 @@ class ATSSettings:
     filter_order: int = 6
 
     def __post_init__(self) -> None:
-        if len(self.initial) != 3 or len(self.bounds) != 3 or len(self.max_rate) != 3:
+        if len(self.start) != 3 or len(self.bounds) != 3 or len(self.max_rate) != 3:
             raise ParameterError(
                 "ATS initial, bounds and max_rate must each have 3 entries (a0, a1, a2); got "
-                f"{len(self.initial)}, {len(self.bounds)}, {len(self.max_rate)}"
+                f"{len(self.start)}, {len(self.bounds)}, {len(self.max_rate)}"
             )
         for i, (lo, hi) in enumerate(self.bounds):
             lo_ok = check_finite(lo, f"ATS lower bound of a{i}")
             if not lo_ok < check_finite(hi, f"ATS upper bound of a{i}"):
                 raise ParameterError(f"ATS bounds of a{i} must satisfy lo < hi; got {(lo, hi)!r}")
-            if not lo <= check_finite(self.initial[i], f"ATS initial a{i}") <= hi:
+            if not lo <= check_finite(self.start[i], f"ATS initial a{i}") <= hi:
                 raise ParameterError(
                     f"ATS initial a{i} must lie within its bounds {(lo, hi)!r}; "
-                    f"got {self.initial[i]!r}"
+                    f"got {self.start[i]!r}"
                 )
             check_positive(self.max_rate[i], f"ATS max_rate of a{i}")
         check_positive(self.window, "ATS window")
@@ -105,7 +114,13 @@ class ATSSettings:
                 f"ATS filter_order must be 2, 4, 6 or 8; got {self.filter_order!r}"
             )
 
+    @property
+    def start(self) -> tuple[float, float, float]:
+        """The coefficients the compensator starts from: ``initial``, or ``(1, 0, 0)``."""
+        return (1.0, 0.0, 0.0) if self.initial is None else self.initial
 
+
+@COMPENSATORS.register("ats", ATSSettings)
 class AdaptiveTimeSeries(Compensator):
     """ATS compensator ``u = a0 r + a1 r' + a2 r''`` with online least squares (see module doc).
 
@@ -117,7 +132,24 @@ class AdaptiveTimeSeries(Compensator):
         Tuning; :class:`ATSSettings` defaults when omitted.
     """
 
-    kind = "ats"
+    @classmethod
+    def from_options(
+        cls,
+        options: ATSSettings,
+        *,
+        dt: float,
+        nominal: object = None,
+        delay: float = 0.0,
+        **_: object,
+    ) -> AdaptiveTimeSeries:
+        """The ``ats`` kind; without ``initial`` it starts from the Taylor coefficients of the
+        ``nominal`` model's inverse (clipped to the bounds), else from ``(1, 0, 0)``."""
+        if options.initial is None and nominal is not None:
+            num, den = siso_polynomials(nominal)
+            c = inverse_taylor(num, den, 2, delay)
+            start = tuple(float(np.clip(c[i], *options.bounds[i])) for i in range(3))
+            options = replace(options, initial=start)  # type: ignore[arg-type]
+        return cls(dt, options)
 
     def __init__(self, dt: float, settings: ATSSettings | None = None) -> None:
         super().__init__(dt)
@@ -140,9 +172,9 @@ class AdaptiveTimeSeries(Compensator):
         self._step_limit = np.asarray(s.max_rate) * s.update_every * self.dt
         self.reset()
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         """Return to rest with the initial coefficients and empty history."""
-        self.coefficients = np.asarray(self.settings.initial, dtype=float)
+        self.coefficients = np.asarray(self.settings.start, dtype=float)
         self._u_buf = np.zeros(self._n_window)
         self._y_buf = np.zeros(self._n_window)
         self._i = 0
@@ -150,11 +182,15 @@ class AdaptiveTimeSeries(Compensator):
         self._updates = 0
         self._u_prev = 0.0
         s = self.settings  # the same Butterworth on command and measurement: its lag cancels
-        self._filt_u = None if s.cutoff_hz is None else LowPass(s.cutoff_hz, self.dt, s.filter_order)
-        self._filt_y = None if s.cutoff_hz is None else LowPass(s.cutoff_hz, self.dt, s.filter_order)
+        self._filt_u = (
+            None if s.cutoff_hz is None else LowPass(s.cutoff_hz, self.dt, s.filter_order)
+        )
+        self._filt_y = (
+            None if s.cutoff_hz is None else LowPass(s.cutoff_hz, self.dt, s.filter_order)
+        )
 
     def _record(self, u_prev: float, y: float) -> None:
-        if self._filt_u is not None:
+        if self._filt_u is not None and self._filt_y is not None:
             u_prev, y = self._filt_u(u_prev), self._filt_y(y)
         self._u_buf[self._i] = u_prev
         self._y_buf[self._i] = y

@@ -14,40 +14,73 @@ import math
 from abc import ABC, abstractmethod
 from typing import ClassVar
 
-from plants.base import Kinematics
-from rths.errors import ParameterError, check_positive
+from rths.core.errors import NumericalError, ParameterError, check_positive
+from rths.core.kinematics import Kinematics
 
 __all__ = ["Compensator"]
 
 
 class Compensator(ABC):
-    """Base class of compensators (template: ``step`` checks, ``_step_impl`` computes).
+    """Base class of compensators (template: ``step`` checks and counts, ``_step_impl`` computes).
+
+    The base class owns the shared work: :meth:`step` checks that the target and the measurement
+    are finite, calls ``_step_impl``, checks the command is finite and counts the step;
+    :meth:`reset` zeroes the count and calls ``_reset_impl``.
 
     Subclass contract
     -----------------
-    * ``dt`` [s] is fixed at construction.
+    * Call ``super().__init__(dt)``; ``dt`` [s] is fixed at construction.
     * ``_step_impl(target, measured)`` returns the command [m] for the coming step.
     * ``state()`` returns named internal variables for logging (e.g. the feedforward and feedback
       parts of the command, estimated delay); may be empty.
-    * ``reset()`` returns to the initial state.
+    * ``_reset_impl()`` returns to the initial state.
     """
 
-    #: Short registry name used in scenario files and on the CLI, e.g. ``"ff_lqg"``.
+    #: Registry name used in scenario files and on the CLI, e.g. ``"ff_lqg"`` (set by the
+    #: registry decorator).
     kind: ClassVar[str] = ""
 
     def __init__(self, dt: float) -> None:
         self.dt: float = check_positive(dt, "time step dt")
+        self._steps = 0
 
-    @abstractmethod
+    @property
+    def steps(self) -> int:
+        """Steps taken since construction or the last :meth:`reset`."""
+        return self._steps
+
     def reset(self) -> None:
         """Return to the initial state."""
+        self._steps = 0
+        self._reset_impl()
+
+    @abstractmethod
+    def _reset_impl(self) -> None:
+        """Return the compensator's own state to the initial state."""
 
     def step(self, target: Kinematics, measured: float) -> float:
-        """Command [m] for the next step from the target at its end and the latest measurement."""
+        """Command [m] for the next step from the target at its end and the latest measurement.
+
+        Raises
+        ------
+        ParameterError
+            If the target or the measurement is not finite.
+        NumericalError
+            If the command is not finite.
+        """
         y = float(measured)
-        if not math.isfinite(y):
-            raise ParameterError(f"measured displacement must be finite; got {measured!r}")
-        return self._step_impl(target, y)
+        if not math.isfinite(y + target.displacement + target.velocity + target.acceleration):
+            raise ParameterError(
+                f"target and measured displacement must be finite; got {target!r} and {measured!r}"
+            )
+        command = self._step_impl(target, y)
+        self._steps += 1
+        if not math.isfinite(command):
+            raise NumericalError(
+                f"{type(self).__name__} produced a non-finite command {command!r} at step "
+                f"{self._steps}"
+            )
+        return command
 
     @abstractmethod
     def _step_impl(self, target: Kinematics, measured: float) -> float:

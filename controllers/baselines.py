@@ -6,22 +6,34 @@ The adaptive time series (ATS) baseline lives in :mod:`controllers.ats`.
 from __future__ import annotations
 
 from collections import deque
+from dataclasses import dataclass
 
 import numpy as np
 
+from controllers._lti import inverse_taylor, siso_polynomials
 from controllers.base import Compensator
-from plants.base import Kinematics
-from rths.errors import ParameterError, check_nonnegative, check_positive_int
+from rths.core.errors import ParameterError, check_nonnegative, check_positive_int
+from rths.core.kinematics import Kinematics
+from rths.core.registry import COMPENSATORS, NoOptions
 
-__all__ = ["NoCompensation", "PolynomialExtrapolation", "extrapolation_weights"]
+__all__ = [
+    "NoCompensation",
+    "PolynomialExtrapolation",
+    "PolynomialOptions",
+    "extrapolation_weights",
+]
 
 
+@COMPENSATORS.register("none")
 class NoCompensation(Compensator):
     """The command is the target: ``u_k = r_{k+1}`` (the reference every compensator must beat)."""
 
-    kind = "none"
+    @classmethod
+    def from_options(cls, options: NoOptions, *, dt: float, **_: object) -> NoCompensation:
+        """The ``none`` kind."""
+        return cls(dt)
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         """Nothing to reset."""
 
     def _step_impl(self, target: Kinematics, measured: float) -> float:
@@ -47,6 +59,32 @@ def extrapolation_weights(order: int, steps_ahead: float) -> np.ndarray:
     return w
 
 
+@dataclass(frozen=True)
+class PolynomialOptions:
+    """Options of the ``polynomial`` compensator kind.
+
+    Parameters
+    ----------
+    horizon
+        Delay to compensate [s], >= 0; default: the nominal model's low-frequency phase delay
+        plus its transport delay.
+    order
+        Polynomial degree, 1 to 4.
+    """
+
+    horizon: float | None = None
+    order: int = 3
+
+    def __post_init__(self) -> None:
+        if self.horizon is not None:
+            check_nonnegative(self.horizon, "polynomial extrapolation horizon")
+        if not 1 <= check_positive_int(self.order, "polynomial extrapolation order") <= 4:
+            raise ParameterError(
+                f"polynomial extrapolation order must be at most 4; got {self.order}"
+            )
+
+
+@COMPENSATORS.register("polynomial", PolynomialOptions)
 class PolynomialExtrapolation(Compensator):
     """Command the target extrapolated a fixed delay ahead (Horiuchi et al. 1999).
 
@@ -72,7 +110,27 @@ class PolynomialExtrapolation(Compensator):
     Earthquake Eng. Struct. Dyn. 28(10), 1121-1141, 1999.
     """
 
-    kind = "polynomial"
+    @classmethod
+    def from_options(
+        cls,
+        options: PolynomialOptions,
+        *,
+        dt: float,
+        nominal: object = None,
+        delay: float = 0.0,
+        **_: object,
+    ) -> PolynomialExtrapolation:
+        """The ``polynomial`` kind; without ``horizon`` it needs the ``nominal`` model."""
+        horizon = options.horizon
+        if horizon is None:
+            if nominal is None:
+                raise ParameterError(
+                    "compensator 'polynomial (without horizon)' needs a nominal model; got None"
+                )
+            num, den = siso_polynomials(nominal)
+            c = inverse_taylor(num, den, 1, delay)
+            horizon = c[1] / c[0]
+        return cls(dt, horizon, options.order)
 
     def __init__(self, dt: float, delay: float, order: int = 3) -> None:
         super().__init__(dt)
@@ -84,7 +142,7 @@ class PolynomialExtrapolation(Compensator):
         self.weights = extrapolation_weights(order, self.delay / self.dt)
         self.reset()
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         """Return to rest: the target history is zero."""
         self._history: deque[float] = deque([0.0] * (self.order + 1), maxlen=self.order + 1)
 

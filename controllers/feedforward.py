@@ -32,10 +32,17 @@ from scipy.optimize import least_squares
 
 from controllers._lti import FloatArray, dc_gain, inverse_taylor, siso_polynomials
 from controllers.base import Compensator
-from plants.base import Kinematics
-from rths.errors import ParameterError, check_finite, check_nonnegative, check_positive
+from rths.core.errors import (
+    ParameterError,
+    check_finite,
+    check_nonnegative,
+    check_positive,
+)
+from rths.core.kinematics import Kinematics
+from rths.core.registry import COMPENSATORS
 
 __all__ = [
+    "FeedforwardOptions",
     "FeedforwardCompensator",
     "LowOrderFit",
     "LowOrderModel",
@@ -192,6 +199,40 @@ def low_order_from_nominal(nominal: object, delay: float = 0.0) -> LowOrderModel
     return LowOrderModel(b0=float(num[0]), den=tuple(map(float, den)), delay=delay)
 
 
+@dataclass(frozen=True)
+class FeedforwardOptions:
+    """Options of the ``ff`` compensator kind.
+
+    Parameters
+    ----------
+    order
+        Order of the low-order model inverted (Phillips & Spencer: 3).
+    band_hz
+        Band [Hz] over which a higher-order nominal model is fitted by the low-order one.
+    hold_correction
+        Evaluate the inverse at mid-step to cancel the zero-order-hold lag.
+    """
+
+    order: int = 3
+    band_hz: tuple[float, float] = (0.0, 20.0)
+    hold_correction: bool = True
+
+    def __post_init__(self) -> None:
+        if isinstance(self.order, bool) or not isinstance(self.order, int):
+            raise ParameterError(f"feedforward order must be an integer; got {self.order!r}")
+
+    def low_order(self, nominal: object, delay: float) -> LowOrderModel:
+        """The model to invert: the nominal itself when it is all-pole of degree <= ``order``,
+        else its fit over ``band_hz`` (:func:`fit_low_order`)."""
+        if nominal is None:
+            raise ParameterError("compensator 'ff' needs a nominal model; got None")
+        exact = low_order_from_nominal(nominal, delay)
+        if exact is not None and exact.order <= self.order:
+            return exact
+        return fit_low_order(nominal, self.order, self.band_hz, delay).model
+
+
+@COMPENSATORS.register("ff", FeedforwardOptions)
 class FeedforwardCompensator(Compensator):
     """Inverse-model feedforward ``u_k = sum_i c_i r^(i)`` (Phillips & Spencer 2013).
 
@@ -217,7 +258,18 @@ class FeedforwardCompensator(Compensator):
         Evaluate the inverse at mid-step to cancel the zero-order-hold lag (default ``True``).
     """
 
-    kind = "ff"
+    @classmethod
+    def from_options(
+        cls,
+        options: FeedforwardOptions,
+        *,
+        dt: float,
+        nominal: object = None,
+        delay: float = 0.0,
+        **_: object,
+    ) -> FeedforwardCompensator:
+        """The ``ff`` kind: the inverse of :meth:`FeedforwardOptions.low_order`."""
+        return cls(dt, options.low_order(nominal, delay), options.hold_correction)
 
     def __init__(self, dt: float, model: LowOrderModel, hold_correction: bool = True) -> None:
         super().__init__(dt)
@@ -229,7 +281,7 @@ class FeedforwardCompensator(Compensator):
         self._n_diff = max(0, model.order - 2)  # derivatives from differences of acceleration
         self.reset()
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         """Return to rest: previous target and acceleration history are zero."""
         self._prev = (0.0, 0.0, 0.0)
         self._acc: deque[float] = deque([0.0] * (self._n_diff + 1), maxlen=self._n_diff + 1)

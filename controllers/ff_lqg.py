@@ -7,13 +7,33 @@ Model-based feedforward (:mod:`controllers.feedforward`) for tracking plus LQG f
 
 from __future__ import annotations
 
-from controllers.feedforward import FeedforwardCompensator
-from controllers.lqg import LQGCompensator, LQGDesign
-from rths.errors import ParameterError
+from dataclasses import dataclass
 
-__all__ = ["FFLQGCompensator"]
+from controllers.feedforward import FeedforwardCompensator, FeedforwardOptions
+from controllers.lqg import LQGCompensator, LQGDesign, LQGWeights, design_lqg
+from rths.core.errors import ParameterError
+from rths.core.registry import COMPENSATORS
+
+__all__ = ["FFLQGCompensator", "FFLQGOptions"]
 
 
+@dataclass(frozen=True)
+class FFLQGOptions(LQGWeights, FeedforwardOptions):
+    """Options of the ``ff_lqg`` compensator kind: those of ``ff``
+    (:class:`~controllers.feedforward.FeedforwardOptions`) and of ``lqg``
+    (:class:`~controllers.lqg.LQGWeights`)."""
+
+    def __post_init__(self) -> None:
+        FeedforwardOptions.__post_init__(self)
+        LQGWeights.__post_init__(self)
+
+    @property
+    def weights(self) -> LQGWeights:
+        """The LQG part."""
+        return LQGWeights(**{name: getattr(self, name) for name in LQGWeights.__dataclass_fields__})
+
+
+@COMPENSATORS.register("ff_lqg", FFLQGOptions)
 class FFLQGCompensator(LQGCompensator):
     """Feedforward inverse of the low-order model plus LQG correction.
 
@@ -32,7 +52,23 @@ class FFLQGCompensator(LQGCompensator):
     integrated tracking error [m s], the Kalman innovation [m] and the model displacements.
     """
 
-    kind = "ff_lqg"
+    @classmethod
+    def from_options(  # type: ignore[override]
+        cls,
+        options: FFLQGOptions,
+        *,
+        dt: float,
+        nominal: object = None,
+        delay: float = 0.0,
+        **_: object,
+    ) -> FFLQGCompensator:
+        """The ``ff_lqg`` kind (Phillips & Spencer 2013) on the ``nominal`` model."""
+        if nominal is None:
+            raise ParameterError("compensator 'ff_lqg' needs a nominal model; got None")
+        feedforward = FeedforwardCompensator.from_options(
+            options, dt=dt, nominal=nominal, delay=delay
+        )
+        return cls(dt, design_lqg(nominal, dt, options.weights, delay), feedforward)
 
     def __init__(self, dt: float, design: LQGDesign, feedforward: FeedforwardCompensator) -> None:
         if feedforward is None:

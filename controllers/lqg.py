@@ -41,8 +41,14 @@ import numpy as np
 from controllers._lti import FloatArray, balanced_realization, dc_gain, siso_polynomials
 from controllers.base import Compensator
 from controllers.feedforward import FeedforwardCompensator
-from plants.base import Kinematics
-from rths.errors import ParameterError, check_nonnegative, check_positive, check_positive_int
+from rths.core.errors import (
+    ParameterError,
+    check_nonnegative,
+    check_positive,
+    check_positive_int,
+)
+from rths.core.kinematics import Kinematics
+from rths.core.registry import COMPENSATORS
 
 __all__ = ["LQGCompensator", "LQGDesign", "LQGWeights", "design_lqg", "discrete_nominal"]
 
@@ -208,6 +214,7 @@ def design_lqg(
     )
 
 
+@COMPENSATORS.register("lqg", LQGWeights)
 class LQGCompensator(Compensator):
     """LQG tracking compensator: feedforward command plus LQG correction.
 
@@ -226,7 +233,20 @@ class LQGCompensator(Compensator):
         Model-based feedforward, or ``None`` for the static inverse.
     """
 
-    kind = "lqg"
+    @classmethod
+    def from_options(
+        cls,
+        options: LQGWeights,
+        *,
+        dt: float,
+        nominal: object = None,
+        delay: float = 0.0,
+        **_: object,
+    ) -> LQGCompensator:
+        """The ``lqg`` kind: LQG feedback alone, designed on the ``nominal`` model."""
+        if nominal is None:
+            raise ParameterError("compensator 'lqg' needs a nominal model; got None")
+        return cls(dt, design_lqg(nominal, dt, options, delay))
 
     def __init__(
         self, dt: float, design: LQGDesign, feedforward: FeedforwardCompensator | None = None
@@ -251,7 +271,7 @@ class LQGCompensator(Compensator):
         self._inv_gain = 1.0 / design.static_gain
         self.reset()
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         """Return to rest: error estimate, integral and previous target are zero."""
         self._e_hat = np.zeros(self.design.order)  # predicted error state e_{k|k-1}
         self._z = 0.0  # integrated tracking error [m s]

@@ -1,8 +1,8 @@
 """Interfaces shared by every plant: numerical substructures, specimens and actuators.
 
 A plant is a fixed-step model of a physical thing.  It knows nothing of zenoh, MCAP, clocks or the
-loop: the loop (``rths.loop``) holds plants through these three interfaces only, so a new damper
-model or a new structure is one new module that subclasses one of them.
+loop: the loop (``rths.runtime.loop``) holds plants through these three interfaces only, so a new
+damper model or a new structure is one new module that subclasses one of them.
 
 Time alignment used throughout (loop step ``k`` covers ``[t_k, t_k+1]``)::
 
@@ -14,38 +14,30 @@ Sign convention: the *restoring force* ``F`` of a device is the force that must 
 driven end to impose the motion (``F = m_e * a`` for an ideal inerter); the structure it is attached
 to receives ``-F``.  All quantities are SI: m, m/s, m/s^2, N, s.
 
-The public ``step`` methods follow the template of ``scipy.integrate.OdeSolver``: they check the
-input and hand off to ``_step_impl`` that subclasses implement.
+The public ``step`` methods follow the template of ``scipy.integrate.OdeSolver``: the base class
+counts steps, owns time, checks that inputs and results are finite and hands off to ``_step_impl``
+that subclasses implement; ``reset`` is concrete and calls ``_reset_impl``.
 """
 
 from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rths.errors import ParameterError, check_positive
+from plants.lines import DelayLine, RateLimiter
+from rths.core.errors import (
+    NumericalError,
+    ParameterError,
+    check_nonnegative,
+    check_positive,
+)
+from rths.core.kinematics import Kinematics
 
 __all__ = ["Actuator", "Kinematics", "Specimen", "Substructure", "drive"]
-
-
-@dataclass(frozen=True, slots=True)
-class Kinematics:
-    """Displacement [m], velocity [m/s] and acceleration [m/s^2] of one point."""
-
-    displacement: float
-    velocity: float
-    acceleration: float
-
-    def scaled(self, factor: float) -> Kinematics:
-        """The same motion multiplied by ``factor`` (e.g. a prototype→specimen scale factor)."""
-        return Kinematics(
-            self.displacement * factor, self.velocity * factor, self.acceleration * factor
-        )
 
 
 def _check_force(value: float, what: str) -> float:
@@ -55,6 +47,22 @@ def _check_force(value: float, what: str) -> float:
     return x
 
 
+def _check_output(kinematics: Kinematics, force: float | None, who: object, t: float) -> None:
+    """Raise :class:`NumericalError` naming the plant if a result is not finite."""
+    values: tuple[float, ...] = (
+        kinematics.displacement,
+        kinematics.velocity,
+        kinematics.acceleration,
+    )
+    if force is not None:
+        values += (force,)
+    if not all(math.isfinite(x) for x in values):
+        raise NumericalError(
+            f"{type(who).__name__} produced a non-finite result at t = {t:.6g} s: "
+            f"{kinematics!r}" + ("" if force is None else f", force {force!r}")
+        )
+
+
 class Substructure(ABC):
     """A numerical substructure advanced with a fixed step, coupled through one interface DOF.
 
@@ -62,30 +70,48 @@ class Substructure(ABC):
     acceleration under a frame); the loop supplies only the restoring force of the device at the
     interface and reads back the interface kinematics (the RTHS *target*).
 
+    The base class owns the shared work (the template of ``scipy.integrate.OdeSolver.step``):
+    :meth:`step` checks the force, calls ``_step_impl``, checks the result is finite and counts
+    the step; :attr:`steps` and :attr:`time` follow from that count; :meth:`reset` zeroes it and
+    calls ``_reset_impl``.
+
     Subclass contract
     -----------------
-    * ``dt`` [s] is fixed at construction.
-    * ``_step_impl(F)`` advances from ``t_k`` to ``t_{k+1} = t_k + dt`` with the device restoring
-      force ``F`` [N] (prototype scale) acting on the interface for that step (held over the
-      step), and returns the interface kinematics at ``t_{k+1}``.  When the substructure carries a
-      nominal interface device (``device_force``), ``F`` is the *correction* on top of it.
+    * Call ``super().__init__(dt)``; ``dt`` [s] is fixed at construction.
+    * ``_step_impl(F)`` advances from ``t_k = steps * dt`` to ``t_{k+1}`` with the device
+      restoring force ``F`` [N] (prototype scale, finite) acting on the interface for that step
+      (held over the step), and returns the interface kinematics at ``t_{k+1}``.  While it runs,
+      :attr:`steps` is still ``k``.  When the substructure carries a nominal interface device
+      (``device_force``), ``F`` is the *correction* on top of it.
     * ``predict(F)`` returns what ``step(F)`` would return without changing any state (for
       look-ahead compensators and checks; the runner also calls it once before the clock starts
       so that compiled kernels are built outside the timed loop).
-    * ``reset()`` returns to the initial state (rest, ``t = 0``).
+    * ``_reset_impl()`` returns the model to its initial state (rest).
+    * ``interface`` gives the interface kinematics now; ``outputs()`` named responses to log.
     """
 
     def __init__(self, dt: float) -> None:
         self.dt: float = check_positive(dt, "time step dt")
-
-    @abstractmethod
-    def reset(self) -> None:
-        """Return to rest at ``t = 0``."""
+        self._steps = 0
 
     @property
-    @abstractmethod
+    def steps(self) -> int:
+        """Steps taken since construction or the last :meth:`reset`."""
+        return self._steps
+
+    @property
     def time(self) -> float:
-        """Current simulated time [s]."""
+        """Current simulated time [s] (``steps * dt``, exact: no accumulated rounding)."""
+        return self._steps * self.dt
+
+    def reset(self) -> None:
+        """Return to rest at ``t = 0``."""
+        self._steps = 0
+        self._reset_impl()
+
+    @abstractmethod
+    def _reset_impl(self) -> None:
+        """Return the model's state to rest (the step count is the base class's)."""
 
     @property
     @abstractmethod
@@ -93,8 +119,19 @@ class Substructure(ABC):
         """Kinematics of the interface DOF at the current time."""
 
     def step(self, restoring_force: float) -> Kinematics:
-        """Advance one step with the device restoring force [N]; return the new interface state."""
-        return self._step_impl(_check_force(restoring_force, "restoring force"))
+        """Advance one step with the device restoring force [N]; return the new interface state.
+
+        Raises
+        ------
+        ParameterError
+            If the force is not finite.
+        NumericalError
+            If the model's result is not finite (the run diverged).
+        """
+        kinematics = self._step_impl(_check_force(restoring_force, "restoring force"))
+        self._steps += 1
+        _check_output(kinematics, None, self, self.time)
+        return kinematics
 
     @abstractmethod
     def _step_impl(self, restoring_force: float) -> Kinematics:
@@ -111,7 +148,7 @@ class Substructure(ABC):
 
         The loop feeds back only the correction ``measured force - device_force``: the nominal
         device is integrated with the structure (unconditionally stable) and the physical
-        specimen supplies its departure from it (see :mod:`rths.loop`).
+        specimen supplies its departure from it (see :mod:`rths.runtime.loop`).
         """
         return 0.0
 
@@ -124,8 +161,13 @@ class Substructure(ABC):
 class Specimen(ABC):
     """A physical device driven by the displacement of one end (the other end is fixed).
 
+    The base class owns the shared work: :meth:`step` checks the drive state and the time step,
+    calls ``_step_impl``, checks the force is finite and counts the step; :meth:`reset` zeroes
+    the count and calls ``_reset_impl``.
+
     Subclass contract
     -----------------
+    * Call ``super().__init__()``.
     * ``_step_impl(u, v, a, dt)`` advances the internal state from the previous drive state to the
       new one -- displacement ``u`` [m], velocity ``v`` [m/s], acceleration ``a`` [m/s^2] of the
       driven end at the end of an interval of ``dt`` [s] -- and returns the restoring force [N]
@@ -137,11 +179,23 @@ class Specimen(ABC):
       implicitly with its own moving mass (an inerter of 1.6 t behind a 29 kg piston cannot be
       coupled explicitly) and feeds back only the remainder ``F - m_r*a - c_r*v``.
     * ``state()`` returns named internal variables for logging (may be empty).
-    * ``reset()`` returns to rest at ``u = v = a = 0``.
+    * ``_reset_impl()`` returns to rest at ``u = v = a = 0``.
+
+    A new damper model is one module: subclass this, give the constructor's parameters as a frozen
+    options dataclass and register the class with ``@SPECIMENS.register("my_kind", MyOptions)``
+    (:mod:`rths.core.registry`); scenario files then name it ``[specimen] kind = "my_kind"``.
     """
 
-    #: Short registry name used in scenario files, e.g. ``"imd"``.
+    #: Registry name used in scenario files, e.g. ``"imd"`` (set by the registry decorator).
     kind: ClassVar[str] = ""
+
+    def __init__(self) -> None:
+        self._steps = 0
+
+    @property
+    def steps(self) -> int:
+        """Steps taken since construction or the last :meth:`reset`."""
+        return self._steps
 
     @property
     def rigid_inertance(self) -> float:
@@ -153,13 +207,41 @@ class Specimen(ABC):
         """Viscous coefficient [N s/m] acting directly at the driven end."""
         return 0.0
 
-    @abstractmethod
     def reset(self) -> None:
         """Return to rest."""
+        self._steps = 0
+        self._reset_impl()
+
+    @abstractmethod
+    def _reset_impl(self) -> None:
+        """Return the model's state to rest (the step count is the base class's)."""
 
     def step(self, u: float, v: float, a: float, dt: float) -> float:
-        """Advance to the drive state ``(u, v, a)`` over ``dt`` [s]; return the force [N]."""
-        return self._step_impl(float(u), float(v), float(a), float(dt))
+        """Advance to the drive state ``(u, v, a)`` over ``dt`` [s]; return the force [N].
+
+        Raises
+        ------
+        ParameterError
+            If the drive state is not finite or ``dt`` is not positive.
+        NumericalError
+            If the model's force is not finite.
+        """
+        u, v, a, dt = float(u), float(v), float(a), float(dt)
+        if not math.isfinite(u + v + a):
+            raise ParameterError(
+                f"{type(self).__name__} drive state must be finite; got u={u!r} m, v={v!r} m/s, "
+                f"a={a!r} m/s^2"
+            )
+        if not (0.0 < dt < math.inf):
+            raise ParameterError(f"time step dt must be positive; got {dt!r}")
+        force = self._step_impl(u, v, a, dt)
+        self._steps += 1
+        if not math.isfinite(force):
+            raise NumericalError(
+                f"{type(self).__name__} produced a non-finite force {force!r} at step "
+                f"{self._steps} (u={u!r} m, v={v!r} m/s)"
+            )
+        return force
 
     @abstractmethod
     def _step_impl(self, u: float, v: float, a: float, dt: float) -> float:
@@ -176,39 +258,115 @@ class Actuator(ABC):
     The actuator owns the coupling to its specimen (control-structure interaction, CSI): the
     specimen's force acts back on the actuator's moving mass and hydraulics.
 
+    The base class owns the shared work: the specimen, the pure delay on the command path
+    (:class:`plants.lines.DelayLine`) and the rate (flow) limiter
+    (:class:`plants.lines.RateLimiter`, which the subclass applies where its dynamics
+    put it); :meth:`step` checks the command, delays it, calls ``_step_impl``, checks the result
+    and counts the step; :meth:`reset` resets the lines, the specimen and the count and calls
+    ``_reset_impl``; :meth:`state` reports the delayed command, the limiter and the specimen.
+
     Subclass contract
     -----------------
-    * ``dt`` [s] is fixed at construction; internal sub-steps are the subclass's business.
-    * ``_step_impl(u)`` holds the command ``u`` [m] over one step and returns the kinematics of
-      the specimen end and the specimen restoring force [N] at the end of the step.  These are
-      the *true* values; converters, quantisation and noise live in the lab (``plants.lab``).
+    * Call ``super().__init__(specimen, dt, delay=..., velocity_limit=..., limiter_step=...)``;
+      ``dt`` [s] is fixed; internal sub-steps are the subclass's business (``limiter_step`` is
+      the step the limiter is applied at, default ``dt``).
+    * ``_step_impl(u)`` holds the *delayed* command ``u`` [m] over one step, applies
+      :attr:`limiter` (when not None) to the displacement it produces, drives :attr:`specimen`
+      and returns the kinematics of the specimen end and the specimen restoring force [N] at the
+      end of the step.  These are the *true* values; converters, quantisation and noise live in
+      the lab (``plants.lab``).
     * ``transfer_function()`` returns the linear command→displacement model (python-control
       ``TransferFunction``, continuous time) including the specimen's rigid part, for compensator
-      design and for the diagnosis's nominal model.
-    * ``reset()`` returns to rest.
+      design and for the diagnosis's nominal model; the :attr:`delay` is separate.
+    * ``_reset_impl()`` returns the actuator's own state to rest; ``_state_impl()`` may add
+      named variables to :meth:`state`.
     """
 
-    def __init__(self, dt: float) -> None:
+    #: Registry name used in scenario files (set by the registry decorator).
+    kind: ClassVar[str] = ""
+
+    def __init__(
+        self,
+        specimen: Specimen,
+        dt: float,
+        *,
+        delay: float = 0.0,
+        velocity_limit: float | None = None,
+        limiter_step: float | None = None,
+    ) -> None:
         self.dt: float = check_positive(dt, "time step dt")
+        if not isinstance(specimen, Specimen):
+            raise ParameterError(f"specimen must be a plants.base.Specimen; got {specimen!r}")
+        self.specimen: Specimen = specimen
+        self.delay: float = check_nonnegative(delay, "delay")
+        self.velocity_limit: float | None = velocity_limit
+        self._delay_line = DelayLine(self.delay, self.dt) if self.delay > 0.0 else None
+        step = self.dt if limiter_step is None else limiter_step
+        self.limiter: RateLimiter | None = (
+            None if velocity_limit is None else RateLimiter(velocity_limit, step)
+        )
+        self._command = 0.0
+        self._steps = 0
+
+    @property
+    def steps(self) -> int:
+        """Steps taken since construction or the last :meth:`reset`."""
+        return self._steps
+
+    def reset(self) -> None:
+        """Return to rest: the actuator, its delay line and rate limiter, and the specimen."""
+        self._steps = 0
+        self._command = 0.0
+        if self._delay_line is not None:
+            self._delay_line.reset()
+        if self.limiter is not None:
+            self.limiter.reset()
+        self.specimen.reset()
+        self._reset_impl()
 
     @abstractmethod
-    def reset(self) -> None:
-        """Return to rest."""
+    def _reset_impl(self) -> None:
+        """Return the actuator's own state to rest."""
 
     def step(self, command: float) -> tuple[Kinematics, float]:
-        """Hold ``command`` [m] for one step; return (specimen-end kinematics, force [N])."""
-        return self._step_impl(_check_force(command, "actuator command"))
+        """Hold ``command`` [m] for one step; return (specimen-end kinematics, force [N]).
+
+        Raises
+        ------
+        ParameterError
+            If the command is not finite.
+        NumericalError
+            If the result is not finite.
+        """
+        u = _check_force(command, "actuator command")
+        if self._delay_line is not None:
+            u = self._delay_line.step(u)
+        self._command = u
+        kinematics, force = self._step_impl(u)
+        self._steps += 1
+        _check_output(kinematics, force, self, self._steps * self.dt)
+        return kinematics, force
 
     @abstractmethod
     def _step_impl(self, command: float) -> tuple[Kinematics, float]:
-        """Advance one step (see the class docstring)."""
+        """Advance one step with the delayed command (see the class docstring)."""
 
     @abstractmethod
     def transfer_function(self):  # -> control.TransferFunction (import kept out of hot modules)
         """Linear continuous-time command→displacement model (python-control)."""
 
     def state(self) -> dict[str, float]:
-        """Named internal variables (SI) for logging; empty unless a model has some."""
+        """Named variables for logging (SI): ``command_delayed`` [m], ``rate_limiting``
+        (+1/-1/0), the subclass's own, and the specimen's as ``specimen.<name>``."""
+        own = {
+            "command_delayed": self._command,
+            "rate_limiting": 0.0 if self.limiter is None else float(self.limiter.limiting),
+        }
+        own |= self._state_impl()
+        return own | {f"specimen.{k}": v for k, v in self.specimen.state().items()}
+
+    def _state_impl(self) -> dict[str, float]:
+        """The subclass's named variables for :meth:`state`; none by default."""
         return {}
 
 

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from plants.base import Actuator, Kinematics
-from rths.errors import (
+from rths.core.errors import (
     ParameterError,
     check_finite,
     check_nonnegative,
@@ -171,7 +171,7 @@ class EmulatedLab:
             raise ParameterError(f"converters must be LabConverters; got {converters!r}")
         self._seed_sequence = np.random.SeedSequence(seed)
         #: The noise seed actually used (reproduces the run when passed back as ``seed``).
-        self.seed: int = int(self._seed_sequence.entropy)
+        self.seed: int = int(self._seed_sequence.entropy)  # type: ignore[arg-type]
         c = self.converters
         self._noise_rms = np.array(
             [c.command.noise_rms, c.displacement.noise_rms, c.force.noise_rms]

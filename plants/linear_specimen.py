@@ -29,11 +29,43 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from plants.base import Specimen
-from rths.errors import check_nonnegative, check_positive
+from rths.core.errors import check_nonnegative, check_positive
+from rths.core.registry import SPECIMENS
 
-__all__ = ["BenchmarkSpecimenParameters", "LinearSpecimen", "benchmark_specimen"]
+__all__ = [
+    "BenchmarkSpecimenParameters",
+    "LinearParameters",
+    "LinearSpecimen",
+    "benchmark",
+    "benchmark_specimen",
+]
 
 
+@dataclass(frozen=True)
+class LinearParameters:
+    """Options of the ``linear`` specimen kind.
+
+    Parameters
+    ----------
+    mass
+        Mass ``m`` [kg] moving with the driven end, >= 0.
+    damping
+        Viscous coefficient ``c`` [N s/m], >= 0.
+    stiffness
+        Stiffness ``k`` [N/m], >= 0.
+    """
+
+    mass: float = 0.0
+    damping: float = 0.0
+    stiffness: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_nonnegative(self.mass, "specimen mass")
+        check_nonnegative(self.damping, "specimen damping")
+        check_nonnegative(self.stiffness, "specimen stiffness")
+
+
+@SPECIMENS.register("linear", LinearParameters)
 class LinearSpecimen(Specimen):
     """Mass ``m`` [kg], viscous damping ``c`` [N s/m] and stiffness ``k`` [N/m] at the driven end.
 
@@ -50,13 +82,17 @@ class LinearSpecimen(Specimen):
         Stiffness ``k`` [N/m], >= 0; the only part an actuator feeds back explicitly.
     """
 
-    kind = "linear"
-
     def __init__(self, mass: float, damping: float, stiffness: float) -> None:
+        super().__init__()
         self.mass: float = check_nonnegative(mass, "specimen mass")
         self.damping: float = check_nonnegative(damping, "specimen damping")
         self.stiffness: float = check_nonnegative(stiffness, "specimen stiffness")
         self._displacement = 0.0
+
+    @classmethod
+    def from_options(cls, options: LinearParameters, **_: object) -> LinearSpecimen:
+        """The ``linear`` kind."""
+        return cls(options.mass, options.damping, options.stiffness)
 
     @classmethod
     def from_damping_ratio(
@@ -88,7 +124,7 @@ class LinearSpecimen(Specimen):
         """The dashpot ``c`` [N s/m]: all of it acts rigidly at the driven end."""
         return self.damping
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         """Return to rest (the model has no state besides the last displacement for logging)."""
         self._displacement = 0.0
 
@@ -163,3 +199,12 @@ def benchmark_specimen(rng: np.random.Generator | None = None) -> LinearSpecimen
     """
     nominal = BenchmarkSpecimenParameters()
     return (nominal if rng is None else nominal.sample(rng)).specimen()
+
+
+@SPECIMENS.register("benchmark", BenchmarkSpecimenParameters)
+def benchmark(
+    options: BenchmarkSpecimenParameters, *, rng: np.random.Generator | None = None, **_: object
+) -> LinearSpecimen:
+    """The vRTHS benchmark's linear specimen (Silva et al. 2020), perturbed by ``rng`` in a
+    Monte-Carlo draw (:meth:`BenchmarkSpecimenParameters.sample`)."""
+    return (options if rng is None else options.sample(rng)).specimen()

@@ -1,7 +1,8 @@
 """Real-time hybrid simulation (RTHS) framework.
 
-The framework pairs a numerical substructure (:mod:`plants.cable`, :mod:`plants.tmdi`) with an
-emulated physical specimen behind a servo-hydraulic actuator (:mod:`plants.imd`,
+The framework pairs a numerical substructure (:mod:`plants.cable.model`,
+:mod:`plants.tmdi.structure`) with an emulated physical specimen behind a servo-hydraulic actuator
+(:mod:`plants.imd.models`,
 :mod:`plants.actuator`), closes the loop with a compensator (:mod:`controllers`), streams the
 signals over Eclipse Zenoh and records them to MCAP.  Everything is in SI units.
 

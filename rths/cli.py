@@ -8,9 +8,9 @@ Each sub-command lives in its own module under :mod:`rths.commands` and exposes:
 Modules there are discovered automatically, so adding a command never touches this file.  Command
 modules import their heavy dependencies inside ``run`` so that ``rths --help`` stays fast.
 
-Errors: any :class:`rths.errors.RTHSError` (bad scenario, bad data, bad parameter) or ``OSError``
-(a path that cannot be read or written) becomes one line on stderr and exit code 2, with no
-traceback; argparse usage errors also exit with 2.
+Errors: any :class:`rths.core.errors.RTHSError` (bad scenario, bad data, bad parameter) or
+``OSError`` (a path that cannot be read or written) becomes one line on stderr and exit code 2, with
+no traceback; argparse usage errors also exit with 2.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from collections.abc import Sequence
 
 import rths.commands
 from rths import __version__
-from rths.errors import RTHSError
+from rths.core.errors import RTHSError
 
 __all__ = ["build_parser", "main"]
 
@@ -32,7 +32,7 @@ def build_parser() -> argparse.ArgumentParser:
     """The top-level parser with every sub-command found in :mod:`rths.commands`."""
     parser = argparse.ArgumentParser(
         prog="rths",
-        description="Real-time hybrid simulation: run, replay, report, check and diagnose RTHS tests.",
+        description="Real-time hybrid simulation: run, replay, report, check, diagnose RTHS tests.",
     )
     parser.add_argument("--version", action="version", version=f"rths {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)

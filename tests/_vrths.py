@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from controllers.base import Compensator
-from plants.base import Kinematics
+from rths.core.kinematics import Kinematics
 
 FloatArray = NDArray[np.float64]
 

@@ -22,9 +22,9 @@ from plants.actuator import (
     rate_limited,
 )
 from plants.base import Actuator, Specimen
-from plants.imd import IMDParameters, InternalStiffnessIMD
+from plants.imd.models import IMDParameters, InternalStiffnessIMD
 from plants.linear_specimen import LinearSpecimen, benchmark_specimen
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 FloatArray = NDArray[np.float64]
 
@@ -89,10 +89,11 @@ class SeriesInerter(Specimen):
     """
 
     def __init__(self, inertance: float, stiffness: float, damping: float) -> None:
+        super().__init__()
         self.m, self.k, self.c = inertance, stiffness, damping
         self.reset()
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         self.x = self.v = self.a = 0.0
 
     def _step_impl(self, u: float, v: float, a: float, dt: float) -> float:
@@ -230,7 +231,7 @@ def test_heavy_preset_with_series_imd_steps_like_its_linear_model() -> None:
 
 
 def test_heavy_preset_drives_the_type_ii_imd_model() -> None:
-    # plants.imd's S0 Eq.12 model (RK4 flywheel, amplitude-law damping S0 Eq.18) behind the
+    # plants.imd.models's S0 Eq.12 model (RK4 flywheel, amplitude-law damping S0 Eq.18) behind the
     # heavy preset: steady state as the linear model with the damping the IMD settled on
     imd = InternalStiffnessIMD(IMDParameters.preset("type_ii"))
     act = ServoHydraulicActuator(imd, DT, HEAVY_INERTIAL_LOAD)
@@ -525,6 +526,7 @@ class BadRigidPart(Specimen):
     """A specimen reporting an unphysical rigid part."""
 
     def __init__(self, inertance: float, damping: float) -> None:
+        super().__init__()
         self._m, self._c = inertance, damping
 
     @property
@@ -535,7 +537,7 @@ class BadRigidPart(Specimen):
     def rigid_damping(self) -> float:
         return self._c
 
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         pass
 
     def _step_impl(self, u: float, v: float, a: float, dt: float) -> float:

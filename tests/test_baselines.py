@@ -7,11 +7,15 @@ import pytest
 from _vrths import Target, benchmark_plant, closed_loop, discretize, j2, multisine
 from scipy.signal import butter, sosfreqz
 
-from controllers.ats import ATSSettings, AdaptiveTimeSeries
-from controllers.baselines import NoCompensation, PolynomialExtrapolation, extrapolation_weights
+from controllers.ats import AdaptiveTimeSeries, ATSSettings
 from controllers.base import Compensator
-from plants.base import Kinematics
-from rths.errors import ParameterError
+from controllers.baselines import (
+    NoCompensation,
+    PolynomialExtrapolation,
+    extrapolation_weights,
+)
+from rths.core.errors import ParameterError
+from rths.core.kinematics import Kinematics
 
 DT = 1.0 / 4096.0
 
@@ -64,7 +68,10 @@ def test_polynomial_extrapolation_on_pure_delay_plant_has_closed_form_error(orde
         y = pure_delay_loop(comp, target, 1.0, steps)
         wdt = 2 * np.pi * f * DT
         # steady state: y/r = e^{-i w D dt} sum_j w_j e^{-i w j dt}
-        exact = abs(np.sum(comp.weights * np.exp(-1j * wdt * np.arange(order + 1))) - np.exp(1j * wdt * steps))
+        exact = abs(
+            np.sum(comp.weights * np.exp(-1j * wdt * np.arange(order + 1)))
+            - np.exp(1j * wdt * steps)
+        )
         # J2 over whole periods (samples 4096..8191) of a sine equals the amplitude ratio of the
         # error; the FIR extrapolator has no transient past its 4 samples.  Round-off only: the
         # cubic's weights reach 3.9e4 and cancel: 1e-16 * 4e4 / 1.2e-5 ~ 3e-7 relative
@@ -73,19 +80,31 @@ def test_polynomial_extrapolation_on_pure_delay_plant_has_closed_form_error(orde
     # halving the frequency divides the error by 2^(order+1) (leading term (w dt)^(order+1))
     assert results[4.0] / results[2.0] == pytest.approx(2.0 ** (order + 1), rel=0.05)
     # and it beats no compensation, whose error is 2 sin(w tau/2)
-    none = j2(pure_delay_loop(NoCompensation(DT), sine(4.0, 2.0), 1.0, steps)[:-1], sine(4.0, 2.0).r[:-1], 4096)
+    none = j2(
+        pure_delay_loop(NoCompensation(DT), sine(4.0, 2.0), 1.0, steps)[:-1],
+        sine(4.0, 2.0).r[:-1],
+        4096,
+    )
     assert none == pytest.approx(2 * np.sin(2 * np.pi * 4.0 * steps * DT / 2), rel=1e-9)
     assert results[4.0] < 0.2 * none  # linear 0.13x, quadratic 0.011x, cubic 7.7e-4x
 
 
 def test_polynomial_validation_and_state():
-    with pytest.raises(ParameterError, match="polynomial extrapolation order must be at most 4; got 5"):
+    with pytest.raises(
+        ParameterError, match="polynomial extrapolation order must be at most 4; got 5"
+    ):
         PolynomialExtrapolation(DT, 0.01, 5)
-    with pytest.raises(ParameterError, match="polynomial extrapolation order must be a positive integer; got 0"):
+    with pytest.raises(
+        ParameterError, match="polynomial extrapolation order must be a positive integer; got 0"
+    ):
         PolynomialExtrapolation(DT, 0.01, 0)
-    with pytest.raises(ParameterError, match="polynomial extrapolation delay must be non-negative; got -0.01"):
+    with pytest.raises(
+        ParameterError, match="polynomial extrapolation delay must be non-negative; got -0.01"
+    ):
         PolynomialExtrapolation(DT, -0.01)
-    with pytest.raises(ParameterError, match="extrapolation steps ahead must be non-negative; got -1"):
+    with pytest.raises(
+        ParameterError, match="extrapolation steps ahead must be non-negative; got -1"
+    ):
         extrapolation_weights(2, -1)
     comp = PolynomialExtrapolation(DT, 0.01)
     assert comp.state() == {"delay": 0.01}
@@ -191,8 +210,14 @@ def test_ats_tracks_the_benchmark_plant():
     ("kwargs", "match"),
     [
         ({"initial": (1.0, 0.0)}, "ATS initial, bounds and max_rate must each have 3 entries"),
-        ({"bounds": ((1.0, 0.5), (0.0, 0.08), (0.0, 0.0032))}, r"ATS bounds of a0 must satisfy lo < hi; got \(1.0, 0.5\)"),
-        ({"initial": (2.0, 0.0, 0.0)}, r"ATS initial a0 must lie within its bounds \(0.7, 1.3\); got 2.0"),
+        (
+            {"bounds": ((1.0, 0.5), (0.0, 0.08), (0.0, 0.0032))},
+            r"ATS bounds of a0 must satisfy lo < hi; got \(1.0, 0.5\)",
+        ),
+        (
+            {"initial": (2.0, 0.0, 0.0)},
+            r"ATS initial a0 must lie within its bounds \(0.7, 1.3\); got 2.0",
+        ),
         ({"max_rate": (2.0, 0.0, 0.001)}, "ATS max_rate of a1 must be positive; got 0.0"),
         ({"window": -1.0}, "ATS window must be positive; got -1.0"),
         ({"threshold": -1.0}, "ATS threshold must be non-negative; got -1.0"),
@@ -211,7 +236,9 @@ def test_ats_compensator_validation():
         AdaptiveTimeSeries(DT, 1)  # type: ignore[arg-type]
     with pytest.raises(ParameterError, match="ATS window must span at least 16 steps; got 0.001 s"):
         AdaptiveTimeSeries(DT, ATSSettings(window=0.001))
-    with pytest.raises(ParameterError, match="ATS cutoff_hz must be below the Nyquist frequency 2048.0; got 3000.0"):
+    with pytest.raises(
+        ParameterError, match="ATS cutoff_hz must be below the Nyquist frequency 2048.0; got 3000.0"
+    ):
         AdaptiveTimeSeries(DT, ATSSettings(cutoff_hz=3000.0))
     comp = AdaptiveTimeSeries(DT, ATSSettings(cutoff_hz=None, initial=(1.0, 0.02, 2e-4)))
     assert comp.step(Kinematics(1.0, 2.0, 3.0), 0.0) == pytest.approx(1.0 + 0.04 + 6e-4)

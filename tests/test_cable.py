@@ -7,9 +7,9 @@ import pytest
 import scipy.integrate as si
 import scipy.linalg as sla
 
-from plants._cable_device import SeriesCondensation, augmented_matrices
-from plants._cable_fe import Tridiagonal, mesh_nodes, sine_load_shape
-from plants.cable import (
+from plants.cable.device import SeriesCondensation, augmented_matrices
+from plants.cable.fe import Tridiagonal, mesh_nodes, sine_load_shape
+from plants.cable.model import (
     Cable,
     CableProperties,
     DistributedLoad,
@@ -24,9 +24,11 @@ from plants.cable import (
     physical_damper,
     physical_stiffness,
 )
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
-PROPS = CableProperties(length=100.0, tension=1.0e6, mass_per_length=50.0)  # c = 141 m/s, f1 = 0.71 Hz
+PROPS = CableProperties(
+    length=100.0, tension=1.0e6, mass_per_length=50.0
+)  # c = 141 m/s, f1 = 0.71 Hz
 
 
 def energy(cable: Cable) -> float:
@@ -53,9 +55,18 @@ def test_normalisation_eq23_matches_string_forms():
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"length": 0.0, "tension": 1.0, "mass_per_length": 1.0}, "cable length L must be positive; got 0.0"),
-        ({"length": 1.0, "tension": -3.0, "mass_per_length": 1.0}, "cable tension T must be positive; got -3.0"),
-        ({"length": 1.0, "tension": 1.0, "mass_per_length": math.nan}, "mass per length m must be finite"),
+        (
+            {"length": 0.0, "tension": 1.0, "mass_per_length": 1.0},
+            "cable length L must be positive; got 0.0",
+        ),
+        (
+            {"length": 1.0, "tension": -3.0, "mass_per_length": 1.0},
+            "cable tension T must be positive; got -3.0",
+        ),
+        (
+            {"length": 1.0, "tension": 1.0, "mass_per_length": math.nan},
+            "mass per length m must be finite",
+        ),
     ],
 )
 def test_properties_reject_bad_values(kwargs, match):
@@ -81,13 +92,17 @@ def test_configuration_dataclasses_reject_bad_values():
         DistributedLoad(1.0, mode=0)
     with pytest.raises(ParameterError, match="load frequency Omega must be non-negative; got -1.0"):
         DistributedLoad(1.0, frequency=-1.0)
-    with pytest.raises(ParameterError, match=r"intrinsic damping ratio must lie in \[0, 1\); got 1.5"):
+    with pytest.raises(
+        ParameterError, match=r"intrinsic damping ratio must lie in \[0, 1\); got 1.5"
+    ):
         RayleighDamping(ratio=1.5)
     with pytest.raises(ParameterError, match=r"two distinct modes; got \(2, 2\)"):
         RayleighDamping(modes=(2, 2))
     with pytest.raises(ParameterError, match="two distinct modes; got 3"):
         RayleighDamping(modes=3)
-    with pytest.raises(ParameterError, match="Rayleigh anchor mode must be a positive integer; got 0"):
+    with pytest.raises(
+        ParameterError, match="Rayleigh anchor mode must be a positive integer; got 0"
+    ):
         RayleighDamping(modes=(0, 3))
     with pytest.raises(ParameterError, match="damper inertance must be non-negative; got -1.0"):
         PointDamper(inertance=-1.0)
@@ -109,7 +124,9 @@ def test_cable_rejects_bad_mesh_and_step():
         cable.step(math.nan)
     with pytest.raises(ParameterError, match="restoring force must be finite; got inf"):
         cable.predict(math.inf)
-    with pytest.raises(ParameterError, match=r"nodal displacement must have shape \(9,\); got shape \(8,\)"):
+    with pytest.raises(
+        ParameterError, match=r"nodal displacement must have shape \(9,\); got shape \(8,\)"
+    ):
         cable.set_state(np.zeros(8), np.zeros(9))
     with pytest.raises(ParameterError, match="nodal velocity must be finite; got nan"):
         cable.set_state(np.zeros(9), np.full(9, np.nan))
@@ -124,11 +141,15 @@ def test_cable_rejects_bad_mesh_and_step():
 
 
 # ---------------------------------------------------------------------------- mesh and load
-@pytest.mark.parametrize(("x_d", "elements", "n_left"), [(0.02, 100, 2), (0.02, 30, 1), (0.37, 41, 15), (0.999, 5, 4)])
+@pytest.mark.parametrize(
+    ("x_d", "elements", "n_left"), [(0.02, 100, 2), (0.02, 30, 1), (0.37, 41, 15), (0.999, 5, 4)]
+)
 def test_mesh_has_a_node_at_the_damper_and_uniform_sides(x_d, elements, n_left):
     nodes, index = mesh_nodes(PROPS.length, x_d, elements)
     assert nodes.size == elements + 1 and index == n_left - 1
-    assert nodes[index + 1] == x_d * PROPS.length  # exact: the damper node is the linspace end point
+    assert (
+        nodes[index + 1] == x_d * PROPS.length
+    )  # exact: the damper node is the linspace end point
     left, right = np.diff(nodes[: n_left + 1]), np.diff(nodes[n_left:])
     np.testing.assert_allclose(left, left[0], rtol=1e-12)  # linspace rounding only
     np.testing.assert_allclose(right, right[0], rtol=1e-12)
@@ -140,8 +161,10 @@ def test_consistent_load_is_the_exact_integral_against_hat_functions():
     shape = sine_load_shape(nodes, k)
     for j in range(1, nodes.size - 1):
         a, b, c = nodes[j - 1 : j + 2]
-        hat = lambda x: (x - a) / (b - a) if x <= b else (c - x) / (c - b)  # noqa: E731
-        ref, _ = si.quad(lambda x: hat(x) * math.sin(k * x), a, c, points=[b], epsabs=0, epsrel=1e-13)
+        hat = lambda x: (x - a) / (b - a) if x <= b else (c - x) / (c - b)
+        ref, _ = si.quad(
+            lambda x: hat(x) * math.sin(k * x), a, c, points=[b], epsabs=0, epsrel=1e-13
+        )
         assert shape[j - 1] == pytest.approx(ref, rel=1e-11)  # quadrature tolerance
 
 
@@ -151,19 +174,32 @@ def test_static_point_force_gives_the_string_deflection_with_the_cable_receiving
     cable = Cable(PROPS, 0.3, dt=1.0e6, elements=10, intrinsic_damping=None)
     force = 2.0e4
     state = cable.step(force)
-    assert state.displacement == pytest.approx(-force * 0.3 * 0.7 * PROPS.length / PROPS.tension, rel=1e-9)
+    assert state.displacement == pytest.approx(
+        -force * 0.3 * 0.7 * PROPS.length / PROPS.tension, rel=1e-9
+    )
     assert cable.displacement_at(0.0) == 0.0 and cable.displacement_at(1.0) == 0.0
 
 
 def test_grounded_device_spring_in_a_static_step():
     # one static step (huge dt, as above): the string's point stiffness T/(x(1-x)L) in parallel with k_r
     x_d, k_r, force = 0.3, 4e4, 2e4
-    cable = Cable(PROPS, x_d, dt=1.0e6, elements=10, intrinsic_damping=None, damper=InterfaceDevice(stiffness=k_r))
+    cable = Cable(
+        PROPS,
+        x_d,
+        dt=1.0e6,
+        elements=10,
+        intrinsic_damping=None,
+        damper=InterfaceDevice(stiffness=k_r),
+    )
     state = cable.step(force)
     k_string = PROPS.tension / (x_d * (1 - x_d) * PROPS.length)
-    assert state.displacement == pytest.approx(-force / (k_string + k_r), rel=1e-9)  # 1/(omega1 dt)^2
+    assert state.displacement == pytest.approx(
+        -force / (k_string + k_r), rel=1e-9
+    )  # 1/(omega1 dt)^2
     assert cable.device_force == pytest.approx(k_r * state.displacement, rel=1e-15)  # F = k_r u_d
-    assert cable.strain_energy == pytest.approx(0.5 * (k_string + k_r) * state.displacement**2, rel=1e-9)
+    assert cable.strain_energy == pytest.approx(
+        0.5 * (k_string + k_r) * state.displacement**2, rel=1e-9
+    )
 
 
 # ---------------------------------------------------------------------------- integrator
@@ -171,18 +207,27 @@ def test_grounded_device_spring_in_a_static_step():
     "damper",
     [
         PointDamper(inertance=2650.0, damping=900.0),
-        InterfaceDevice(300.0, 500.0, series_stiffness=2e6, series_inertance=2650.0, series_damping=900.0),
+        InterfaceDevice(
+            300.0, 500.0, series_stiffness=2e6, series_inertance=2650.0, series_damping=900.0
+        ),
     ],
 )
 def test_compiled_kernel_matches_the_reference_path(damper):
     runs = []
     for use_numba in (True, False):
         cable = Cable(
-            PROPS, 0.02, 2e-3, elements=60, load=DistributedLoad(200.0, mode=3),
-            damper=damper, use_numba=use_numba,
-        )  # fmt: skip
+            PROPS,
+            0.02,
+            2e-3,
+            elements=60,
+            load=DistributedLoad(200.0, mode=3),
+            damper=damper,
+            use_numba=use_numba,
+        )
         history = [cable.step(5e3 * math.sin(7.0 * k * 2e-3)) for k in range(400)]
-        runs.append((history, cable.displacement, cable.velocity, cable.acceleration, cable.device_force))
+        runs.append(
+            (history, cable.displacement, cable.velocity, cable.acceleration, cable.device_force)
+        )
     (h1, *s1, f1), (h2, *s2, f2) = runs
     # same arithmetic in another order: u agrees to round-off; v = 2/h du - v and a = 4/h^2 du - ...
     # amplify the round-off of u by 1/(omega h) and 1/(omega h)^2 for the fast FE modes
@@ -208,7 +253,9 @@ def test_predict_equals_step_and_leaves_the_state_alone():
 
 def test_undamped_free_vibration_conserves_energy():
     # Newmark-AA conserves E = v'Mv/2 + u'Ku/2 exactly for linear undamped systems.
-    cable = Cable(PROPS, 0.02, 5e-3, elements=50, intrinsic_damping=None, damper=PointDamper(inertance=1000.0))
+    cable = Cable(
+        PROPS, 0.02, 5e-3, elements=50, intrinsic_damping=None, damper=PointDamper(inertance=1000.0)
+    )
     rng = np.random.default_rng(1)
     cable.set_state(rng.normal(size=49) * 1e-2, rng.normal(size=49) * 1e-1)
     e0 = energy(cable)
@@ -221,9 +268,14 @@ def test_discrete_energy_balance_with_viscous_damper_load_and_device_force():
     # E_{k+1} - E_k = du'(f_k + f_{k+1})/2 - h cbar ((v_k + v_{k+1})/2)^2 exactly for Newmark-AA.
     h, cbar = 2e-3, 3.0e4
     cable = Cable(
-        PROPS, 0.02, h, elements=80, intrinsic_damping=None,
-        load=DistributedLoad(300.0, mode=3), damper=PointDamper(inertance=2000.0, damping=cbar),
-    )  # fmt: skip
+        PROPS,
+        0.02,
+        h,
+        elements=80,
+        intrinsic_damping=None,
+        load=DistributedLoad(300.0, mode=3),
+        damper=PointDamper(inertance=2000.0, damping=cbar),
+    )
     d = cable.damper_index
     f_prev = cable.nodal_load(0.0)
     e_prev, u_prev, v_prev = energy(cable), cable.displacement, cable.velocity
@@ -317,7 +369,9 @@ def test_forced_response_matches_the_modal_closed_form(ratio):
     # Newmark period error (w h)^2/12 = 2e-5 over 20 cycles -> phase 2.5e-3 rad; FE error ~ 1e-6
     assert np.max(np.abs(np.asarray(u) - expected)) < 5e-3 * np.max(np.abs(expected))
     i = cable.damper_index
-    assert cable.interface.displacement == u[-1][i] and cable.interface.velocity == cable.velocity[i]
+    assert (
+        cable.interface.displacement == u[-1][i] and cable.interface.velocity == cable.velocity[i]
+    )
     out = cable.outputs()
     assert out["midspan_displacement"] == cable.displacement_at(0.5) == u[-1][49]  # node 50 at L/2
     assert cable.kinetic_energy + cable.strain_energy == pytest.approx(energy(cable), rel=1e-15)
@@ -326,8 +380,8 @@ def test_forced_response_matches_the_modal_closed_form(ratio):
 def test_mock_rths_with_an_internal_imd_follows_its_complex_mode():
     # Non-classical damping (IMD inside the model, seed optimum): u(t) = Re(phi exp(lam t)) from the
     # state-space eigenproblem; Newmark-AA must give Re(phi z^k), z = (1 + lam h/2)/(1 - lam h/2),
-    # and lam L/c must be the normalised root of plants.cable_damper for the same mesh.
-    from plants.cable_damper import fe_roots
+    # and lam L/c must be the normalised root of plants.cable.frequency_equation for the same mesh.
+    from plants.cable.frequency_equation import fe_roots
 
     n_el, h = 40, 0.01
     damper = PointDamper(*physical_damper(PROPS, 0.53, 0.75))
@@ -359,8 +413,12 @@ def test_configuration_values_are_stored_as_floats():
 
 
 # ---------------------------------------------------------------------------- nominal interface device
-SERIES = InterfaceDevice(300.0, 500.0, series_stiffness=2e6, series_inertance=2650.0, series_damping=3e3, stiffness=4e4)
-MAXWELL = InterfaceDevice(series_stiffness=5e5, series_damping=4e4)  # spring + dashpot, no flywheel mass
+SERIES = InterfaceDevice(
+    300.0, 500.0, series_stiffness=2e6, series_inertance=2650.0, series_damping=3e3, stiffness=4e4
+)
+MAXWELL = InterfaceDevice(
+    series_stiffness=5e5, series_damping=4e4
+)  # spring + dashpot, no flywheel mass
 
 
 def augmented_newmark(device: InterfaceDevice, elements: int, h: float):
@@ -369,7 +427,11 @@ def augmented_newmark(device: InterfaceDevice, elements: int, h: float):
     fe = fe_matrices(PROPS, 0.02, elements, intrinsic_damping=RayleighDamping(), damper=rigid)
     n, j, k_s = fe.stiffness.shape[0], fe.damper_index, device.series_stiffness
     k, m, c = (np.zeros((n + 1, n + 1)) for _ in range(3))
-    k[:n, :n], m[:n, :n], c[:n, :n] = fe.stiffness.toarray(), fe.mass.toarray(), fe.damping.toarray()
+    k[:n, :n], m[:n, :n], c[:n, :n] = (
+        fe.stiffness.toarray(),
+        fe.mass.toarray(),
+        fe.damping.toarray(),
+    )
     k[j, j] += k_s
     k[j, n] = k[n, j] = -k_s
     k[n, n] = k_s
@@ -381,7 +443,15 @@ def augmented_newmark(device: InterfaceDevice, elements: int, h: float):
 @pytest.mark.parametrize("use_numba", [True, False])
 def test_condensed_step_equals_the_augmented_system(device, use_numba):
     h, n_el = 2e-3, 60
-    cable = Cable(PROPS, 0.02, h, elements=n_el, load=DistributedLoad(200.0, mode=3), damper=device, use_numba=use_numba)
+    cable = Cable(
+        PROPS,
+        0.02,
+        h,
+        elements=n_el,
+        load=DistributedLoad(200.0, mode=3),
+        damper=device,
+        use_numba=use_numba,
+    )
     k, m, c, lu, j = augmented_newmark(device, n_el, h)
     n = k.shape[0] - 1
     u, v, a = np.zeros(n + 1), np.zeros(n + 1), np.zeros(n + 1)
@@ -395,27 +465,45 @@ def test_condensed_step_equals_the_augmented_system(device, use_numba):
         u, v, a = u1, 2.0 / h * (u1 - u) - v, 4.0 / h**2 * (u1 - u) - 4.0 / h * v - a
         fly = cable.flywheel
         got = np.append(cable.displacement, fly.displacement)
-        assert np.max(np.abs(got - u)) < 1e-10 * np.max(np.abs(u))  # brief: 1e-10 (round-off ~1e-12)
-        assert fly.velocity == pytest.approx(v[n], rel=1e-9, abs=1e-9 * np.max(np.abs(v)))  # 2/h du amplifies
+        assert np.max(np.abs(got - u)) < 1e-10 * np.max(
+            np.abs(u)
+        )  # brief: 1e-10 (round-off ~1e-12)
+        assert fly.velocity == pytest.approx(
+            v[n], rel=1e-9, abs=1e-9 * np.max(np.abs(v))
+        )  # 2/h du amplifies
     expected = device.inertance * a[j] + device.damping * v[j] + device.stiffness * u[j]
     expected += device.series_stiffness * (u[j] - u[n])
-    assert cable.device_force == pytest.approx(expected, rel=1e-8)  # m_r a: 4/h^2 du amplifies round-off
+    assert cable.device_force == pytest.approx(
+        expected, rel=1e-8
+    )  # m_r a: 4/h^2 du amplifies round-off
 
 
 def test_very_stiff_series_spring_reproduces_the_rigid_device():
     # K(omega) = k_s Z0/(k_s + Z0) -> Z0 as k_s -> inf: the departure is O(m_s omega^2/k_s)
     h = 2e-3
-    rigid = Cable(PROPS, 0.02, h, elements=60, load=DistributedLoad(200.0, mode=3), damper=PointDamper(2650.0, 900.0))
+    rigid = Cable(
+        PROPS,
+        0.02,
+        h,
+        elements=60,
+        load=DistributedLoad(200.0, mode=3),
+        damper=PointDamper(2650.0, 900.0),
+    )
     gaps = []
     for k_s in (1e10, 1e11):
         stiff = InterfaceDevice(series_stiffness=k_s, series_inertance=2650.0, series_damping=900.0)
-        cable = Cable(PROPS, 0.02, h, elements=60, load=DistributedLoad(200.0, mode=3), damper=stiff)
+        cable = Cable(
+            PROPS, 0.02, h, elements=60, load=DistributedLoad(200.0, mode=3), damper=stiff
+        )
         rigid.reset()
         gap = scale = force_gap = force_scale = 0.0
         for step in range(1500):
             force = 5e3 * math.sin(7.0 * step * h)
             a, b = rigid.step(force), cable.step(force)
-            gap, scale = max(gap, abs(a.displacement - b.displacement)), max(scale, abs(a.displacement))
+            gap, scale = (
+                max(gap, abs(a.displacement - b.displacement)),
+                max(scale, abs(a.displacement)),
+            )
             force_gap = max(force_gap, abs(rigid.device_force - cable.device_force))
             force_scale = max(force_scale, abs(rigid.device_force))
         gaps.append(gap / scale)
@@ -429,8 +517,18 @@ def test_discrete_energy_balance_with_the_series_device():
     # E = v'Mv/2 + u'Ku/2 (with k_r u_d^2/2) + m_s x'^2/2 + k_s (u_d - x)^2/2; Newmark-AA on the augmented linear system:
     # E_{k+1} - E_k = du'(f_k + f_{k+1})/2 - h c_r vbar_d^2 - h c_s xbar'^2 exactly.
     h = 2e-3
-    device = InterfaceDevice(800.0, 2e4, series_stiffness=3e6, series_inertance=2650.0, series_damping=5e3, stiffness=1e5)
-    cable = Cable(PROPS, 0.02, h, elements=80, intrinsic_damping=None, load=DistributedLoad(300.0, mode=3), damper=device)
+    device = InterfaceDevice(
+        800.0, 2e4, series_stiffness=3e6, series_inertance=2650.0, series_damping=5e3, stiffness=1e5
+    )
+    cable = Cable(
+        PROPS,
+        0.02,
+        h,
+        elements=80,
+        intrinsic_damping=None,
+        load=DistributedLoad(300.0, mode=3),
+        damper=device,
+    )
     d = cable.damper_index
     f_prev = cable.nodal_load(0.0)
     e_prev, u_prev, v_prev, xd_prev = energy(cable), cable.displacement, cable.velocity, 0.0
@@ -442,7 +540,10 @@ def test_discrete_energy_balance_with_the_series_device():
         f[d] -= force
         u, v, xd = cable.displacement, cable.velocity, cable.flywheel.velocity
         work = (u - u_prev) @ (f + f_prev) / 2.0
-        loss = h * (device.damping * ((v[d] + v_prev[d]) / 2.0) ** 2 + device.series_damping * ((xd + xd_prev) / 2.0) ** 2)
+        loss = h * (
+            device.damping * ((v[d] + v_prev[d]) / 2.0) ** 2
+            + device.series_damping * ((xd + xd_prev) / 2.0) ** 2
+        )
         e = energy(cable)
         assert e - e_prev == pytest.approx(work - loss, abs=1e-9 * max(e, 1.0))  # round-off
         dissipated += loss
@@ -451,8 +552,12 @@ def test_discrete_energy_balance_with_the_series_device():
     # the energies are the augmented system's quadratic forms (flywheel DOF appended by fe_matrices)
     fe = fe_matrices(PROPS, 0.02, 80, damper=device)
     q, qd = np.append(u, cable.flywheel.displacement), np.append(v, xd)
-    assert cable.kinetic_energy == pytest.approx(0.5 * qd @ fe.mass @ qd, rel=1e-12)  # summation order
-    assert cable.strain_energy == pytest.approx(0.5 * q @ fe.stiffness @ q, rel=1e-9)  # k_s (u_d - x) cancels
+    assert cable.kinetic_energy == pytest.approx(
+        0.5 * qd @ fe.mass @ qd, rel=1e-12
+    )  # summation order
+    assert cable.strain_energy == pytest.approx(
+        0.5 * q @ fe.stiffness @ q, rel=1e-9
+    )  # k_s (u_d - x) cancels
 
 
 def test_flywheel_rings_at_its_own_frequency_when_the_node_is_held():
@@ -474,20 +579,33 @@ def test_flywheel_rings_at_its_own_frequency_when_the_node_is_held():
         expected = float(np.real(np.sum(amp * z**step)))
         # the node's compliance perturbs the flywheel by ~k_s h/(2T) ~ 1e-9 relative per cycle
         assert cable.flywheel.displacement == pytest.approx(expected, abs=1e-7 * x0)
-    assert cable.device_force == pytest.approx(-k_s * cable.flywheel.displacement, rel=1e-6)  # F = k_s (u_d - x)
+    assert cable.device_force == pytest.approx(
+        -k_s * cable.flywheel.displacement, rel=1e-6
+    )  # F = k_s (u_d - x)
     assert np.abs(z[0]) < 1.0 and np.angle(z[0]) != 0.0  # a damped ringing, not a trivial decay
 
 
 def test_modal_frequencies_of_a_two_dof_cable_with_the_flywheel():
     # N = 2 elements: one free node (mass 5/12 m h * 2, stiffness 2T/h) and the flywheel: a closed-form 2-DOF system.
     k_s, m_s = 3e5, 400.0
-    cable = Cable(PROPS, 0.5, 1e-3, elements=2, damper=InterfaceDevice(series_stiffness=k_s, series_inertance=m_s))
+    cable = Cable(
+        PROPS,
+        0.5,
+        1e-3,
+        elements=2,
+        damper=InterfaceDevice(series_stiffness=k_s, series_inertance=m_s),
+    )
     h = PROPS.length / 2
     m_n, k_n = 5.0 / 6.0 * PROPS.mass_per_length * h, 2.0 * PROPS.tension / h
     # det [[k_n + k_s - w2 m_n, -k_s], [-k_s, k_s - w2 m_s]] = 0
     w2 = np.roots([m_n * m_s, -((k_n + k_s) * m_s + k_s * m_n), k_n * k_s])
-    np.testing.assert_allclose(cable.modal_frequencies(), np.sqrt(np.sort(w2)), rtol=1e-12)  # eigh round-off
-    with pytest.raises(ParameterError, match=r"count must not exceed the 2 DOFs \(free nodes and the flywheel\); got 3"):
+    np.testing.assert_allclose(
+        cable.modal_frequencies(), np.sqrt(np.sort(w2)), rtol=1e-12
+    )  # eigh round-off
+    with pytest.raises(
+        ParameterError,
+        match=r"count must not exceed the 2 DOFs \(free nodes and the flywheel\); got 3",
+    ):
         cable.modal_frequencies(3)
     # without flywheel inertance the undamped branch carries no force
     maxwell = Cable(PROPS, 0.02, 1e-3, elements=20, damper=MAXWELL)
@@ -496,14 +614,18 @@ def test_modal_frequencies_of_a_two_dof_cable_with_the_flywheel():
 
 
 def test_device_state_predict_reset_and_outputs():
-    cable = Cable(PROPS, 0.02, 1e-3, elements=40, load=DistributedLoad(100.0, mode=3), damper=SERIES)
+    cable = Cable(
+        PROPS, 0.02, 1e-3, elements=40, load=DistributedLoad(100.0, mode=3), damper=SERIES
+    )
     rng = np.random.default_rng(4)
     u, v = rng.normal(size=39) * 1e-3, rng.normal(size=39) * 1e-2
     cable.set_state(u, v)  # default: spring unstretched, flywheel moving with the node
     d = cable.damper_index
     fly = cable.flywheel
     assert (fly.displacement, fly.velocity) == (u[d], v[d])
-    assert fly.acceleration == pytest.approx(-SERIES.series_damping * v[d] / SERIES.series_inertance, rel=1e-15)
+    assert fly.acceleration == pytest.approx(
+        -SERIES.series_damping * v[d] / SERIES.series_inertance, rel=1e-15
+    )
     a = cable.acceleration
     expected = SERIES.inertance * a[d] + SERIES.damping * v[d] + SERIES.stiffness * u[d]
     assert cable.device_force == pytest.approx(expected, rel=1e-14)  # summation order
@@ -515,13 +637,21 @@ def test_device_state_predict_reset_and_outputs():
     assert cable.step(123.0) == predicted  # identical arithmetic
     out = cable.outputs()
     assert out["device_force"] == cable.device_force
-    assert (out["flywheel_displacement"], out["flywheel_velocity"]) == (cable.flywheel.displacement, cable.flywheel.velocity)
+    assert (out["flywheel_displacement"], out["flywheel_velocity"]) == (
+        cable.flywheel.displacement,
+        cable.flywheel.velocity,
+    )
     cable.reset()
-    assert cable.flywheel == cable.interface == type(cable.interface)(0.0, 0.0, 0.0) and cable.device_force == 0.0
+    assert (
+        cable.flywheel == cable.interface == type(cable.interface)(0.0, 0.0, 0.0)
+        and cable.device_force == 0.0
+    )
     # Maxwell element: the flywheel velocity follows from c_s x' = k_s (u_d - x), whatever is given
     maxwell = Cable(PROPS, 0.02, 1e-3, elements=40, damper=MAXWELL)
     maxwell.set_state(u, v, flywheel=(0.0, 99.0))
-    assert maxwell.flywheel.velocity == pytest.approx(MAXWELL.series_stiffness * u[d] / MAXWELL.series_damping, rel=1e-15)
+    assert maxwell.flywheel.velocity == pytest.approx(
+        MAXWELL.series_stiffness * u[d] / MAXWELL.series_damping, rel=1e-15
+    )
     # no device: no force, no flywheel, no extra outputs
     plain = Cable(PROPS, 0.02, 1e-3, elements=40)
     assert plain.device_force == 0.0 and plain.flywheel is None
@@ -532,12 +662,16 @@ def test_device_state_predict_reset_and_outputs():
     odd = Cable(PROPS, 0.02, 1e-3, elements=41)
     for c in (plain, odd):
         c.set_state(np.sin(np.linspace(0.1, 3.0, c.positions.size)), np.zeros(c.positions.size))
-        assert c.outputs()["midspan_displacement"] == pytest.approx(c.displacement_at(0.5), rel=1e-14)
+        assert c.outputs()["midspan_displacement"] == pytest.approx(
+            c.displacement_at(0.5), rel=1e-14
+        )
 
 
 def test_dynamic_stiffness_closed_forms():
     k_s, m_s, c_s = 4e6, 1000.0, 300.0
-    device = InterfaceDevice(50.0, 70.0, series_stiffness=k_s, series_inertance=m_s, series_damping=c_s, stiffness=9e3)
+    device = InterfaceDevice(
+        50.0, 70.0, series_stiffness=k_s, series_inertance=m_s, series_damping=c_s, stiffness=9e3
+    )
     w = np.array([0.3, 17.0, 250.0])
     flywheel = -m_s * w**2 + 1j * c_s * w
     expected = 9e3 - 50.0 * w**2 + 70j * w + 1.0 / (1.0 / k_s + 1.0 / flywheel)  # springs in series
@@ -545,8 +679,12 @@ def test_dynamic_stiffness_closed_forms():
     branch = InterfaceDevice(series_stiffness=k_s, series_inertance=m_s)
     assert branch.series_frequency == pytest.approx(math.sqrt(k_s / m_s), rel=1e-15)
     assert abs(branch.dynamic_stiffness(branch.series_frequency * (1 + 1e-9))) > 1e8 * k_s  # pole
-    assert branch.dynamic_stiffness(1e6 * branch.series_frequency) == pytest.approx(k_s, rel=1e-11)  # flywheel still
-    assert MAXWELL.series_frequency == math.inf and math.isnan(InterfaceDevice(1.0).series_frequency)
+    assert branch.dynamic_stiffness(1e6 * branch.series_frequency) == pytest.approx(
+        k_s, rel=1e-11
+    )  # flywheel still
+    assert MAXWELL.series_frequency == math.inf and math.isnan(
+        InterfaceDevice(1.0).series_frequency
+    )
     assert not InterfaceDevice(1.0).has_series and SERIES.has_series
 
 
@@ -556,16 +694,22 @@ def test_series_stiffness_normalisation_round_trip():
     assert physical_stiffness(PROPS, k_e) == pytest.approx(6.4e7, rel=1e-15)
     # a device (m_e, k_e) has its own frequency sqrt(k_e/m_e) omega0
     m_e, _ = normalised_damper(PROPS, 2650.0, 0.0)
-    assert math.sqrt(k_e / m_e) * PROPS.omega0 == pytest.approx(math.sqrt(6.4e7 / 2650.0), rel=1e-14)
+    assert math.sqrt(k_e / m_e) * PROPS.omega0 == pytest.approx(
+        math.sqrt(6.4e7 / 2650.0), rel=1e-14
+    )
 
 
 # ---------------------------------------------------------------------------- mesh rule
-SEED_CABLE = CableProperties(length=200.0, tension=5.0e6, mass_per_length=80.0)  # brief's prototype cable
+SEED_CABLE = CableProperties(
+    length=200.0, tension=5.0e6, mass_per_length=80.0
+)  # brief's prototype cable
 TYPE_II_STIFFNESS = 6.4e7  # S0 Table 4 k0 = 1.2e7 N/m scaled with the inertance 1589 -> 8480 kg
 
 
 def test_mesh_rule_for_the_seed_type_ii_device():
-    assert max_element_size(TYPE_II_STIFFNESS, SEED_CABLE) == pytest.approx(0.3125, rel=1e-15)  # 4 T/k_s
+    assert max_element_size(TYPE_II_STIFFNESS, SEED_CABLE) == pytest.approx(
+        0.3125, rel=1e-15
+    )  # 4 T/k_s
     n = elements_for(SEED_CABLE, 0.02, TYPE_II_STIFFNESS)
     assert n == 641  # 200 m/0.3125 m = 640 elements is exactly at the limit, which is strict
     for elements, meets in ((n, True), (n - 1, False)):
@@ -573,8 +717,13 @@ def test_mesh_rule_for_the_seed_type_ii_device():
         h = np.max(np.diff(nodes))
         local = math.sqrt(TYPE_II_STIFFNESS / (SEED_CABLE.mass_per_length * h))
         assert bool(local < 2.0 * SEED_CABLE.wave_speed / h) is meets  # the rule's physical form
-    assert elements_for(SEED_CABLE, 0.02, None) == 100 and elements_for(SEED_CABLE, 0.02, None, minimum=7) == 7
-    assert elements_for(SEED_CABLE, 0.02, 1e3, minimum=250) == 250  # soft spring: the minimum decides
+    assert (
+        elements_for(SEED_CABLE, 0.02, None) == 100
+        and elements_for(SEED_CABLE, 0.02, None, minimum=7) == 7
+    )
+    assert (
+        elements_for(SEED_CABLE, 0.02, 1e3, minimum=250) == 250
+    )  # soft spring: the minimum decides
 
 
 def test_device_validation_branches():
@@ -582,17 +731,27 @@ def test_device_validation_branches():
         InterfaceDevice(series_stiffness=0.0, series_inertance=1.0)
     with pytest.raises(ParameterError, match="series inertance must be non-negative; got -1.0"):
         InterfaceDevice(series_stiffness=1e6, series_inertance=-1.0)
-    with pytest.raises(ParameterError, match="series damping coefficient must be non-negative; got -2.0"):
+    with pytest.raises(
+        ParameterError, match="series damping coefficient must be non-negative; got -2.0"
+    ):
         InterfaceDevice(series_stiffness=1e6, series_damping=-2.0)
-    with pytest.raises(ParameterError, match="series inertance/damping need a series stiffness; got series_stiffness=None"):
+    with pytest.raises(
+        ParameterError,
+        match="series inertance/damping need a series stiffness; got series_stiffness=None",
+    ):
         InterfaceDevice(series_inertance=5.0)
-    with pytest.raises(ParameterError, match="a series branch needs series_inertance or series_damping > 0; got both 0.0"):
+    with pytest.raises(
+        ParameterError,
+        match="a series branch needs series_inertance or series_damping > 0; got both 0.0",
+    ):
         InterfaceDevice(series_stiffness=1e6)
     with pytest.raises(ParameterError, match="damper stiffness must be non-negative; got -3.0"):
         InterfaceDevice(stiffness=-3.0)
     with pytest.raises(ParameterError, match="series stiffness must be positive; got -1.0"):
         normalised_stiffness(PROPS, -1.0)
-    with pytest.raises(ParameterError, match="normalised series stiffness k_e must be positive; got 0.0"):
+    with pytest.raises(
+        ParameterError, match="normalised series stiffness k_e must be positive; got 0.0"
+    ):
         physical_stiffness(PROPS, 0.0)
     with pytest.raises(ParameterError, match="series stiffness must be positive; got 0"):
         max_element_size(0, PROPS)
@@ -610,10 +769,15 @@ def test_device_validation_branches():
 
 def test_set_state_rejects_bad_flywheel_states():
     plain = Cable(PROPS, 0.02, 1e-3, elements=10, damper=InterfaceDevice(1.0))
-    with pytest.raises(ParameterError, match=r"a flywheel state needs a device with a series branch; got flywheel=\(0.0, 0.0\)"):
+    with pytest.raises(
+        ParameterError,
+        match=r"a flywheel state needs a device with a series branch; got flywheel=\(0.0, 0.0\)",
+    ):
         plain.set_state(np.zeros(9), np.zeros(9), flywheel=(0.0, 0.0))
     cable = Cable(PROPS, 0.02, 1e-3, elements=10, damper=SERIES)
-    with pytest.raises(ParameterError, match=r"flywheel must be \(displacement, velocity\); got \(1.0,\)"):
+    with pytest.raises(
+        ParameterError, match=r"flywheel must be \(displacement, velocity\); got \(1.0,\)"
+    ):
         cable.set_state(np.zeros(9), np.zeros(9), flywheel=(1.0,))
     with pytest.raises(ParameterError, match="flywheel displacement must be finite; got nan"):
         cable.set_state(np.zeros(9), np.zeros(9), flywheel=(math.nan, 0.0))
@@ -623,7 +787,10 @@ def test_set_state_rejects_bad_flywheel_states():
 
 def test_fe_matrices_append_the_flywheel_dof():
     fe = fe_matrices(PROPS, 0.02, 30, damper=SERIES)
-    assert fe.flywheel_index == 29 and fe.stiffness.shape == fe.mass.shape == fe.damping.shape == (30, 30)
+    assert fe.flywheel_index == 29 and fe.stiffness.shape == fe.mass.shape == fe.damping.shape == (
+        30,
+        30,
+    )
     k = fe.stiffness.toarray()
     assert k[fe.damper_index, 29] == k[29, fe.damper_index] == -SERIES.series_stiffness
     assert (fe.mass[29, 29], fe.damping[29, 29]) == (SERIES.series_inertance, SERIES.series_damping)

@@ -2,8 +2,8 @@
 
 import pytest
 
-from rths.clocks import FreeRunning, RealtimeOverrun, WallClock
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
+from rths.runtime.clocks import FreeRunning, RealtimeOverrun, WallClock
 
 
 class FakeClock:
@@ -70,8 +70,9 @@ def test_overruns_are_counted_and_schedule_is_kept():
 
 def test_strict_raises_after_consecutive_overruns():
     clock = FakeClock()
-    pacer = WallClock(DT, 10, now_ns=clock.now, sleep=clock.sleep, strict=True,
-                      max_consecutive_overruns=3)
+    pacer = WallClock(
+        DT, 10, now_ns=clock.now, sleep=clock.sleep, strict=True, max_consecutive_overruns=3
+    )
     with pytest.raises(RealtimeOverrun, match="3 consecutive overruns"):
         run(pacer, clock, [2 * DT_NS] * 10)
 

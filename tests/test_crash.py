@@ -14,10 +14,10 @@ import pytest
 from _scenarios import short
 from mcap.reader import make_reader
 
-from rths.errors import TransportError
-from rths.runner import RunOptions, run_scenario
-from rths.scenario import parse_scenario
-from rths.transport import loopback_endpoint
+from rths.config.scenario import parse_scenario
+from rths.core.errors import TransportError
+from rths.session.runner import RunOptions, run_scenario
+from rths.wire.transport import loopback_endpoint
 
 
 def test_killed_specimen_leaves_a_finished_readable_log(tmp_path):
@@ -35,20 +35,37 @@ def test_killed_specimen_leaves_a_finished_readable_log(tmp_path):
 
     def coordinator() -> None:
         try:
-            outcome["value"] = run_scenario(scn, RunOptions(
-                out=out, listen=(endpoint,), external_specimen=True, run_id="crash-test",
-                step_timeout=3.0, progress=progress,
-            ))  # fmt: skip
+            outcome["value"] = run_scenario(
+                scn,
+                RunOptions(
+                    out=out,
+                    listen=(endpoint,),
+                    external_specimen=True,
+                    run_id="crash-test",
+                    step_timeout=3.0,
+                    progress=progress,
+                ),
+            )
         except TransportError as exc:
             outcome["error"] = exc
 
     thread = threading.Thread(target=coordinator)
     thread.start()
     specimen = subprocess.Popen(
-        [sys.executable, "-m", "rths", "specimen", str(scn_file), "--run-id", "crash-test",
-         "--connect", endpoint],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )  # fmt: skip
+        [
+            sys.executable,
+            "-m",
+            "rths",
+            "specimen",
+            str(scn_file),
+            "--run-id",
+            "crash-test",
+            "--connect",
+            endpoint,
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     try:
         assert running.wait(120.0), "the run never started"  # 1000 steps done
         os.kill(specimen.pid, signal.SIGKILL)  # a hard crash: no goodbye
@@ -65,8 +82,10 @@ def test_killed_specimen_leaves_a_finished_readable_log(tmp_path):
     with open(out, "rb") as f:
         reader = make_reader(f)
         summary = reader.get_summary()  # present only if the file was finished
-        counts = {c.topic: summary.statistics.channel_message_counts.get(c.id, 0)
-                  for c in summary.channels.values()}  # fmt: skip
+        counts = {
+            c.topic: summary.statistics.channel_message_counts.get(c.id, 0)
+            for c in summary.channels.values()
+        }
         events = [json.loads(m.data) for _, _, m in reader.iter_messages(topics=["rths/events"])]
     assert counts["rths/loop"] > 100
     assert any("specimen" in e["message"] for e in events), events
@@ -77,5 +96,9 @@ def test_killed_specimen_leaves_a_finished_readable_log(tmp_path):
 def test_bad_run_id_is_refused(bad_id, tmp_path):
     scn = parse_scenario(short(0.1))
     with pytest.raises(Exception, match="run id must be"):
-        run_scenario(scn, RunOptions(out=tmp_path / "x.mcap", run_id=bad_id,
-                                     external_specimen=True, ready_timeout=0.5))  # fmt: skip
+        run_scenario(
+            scn,
+            RunOptions(
+                out=tmp_path / "x.mcap", run_id=bad_id, external_specimen=True, ready_timeout=0.5
+            ),
+        )

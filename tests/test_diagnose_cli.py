@@ -29,8 +29,14 @@ def case_dir(tmp_path_factory):
 
 
 def _args(folder, *extra):
-    return ["diagnose", str(folder / "run_1.csv"), str(folder / "run_2.csv"),
-            "--nominal", str(folder / "NOMINAL.toml"), *extra]  # fmt: skip
+    return [
+        "diagnose",
+        str(folder / "run_1.csv"),
+        str(folder / "run_2.csv"),
+        "--nominal",
+        str(folder / "NOMINAL.toml"),
+        *extra,
+    ]
 
 
 def test_json_keys_follow_the_contract(case_dir, capsys):
@@ -71,18 +77,27 @@ def _one_line_error(capsys, argv, match):
 
 
 def test_errors_are_one_line_with_exit_code_2(case_dir, tmp_path, capsys):
-    _one_line_error(capsys, ["diagnose", str(case_dir / "run_1.csv"), "--nominal",
-                             str(tmp_path / "no.toml")], "no such file")  # fmt: skip
+    _one_line_error(
+        capsys,
+        ["diagnose", str(case_dir / "run_1.csv"), "--nominal", str(tmp_path / "no.toml")],
+        "no such file",
+    )
     bad = tmp_path / "bad.toml"
     bad.write_text((case_dir / "NOMINAL.toml").read_text().replace("inertance", "inertia"))
-    _one_line_error(capsys, ["diagnose", str(case_dir / "run_1.csv"), "--nominal", str(bad)],
-                    "[specimen] inertance: missing")  # fmt: skip
+    _one_line_error(
+        capsys,
+        ["diagnose", str(case_dir / "run_1.csv"), "--nominal", str(bad)],
+        "[specimen] inertance: missing",
+    )
     rows = np.loadtxt(case_dir / "run_1.csv", delimiter=",", skiprows=1)
     rows[100:, 0] += 0.5 * DT
     gap = tmp_path / "gap.csv"
     write_csv(gap, *rows.T)
-    _one_line_error(capsys, ["diagnose", str(gap), "--nominal", str(case_dir / "NOMINAL.toml")],
-                    "non-uniform sampling")  # fmt: skip
+    _one_line_error(
+        capsys,
+        ["diagnose", str(gap), "--nominal", str(case_dir / "NOMINAL.toml")],
+        "non-uniform sampling",
+    )
     _one_line_error(capsys, _args(case_dir, "--effects", "wobble"), "unknown effect 'wobble'")
     _one_line_error(capsys, _args(case_dir, "--cutoff", "300"), "smoothing cutoff must lie in")
 
@@ -93,8 +108,10 @@ def test_non_positive_cutoff_is_one_line(tmp_path, capsys):
     nominal = tmp_path / "n.toml"
     nominal.write_text("[actuator]\nnum = [1.0]\nden = [0.01, 1.0]\n[specimen]\ninertance = 1.0\n")
     csv = tmp_path / "r.csv"
-    csv.write_text("time,command,measured,force\n" + "".join(
-        f"{k / 1000},{0.0},{0.0},{0.0}\n" for k in range(3000)))  # fmt: skip
+    csv.write_text(
+        "time,command,measured,force\n"
+        + "".join(f"{k / 1000},{0.0},{0.0},{0.0}\n" for k in range(3000))
+    )
     assert main(["diagnose", str(csv), "--nominal", str(nominal), "--cutoff", "0"]) == 2
     err = capsys.readouterr().err
     assert "smoothing cutoff [Hz] must be positive" in err and "Traceback" not in err

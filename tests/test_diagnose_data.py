@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from plants.actuator import MTS_IDENTIFIED
+from rths.core.errors import ConfigError, DataError, ParameterError
 from rths.diagnose.data import MIN_DURATION, load_record, read_csv, write_csv
 from rths.diagnose.nominal import (
     ActuatorNominal,
@@ -17,7 +18,6 @@ from rths.diagnose.nominal import (
     nominal_toml,
     parse_nominal,
 )
-from rths.errors import ConfigError, DataError, ParameterError
 
 DT = 1.0 / 256.0
 
@@ -41,8 +41,9 @@ def test_csv_round_trip_is_lossless(tmp_path):
 def test_csv_columns_in_any_order_extra_ignored(tmp_path):
     t, u, x, f = _columns()
     rows = np.column_stack([f, x, t, u, t * 0])
-    np.savetxt(tmp_path / "r.csv", rows, delimiter=",", header="force,measured,time,command,x",
-               comments="")  # fmt: skip
+    np.savetxt(
+        tmp_path / "r.csv", rows, delimiter=",", header="force,measured,time,command,x", comments=""
+    )
     r = read_csv(tmp_path / "r.csv")
     assert np.allclose(r.command, u, atol=1e-15)  # %.18e default format, float64 exact
 
@@ -59,12 +60,14 @@ def _write(path, text):
         ("time,command,force\n0,1,2\n", "missing column 'measured'"),
         ("time,command,measured,force\n0.1,0,0,0\n0.2,0,abc,0\n", "line 3: column 'measured' is"),
         ("time,command,measured,force\n0.1,0,0\n", "line 2: missing column 'force'"),
-        ("time,command,measured,force\n0.1,0,0,0\n0.2,0,0,nan\n0.3,0,0,0\n",
-         "column 'force' must be finite; got nan at sample 1"),
+        (
+            "time,command,measured,force\n0.1,0,0,0\n0.2,0,0,nan\n0.3,0,0,0\n",
+            "column 'force' must be finite; got nan at sample 1",
+        ),
         ("time,command,measured,force\n0.1,0,0,0\n0.2,0,0,0\n", "at least 3 samples; got 2"),
         ("time,command,measured,force\n0.3,0,0,0\n0.2,0,0,0\n0.1,0,0,0\n", "must increase"),
     ],
-)  # fmt: skip
+)
 def test_csv_errors_name_file_column_and_value(tmp_path, text, match):
     p = _write(tmp_path / "bad.csv", text)
     with pytest.raises(DataError, match=match):
@@ -100,15 +103,18 @@ def test_write_csv_rejects_bad_columns(tmp_path):
 
 
 def test_mcap_log_is_read_from_rths_loop(tmp_path):
-    from rths.recording import LOOP_TOPIC, Recorder
+    from rths.log.recorder import LOOP_TOPIC, Recorder
 
     t, u, x, f = _columns()
     path = tmp_path / "run.mcap"
     with Recorder(path, metadata={"scenario": {"text": "not used here"}}) as rec:
         for k in range(t.size):
-            rec.put(LOOP_TOPIC, k, int(round(t[k] * 1e9)),
-                    {"t": t[k], "target": u[k], "command": u[k], "measured": x[k],
-                     "force": f[k]})  # fmt: skip
+            rec.put(
+                LOOP_TOPIC,
+                k,
+                int(round(t[k] * 1e9)),
+                {"t": t[k], "target": u[k], "command": u[k], "measured": x[k], "force": f[k]},
+            )
     r = load_record(path)
     assert np.allclose(r.force, f) and np.allclose(r.target, u)  # JSON keeps float64 repr
     assert r.scenario_text == "not used here"
@@ -130,8 +136,10 @@ def test_nominal_defaults_and_round_trip(tmp_path):
     n = parse_nominal(NOMINAL, "n.toml")
     assert n.specimen == SpecimenNominal(1589.0, 5970.0, 0.0, 0.0)
     assert n.actuator.delay == 0.002 and n.actuator.dc_gain == pytest.approx(4.6667 / 4.6009)
-    model = NominalModel(ActuatorNominal(MTS_IDENTIFIED.num, MTS_IDENTIFIED.den, 0.01),
-                         SpecimenNominal(10.0, 2.0, -3.0, 4.0))  # fmt: skip
+    model = NominalModel(
+        ActuatorNominal(MTS_IDENTIFIED.num, MTS_IDENTIFIED.den, 0.01),
+        SpecimenNominal(10.0, 2.0, -3.0, 4.0),
+    )
     (tmp_path / "m.toml").write_text(nominal_toml(model, "a comment\nover two lines"))
     back = load_nominal(tmp_path / "m.toml")
     assert (back.actuator, back.specimen) == (model.actuator, model.specimen)  # repr() exact
@@ -142,11 +150,15 @@ def test_nominal_defaults_and_round_trip(tmp_path):
     [
         (lambda s: s.replace("[specimen]", "[specimens]"), r"\[top level\] specimen: missing"),
         (lambda s: s + "extra = 1\n", r"\[specimen\] extra: unknown key"),
-        (lambda s: s.replace("inertance = 1589.0", "inertance = -1.0"),
-         r"\[specimen\] inertance: must be non-negative; got -1.0"),
+        (
+            lambda s: s.replace("inertance = 1589.0", "inertance = -1.0"),
+            r"\[specimen\] inertance: must be non-negative; got -1.0",
+        ),
         (lambda s: s.replace("delay = 0.002", "delay = -0.1"), r"delay: must be non-negative"),
-        (lambda s: s.replace("num = [4.6667e6]", "num = [1, 2, 3, 4, 5]"),
-         r"num: transfer function must be proper"),
+        (
+            lambda s: s.replace("num = [4.6667e6]", "num = [1, 2, 3, 4, 5]"),
+            r"num: transfer function must be proper",
+        ),
         (lambda s: s.replace("478.08", "-478.08"), r"den: transfer function must be stable"),
         (lambda s: s.replace("den = [1.0,", "den = [0.0,"), r"den: leading coefficient"),
         (lambda s: s.replace("num = [4.6667e6]", "num = [0.0]"), r"num: must not be all zero"),
@@ -155,7 +167,7 @@ def test_nominal_defaults_and_round_trip(tmp_path):
         (lambda s: s + "[other]\n", r"\[top level\] other: unknown key"),
         (lambda s: s.replace("[actuator]", "[actuator"), r"invalid TOML"),
     ],
-)  # fmt: skip
+)
 def test_nominal_errors_name_file_key_and_value(edit, match):
     with pytest.raises(ConfigError, match=match):
         parse_nominal(edit(NOMINAL), "n.toml")

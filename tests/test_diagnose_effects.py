@@ -34,8 +34,9 @@ def _record(t: np.ndarray, u: np.ndarray, x: np.ndarray, f: np.ndarray) -> Recor
 def test_replay_matches_the_emulated_actuator_exactly():
     dt = 1.0 / 2048.0
     u = 3e-3 * np.sin(2 * math.pi * 3.0 * dt * np.arange(4096))
-    act = TransferFunctionActuator(MTS_IDENTIFIED.num, MTS_IDENTIFIED.den,
-                                   LinearSpecimen(10.0, 0.0, 0.0), dt)  # fmt: skip
+    act = TransferFunctionActuator(
+        MTS_IDENTIFIED.num, MTS_IDENTIFIED.den, LinearSpecimen(10.0, 0.0, 0.0), dt
+    )
     y = np.array([act.step(v)[0].displacement for v in u])
     # same ZOH model, two realisations (state-space steps vs lfilter): round-off only
     assert np.max(np.abs(actuator_replay(MTS_IDENTIFIED.num, MTS_IDENTIFIED.den, dt, u) - y)) < (

@@ -13,9 +13,9 @@ import math
 import numpy as np
 import pytest
 
+from rths.core.errors import ParameterError
 from rths.diagnose import Options, diagnose
 from rths.diagnose.synthetic import LabCase, band_limited_command, lab_record
-from rths.errors import ParameterError
 
 DT = 1.0 / 1024.0
 M, C = 1589.0, 2 * 0.15 * 1589.0 * 2 * math.pi * 20.0  # zeta 0.15 at 20 Hz (S0 Eq.18 range)
@@ -24,10 +24,15 @@ M, C = 1589.0, 2 * 0.15 * 1589.0 * 2 * math.pi * 20.0  # zeta 0.15 at 20 Hz (S0 
 def _records(case: LabCase, n: int = 2, duration: float = 8.0, seed: int = 5) -> list:
     rng = np.random.default_rng(seed)
     return [
-        lab_record(case, band_limited_command(rng, duration, DT, (0.3, 6.0), 3e-3), DT,
-                   seed=k, name=f"run_{k}.csv")
+        lab_record(
+            case,
+            band_limited_command(rng, duration, DT, (0.3, 6.0), 3e-3),
+            DT,
+            seed=k,
+            name=f"run_{k}.csv",
+        )
         for k in range(n)
-    ]  # fmt: skip
+    ]
 
 
 def _nominal(case: LabCase):
@@ -62,8 +67,10 @@ def test_internal_stiffness_ripple_band_under_single_sines():
     c = 2 * 0.02 * M * 2 * math.pi * fe  # xi_e = 0.02 at ~3.5 mm (S0 Eq.17)
     case = LabCase("internal_stiffness", M * (2 * math.pi * fe) ** 2, M, c)
     t = DT * np.arange(8 * 1024)
-    records = [lab_record(case, 3e-3 * np.sin(2 * math.pi * f * t), DT, seed=k,
-                          name=f"run_{k}.csv") for k, f in enumerate((1.5, 1.875))]  # fmt: skip
+    records = [
+        lab_record(case, 3e-3 * np.sin(2 * math.pi * f * t), DT, seed=k, name=f"run_{k}.csv")
+        for k, f in enumerate((1.5, 1.875))
+    ]
     d = diagnose(records, _nominal(case))
     # one sine cannot separate inertance from stiffness: the baseline keeps the nominal split
     # (ridge) and what it leaves is the ripple, in a band of a few 0.5 Hz Welch bins

@@ -16,8 +16,8 @@ from controllers.feedforward import (
     fit_low_order,
     low_order_from_nominal,
 )
-from plants.base import Kinematics
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
+from rths.core.kinematics import Kinematics
 
 DT = 1.0 / 4096.0
 FREQS = (1.0, 2.0, 3.0, 4.0, 5.0)
@@ -121,7 +121,10 @@ def test_fit_validation(kwargs, match):
     [
         ("1/(s+1)", "nominal model must be a python-control TransferFunction or StateSpace"),
         (control.tf([1.0], [1.0, 0.5], 0.01), "nominal model must be continuous-time; got dt=0.01"),
-        (control.ss(-np.eye(2), np.eye(2), np.eye(2), 0), "nominal model must be SISO; got 2 inputs"),
+        (
+            control.ss(-np.eye(2), np.eye(2), np.eye(2), 0),
+            "nominal model must be SISO; got 2 inputs",
+        ),
         (control.tf([1.0, 0.0, 1.0], [1.0, 1.0]), "nominal model must be proper"),
         (control.tf([1.0], [1.0, -2.0]), "nominal model must be stable; got a pole at 2"),
         (control.tf([1.0, 0.0], [1.0, 2.0, 1.0]), "nominal model must have a non-zero DC gain"),
@@ -136,7 +139,10 @@ def test_nominal_model_validation(nominal, match):
     ("kwargs", "match"),
     [
         ({"b0": -1.0, "den": (1.0, 2.0)}, "low-order model gain b0 must be positive; got -1.0"),
-        ({"b0": 1.0, "den": (1.0, 2.0), "delay": -1.0}, "low-order model delay must be non-negative"),
+        (
+            {"b0": 1.0, "den": (1.0, 2.0), "delay": -1.0},
+            "low-order model delay must be non-negative",
+        ),
         ({"b0": 1.0, "den": (1.0,)}, r"low-order model order must lie in \[1, 5\]; got 0"),
         ({"b0": 1.0, "den": (2.0, 2.0)}, "low-order model denominator must be monic"),
         ({"b0": 1.0, "den": (1.0, float("nan"))}, "denominator coefficient 1 must be finite"),
@@ -169,7 +175,9 @@ def test_feedforward_on_exact_low_order_plant_tracks_to_zoh_error(benchmark_fit,
     target = multisine(dt, 2.0, FREQS)
     skip = int(1.0 / dt)
     y, _ = closed_loop(FeedforwardCompensator(dt, model), plant, target)
-    y_plain, _ = closed_loop(FeedforwardCompensator(dt, model, hold_correction=False), plant, target)
+    y_plain, _ = closed_loop(
+        FeedforwardCompensator(dt, model, hold_correction=False), plant, target
+    )
     # mid-step evaluation leaves the O(dt^2) error of averaging the ends, (w dt)^2/8 = 3e-5 at
     # 5 Hz and 2048 Hz; measured 5.5e-6 (4096 Hz) and 2.2e-5 (2048 Hz)
     assert j2(y, target.r, skip) < 1.5 * (2 * np.pi * 5.0 * dt) ** 2 / 8
@@ -186,7 +194,9 @@ def test_feedforward_on_exact_fourth_order_heavy_plant():
     # the 4th derivative (second difference of acceleration) is centred half a step late:
     # error ~ c4 w^4 |r| * w dt/2 = 1.2e-7 * 1.2e5 * 0.0038 = 6e-5 at 3 Hz; measured below that
     assert j2(y, target.r, int(1.0 / DT)) < 1e-4
-    y_none = closed_loop(FeedforwardCompensator(DT, LowOrderModel(1.0, (1.0, 1.0))), discretize(plant_tf, DT), target)[0]
+    y_none = closed_loop(
+        FeedforwardCompensator(DT, LowOrderModel(1.0, (1.0, 1.0))), discretize(plant_tf, DT), target
+    )[0]
     assert j2(y_none, target.r, int(1.0 / DT)) > 0.1  # sanity: the 50 ms plant needs compensation
 
 
@@ -198,7 +208,12 @@ def test_feedforward_command_leads_target_by_model_delay(benchmark_fit):
     t = (np.arange(n) + 1) * DT
     w = 2 * np.pi * f
     for k in range(n):
-        u[k] = ff.step(Kinematics(amp * np.sin(w * t[k]), amp * w * np.cos(w * t[k]), -amp * w * w * np.sin(w * t[k])), 0.0)
+        u[k] = ff.step(
+            Kinematics(
+                amp * np.sin(w * t[k]), amp * w * np.cos(w * t[k]), -amp * w * w * np.sin(w * t[k])
+            ),
+            0.0,
+        )
     # phase of u vs r at 1 Hz = the fitted model's phase (~25 ms lead), from a DFT over 1 s
     seg = slice(n // 2, n)
     ph_u = np.angle(np.sum(u[seg] * np.exp(-1j * w * (t[seg] - DT / 2))))

@@ -1,4 +1,4 @@
-"""Oracles for rths.frf: steady-state amplitudes and S1 Eq.7 FRFs from stepped-sine records."""
+"""Oracles for rths.experiments.s1_shake_table.frf: steady-state amplitudes and S1 Eq.7 FRFs from stepped-sine records."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from plants.tmdi import EQ7_QUANTITIES, linear_frf, s1_configuration
-from rths.errors import ParameterError
-from rths.frf import (
+from rths.core.errors import ParameterError
+from rths.experiments.s1_shake_table.frf import (
     FRF,
     Resonance,
     estimate_frf,
@@ -19,7 +19,12 @@ from rths.frf import (
     steady_state_amplitude,
     steady_state_windows,
 )
-from rths.sweep import IdealTable, SteppedSine, command_amplitudes, sweep_structure
+from rths.experiments.s1_shake_table.sweep import (
+    IdealTable,
+    SteppedSine,
+    command_amplitudes,
+    sweep_structure,
+)
 
 DT = 1e-3
 
@@ -68,8 +73,9 @@ def test_frf_of_the_linear_tmdi_is_the_closed_form() -> None:
         for name in EQ7_QUANTITIES:
             # trapezoidal warping (ω dt)²/12 ≤ 1.3e-4 amplified ≤ 1/(2ζ) near resonance;
             # "peak" also loses ≤ 1 - cos(π f dt) = 1.9e-4 to sampling; measured 5.1e-4 for both
-            np.testing.assert_allclose(frf.normalised(name), np.abs(closed[name]), rtol=2e-3,
-                                       err_msg=f"{method} {name}")
+            np.testing.assert_allclose(
+                frf.normalised(name), np.abs(closed[name]), rtol=2e-3, err_msg=f"{method} {name}"
+            )
         assert len(cycles) == freqs.size
         assert abs(cycles[0]["u_I"].size - 1.0 / (1.5 * DT)) < 1.0  # one cycle of samples
 
@@ -95,9 +101,14 @@ def synthetic(values: dict[str, np.ndarray], f: np.ndarray | None = None) -> FRF
 
 def test_resonances_of_a_two_peak_curve() -> None:
     f = np.linspace(1.0, 10.0, 91)
-    lorentz = lambda f0, w: 1.0 / (1.0 + ((f - f0) / w) ** 2)  # noqa: E731
-    frf = synthetic({"u_I": 2 * lorentz(2.2, 0.3), "a_I_tot": 2 * (lorentz(2.2, 0.3)
-                     + 0.5 * lorentz(6.1, 0.5))}, f)
+    lorentz = lambda f0, w: 1.0 / (1.0 + ((f - f0) / w) ** 2)
+    frf = synthetic(
+        {
+            "u_I": 2 * lorentz(2.2, 0.3),
+            "a_I_tot": 2 * (lorentz(2.2, 0.3) + 0.5 * lorentz(6.1, 0.5)),
+        },
+        f,
+    )
     assert resonance(frf) == Resonance(2.2, 1.0)  # excitation 2: Ĥ = H / 2
     assert resonance(frf, band=(5.0, 10.0)).frequency == pytest.approx(5.0)  # monotone tail
     assert second_resonance(frf, 2.2).frequency == pytest.approx(6.1)
@@ -120,8 +131,9 @@ def test_bad_inputs_are_rejected() -> None:
         FRF(np.array([2.0, 1.0]), np.ones(2))
     with pytest.raises(ParameterError, match=r"FRF excitation must be positive with shape \(2,\)"):
         FRF(f, np.array([1.0, 0.0]))
-    with pytest.raises(ParameterError,
-                       match=r"FRF response 'u_I' must have shape \(2,\); got \(3,\)"):
+    with pytest.raises(
+        ParameterError, match=r"FRF response 'u_I' must have shape \(2,\); got \(3,\)"
+    ):
         FRF(f, np.ones(2), {"u_I": np.ones(3)})
     with pytest.raises(ParameterError, match="FRF channel must be one of 'u_I'; got 'F_B'"):
         FRF(f, np.ones(2), {"u_I": np.ones(2)}).normalised("F_B")

@@ -1,4 +1,4 @@
-"""Oracles for the HDRB isolator of S1 Eq.8 (plants.hdrb)."""
+"""Oracles for the HDRB isolator of S1 Eq.8 (plants.tmdi.hdrb)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from plants.hdrb import (
+from plants.tmdi.hdrb import (
     AMPLITUDE_EXPONENT,
     AMPLITUDE_RANGE,
     HDRB,
@@ -25,7 +25,7 @@ from plants.hdrb import (
     UNCONTROLLED_STIFFNESS_SCALE,
     AmplitudeDamping,
 )
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 PRESETS = [S1_PRIMARY, S1_SECONDARY]
 
@@ -33,10 +33,16 @@ PRESETS = [S1_PRIMARY, S1_SECONDARY]
 def test_presets_are_the_s1_identification() -> None:
     # S1 §4.2 numbers, exactly as printed
     assert (S1_PRIMARY.k1, S1_PRIMARY.k2, S1_PRIMARY.k3, S1_PRIMARY.c) == (
-        3.94e4, -6.46e5, 4.52e6, 538.13
+        3.94e4,
+        -6.46e5,
+        4.52e6,
+        538.13,
     )
     assert (S1_SECONDARY.k1, S1_SECONDARY.k2, S1_SECONDARY.k3, S1_SECONDARY.c) == (
-        5.55e4, -1.15e6, 8.48e6, 409.15
+        5.55e4,
+        -1.15e6,
+        8.48e6,
+        409.15,
     )
     assert S1_PRIMARY_IDEAL_INERTER == HDRB(3.94e4, -6.46e5, 4.52e6, 743.3)
     assert S1_SECONDARY_IDEAL_INERTER == HDRB(5.55e4, -1.15e6, 8.48e6, 324.7)
@@ -82,10 +88,15 @@ def test_spring_is_odd_and_secant_is_peak_to_peak(iso: HDRB) -> None:
 @pytest.mark.parametrize("amplitude", [0.005, 0.03])
 def test_equivalent_stiffness_is_the_first_harmonic(iso: HDRB, amplitude: float) -> None:
     # Fourier sine coefficient of F_E(A sin φ) divided by A, by adaptive quadrature (1e-10)
-    b1, _ = quad(lambda phi: iso.elastic_force(amplitude * math.sin(phi)) * math.sin(phi),
-                 0.0, 2.0 * math.pi, epsabs=0.0, epsrel=1e-12, limit=200)
-    assert iso.equivalent_stiffness(amplitude) == pytest.approx(b1 / math.pi / amplitude,
-                                                                 rel=1e-10)
+    b1, _ = quad(
+        lambda phi: iso.elastic_force(amplitude * math.sin(phi)) * math.sin(phi),
+        0.0,
+        2.0 * math.pi,
+        epsabs=0.0,
+        epsrel=1e-12,
+        limit=200,
+    )
+    assert iso.equivalent_stiffness(amplitude) == pytest.approx(b1 / math.pi / amplitude, rel=1e-10)
 
 
 @pytest.mark.parametrize("iso", PRESETS)
@@ -137,8 +148,9 @@ def test_damping_law_is_a_clamped_power_law() -> None:
     assert iso.damping_coefficient(0.1) == iso.damping_coefficient(0.038)
     assert iso.damping_coefficient(0.005) == pytest.approx(600.0 * 0.5**-0.36, rel=1e-14)
     # the law applies to |A| and to arrays
-    np.testing.assert_allclose(iso.damping_coefficient([-0.02, 0.02]),
-                               600.0 * 2.0**-0.36, rtol=1e-14)
+    np.testing.assert_allclose(
+        iso.damping_coefficient([-0.02, 0.02]), 600.0 * 2.0**-0.36, rtol=1e-14
+    )
     # anchoring moves the reference, not the exponent or the range
     moved = LAW.anchored(0.02)
     assert (moved.exponent, moved.amplitude_range) == (LAW.exponent, LAW.amplitude_range)
@@ -168,7 +180,8 @@ def test_energy_per_cycle_grows_as_a_power_2_minus_n(amplitude: float) -> None:
         expected = 4.0 * (0.038 / amplitude) ** -LAW.exponent
         assert ratio == pytest.approx(expected, rel=1e-10)
     assert work(amplitude) == pytest.approx(
-        math.pi * float(iso.damping_coefficient(amplitude)) * omega * amplitude**2, rel=1e-10)
+        math.pi * float(iso.damping_coefficient(amplitude)) * omega * amplitude**2, rel=1e-10
+    )
 
 
 def test_variants_keep_what_they_do_not_change() -> None:
@@ -179,11 +192,12 @@ def test_variants_keep_what_they_do_not_change() -> None:
     assert (scaled.k1, scaled.k2, scaled.k3) == (0.5 * 3.94e4, 0.5 * -6.46e5, 0.5 * 4.52e6)
     assert (scaled.c, scaled.damping_law) == (600.0, LAW)
     assert scaled.equivalent_stiffness(0.02) == pytest.approx(
-        0.5 * iso.equivalent_stiffness(0.02), rel=1e-15)
-    assert iso.force(0.01, 0.2) == pytest.approx(iso.elastic_force(0.01) + 600.0 * 0.2,
-                                                 rel=1e-15)
+        0.5 * iso.equivalent_stiffness(0.02), rel=1e-15
+    )
+    assert iso.force(0.01, 0.2) == pytest.approx(iso.elastic_force(0.01) + 600.0 * 0.2, rel=1e-15)
     assert iso.damping_force(0.2, 0.005) == pytest.approx(
-        float(iso.damping_coefficient(0.005)) * 0.2, rel=1e-15)
+        float(iso.damping_coefficient(0.005)) * 0.2, rel=1e-15
+    )
 
 
 def test_amplitude_presets() -> None:
@@ -192,14 +206,20 @@ def test_amplitude_presets() -> None:
     assert law.exponent == AMPLITUDE_EXPONENT
     # the uncontrolled PS: S1 §4.2 springs scaled, c = 623.0 N s/m at 10 mm
     scaled = S1_PRIMARY.with_stiffness_scale(UNCONTROLLED_STIFFNESS_SCALE)
-    assert (S1_PRIMARY_UNCONTROLLED.k1, S1_PRIMARY_UNCONTROLLED.k2,
-            S1_PRIMARY_UNCONTROLLED.k3) == (scaled.k1, scaled.k2, scaled.k3)
+    assert (S1_PRIMARY_UNCONTROLLED.k1, S1_PRIMARY_UNCONTROLLED.k2, S1_PRIMARY_UNCONTROLLED.k3) == (
+        scaled.k1,
+        scaled.k2,
+        scaled.k3,
+    )
     assert S1_PRIMARY_UNCONTROLLED.damping_coefficient(0.010) == pytest.approx(623.0, rel=1e-15)
     # the TMDI bearings give S1's identified dashpots where S1 identified them (0.10 g)
     for iso, viscous, amplitude in (
         (S1_PRIMARY_AMPLITUDE, S1_PRIMARY, IDENTIFICATION_AMPLITUDE["rack_pinion"]),
-        (S1_PRIMARY_IDEAL_INERTER_AMPLITUDE, S1_PRIMARY_IDEAL_INERTER,
-         IDENTIFICATION_AMPLITUDE["ideal"]),
+        (
+            S1_PRIMARY_IDEAL_INERTER_AMPLITUDE,
+            S1_PRIMARY_IDEAL_INERTER,
+            IDENTIFICATION_AMPLITUDE["ideal"],
+        ),
         (S1_SECONDARY_AMPLITUDE, S1_SECONDARY, 0.003),
         (S1_SECONDARY_IDEAL_INERTER_AMPLITUDE, S1_SECONDARY_IDEAL_INERTER, 0.003),
     ):
@@ -216,8 +236,10 @@ def test_amplitude_presets() -> None:
         ({"exponent": -0.1}, r"damping law exponent n must lie in \[0.0, 1.0\]; got -0.1"),
         ({"exponent": 1.5}, r"damping law exponent n must lie in \[0.0, 1.0\]; got 1.5"),
         ({"reference_amplitude": 0.0}, "reference amplitude A_ref must be positive; got 0.0"),
-        ({"amplitude_range": (0.01, 0.005)},
-         r"amplitude range must satisfy 0 < A_lo < A_hi; got \(0.01, 0.005\)"),
+        (
+            {"amplitude_range": (0.01, 0.005)},
+            r"amplitude range must satisfy 0 < A_lo < A_hi; got \(0.01, 0.005\)",
+        ),
         ({"amplitude_range": (0.0, 0.005)}, "amplitude range must satisfy 0 < A_lo < A_hi"),
         ({"amplitude_range": 0.005}, r"amplitude range must be \(A_lo, A_hi\) in m; got 0.005"),
         ({"reversal_tolerance": -1e-6}, "reversal tolerance must be positive; got -1e-06"),
@@ -238,8 +260,10 @@ def test_bad_damping_laws_are_rejected(kwargs: dict, match: str) -> None:
         ({"k1": 1.0, "k3": math.inf}, "k3 must be finite"),
         ({"k1": 1.0, "c": -1.0}, "damping c must be non-negative; got -1.0"),
         ({"k1": "stiff"}, "k1 must be a number; got 'stiff'"),
-        ({"k1": 1.0, "damping_law": 0.3},
-         "damping law must be an AmplitudeDamping or None; got 0.3"),
+        (
+            {"k1": 1.0, "damping_law": 0.3},
+            "damping law must be an AmplitudeDamping or None; got 0.3",
+        ),
     ],
 )
 def test_bad_parameters_are_rejected(kwargs: dict, match: str) -> None:

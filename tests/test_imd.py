@@ -1,4 +1,4 @@
-"""Oracles for the inertial mass damper models (plants.imd): S0 Eq.1, Eq.3-5, Eq.12, Eq.18-21,
+"""Oracles for the inertial mass damper models (plants.imd.models): S0 Eq.1, Eq.3-5, Eq.12, Eq.18-21,
 Table 4/6 presets, backlash kinematics, friction and energy balances."""
 
 from __future__ import annotations
@@ -10,11 +10,10 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from plants._imd_amplitude import AmplitudeTracker
 from plants.base import Specimen, drive
-from plants.imd import (
+from plants.imd.amplitude import AmplitudeTracker
+from plants.imd.models import (
     CONTACT_FREQUENCY_HZ,
-    IMD_MODELS,
     MAX_STEP_PHASE,
     AmplitudeDamping,
     IMDParameters,
@@ -25,7 +24,8 @@ from plants.imd import (
     imd_from_parameters,
     screw_series_stiffness,
 )
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
+from rths.core.registry import SPECIMENS
 
 FS = 4096.0  # drive rate [Hz] (the vRTHS benchmark loop rate)
 DT = 1.0 / FS
@@ -97,14 +97,26 @@ F_E = math.sqrt(1.2e7 / 1589.0) / (2 * math.pi)  # Type II equivalent natural fr
 def test_presets_reproduce_tables_4_and_6():
     t1 = IMDParameters.preset("type_i")
     assert (t1.inertance, t1.stiffness, t1.damping_law.c1, t1.damping_law.c2) == (
-        1509.0, 0.9e7, 0.100, 0.236)  # fmt: skip
+        1509.0,
+        0.9e7,
+        0.100,
+        0.236,
+    )
     assert (TYPE_II.inertance, TYPE_II.stiffness) == (1589.0, 1.2e7)
     assert (TYPE_II.damping_law.c1, TYPE_II.damping_law.c2) == (0.079, 0.153)
     small, full = IMDParameters.preset("eimd_small"), IMDParameters.preset("eimd_full")
     assert (small.inertance, small.damping, small.stiffness, small.clearance) == (
-        6.00e3, 1.61e3, 1.03e8, 0.01e-3)  # fmt: skip
+        6.00e3,
+        1.61e3,
+        1.03e8,
+        0.01e-3,
+    )
     assert (full.inertance, full.damping, full.stiffness, full.clearance) == (
-        2.20e6, 2.72e6, 1.37e8, 0.40e-3)  # fmt: skip
+        2.20e6,
+        2.72e6,
+        1.37e8,
+        0.40e-3,
+    )
     assert all(IMDParameters.preset(n).free_length is None for n in IMDParameters.preset_names())
     # S0 §3.2: Type II self-vibration at 13.8 Hz; the paper rounds to 0.1 Hz -> 1 %
     assert TYPE_II.natural_frequency / (2 * math.pi) == pytest.approx(13.8, rel=0.01)
@@ -118,7 +130,8 @@ def test_eq5_is_eq3_with_screw_axial_and_torsional_stiffness():
     assert k0 == pytest.approx(k3, rel=1e-12)  # same algebra, round-off only
     # torsion-free limit: k0 -> gamma A E / l_f
     assert ball_screw_stiffness(area, e_mod, 1e30, j_s, lead, l_f) == pytest.approx(
-        area * e_mod / l_f, rel=1e-12)  # fmt: skip
+        area * e_mod / l_f, rel=1e-12
+    )
 
 
 def test_damping_law_eq18_is_piecewise():
@@ -356,8 +369,9 @@ def test_time_in_gap_matches_coasting_kinematics():
         assert t[i_close - 1] - 1e-9 < t_close <= t[i_close] + 1e-9
 
 
-@pytest.mark.parametrize(("name", "freq", "amp"), [("eimd_small", 1.0, 6e-3),
-                                                   ("eimd_full", 0.5, 10e-3)])  # fmt: skip
+@pytest.mark.parametrize(
+    ("name", "freq", "amp"), [("eimd_small", 1.0, 6e-3), ("eimd_full", 0.5, 10e-3)]
+)
 def test_gap_closure_is_an_impact(name, freq, amp):
     """At each closure the force leaves zero with slope k0 (u' - x_i'): an unsmooth input that
     makes the flywheel ring (S0 §4.2.2)."""
@@ -391,8 +405,9 @@ def test_first_closure_ripple_of_small_eimd():
     # subtracting the no-gap force removes the smooth part (<= 37 N here), which changes by
     # only 9 N (7 % of the ripple) over the contact, so it couples back weakly; sampling at
     # 4 kHz catches the peak of a 20.9 Hz ripple to cos(pi 20.9/4096) = 1 - 1e-4
-    assert np.max(np.abs(ripple)) == pytest.approx(abs(dv) * math.sqrt(p.stiffness * p.inertance),
-                                                   rel=0.05)  # fmt: skip
+    assert np.max(np.abs(ripple)) == pytest.approx(
+        abs(dv) * math.sqrt(p.stiffness * p.inertance), rel=0.05
+    )
     # without the gap the smooth drive leaves the internal-stiffness model on the rigid force
     rigid, _ = run(SimplifiedIMD(p), u, v, a)
     assert np.max(np.abs(no_gap - rigid)) < 0.05 * np.max(np.abs(ripple))
@@ -456,8 +471,7 @@ def test_step_size_independence():
 
 
 def test_compiled_kernel_matches_python_reference():
-    p = replace(IMDParameters.preset("type_ii", friction=25.0, clearance=0.02e-3),
-                free_length=0.5)  # fmt: skip
+    p = replace(IMDParameters.preset("type_ii", friction=25.0, clearance=0.02e-3), free_length=0.5)
     t, u, v, a = SmoothSine(2.0, 4e-3, ramp=0.5).samples(1.0)
     f_jit, _ = run(InternalStiffnessIMD(p, use_jit=True), u, v, a)
     f_py, _ = run(InternalStiffnessIMD(p, use_jit=False), u, v, a)
@@ -484,23 +498,30 @@ def test_state_reports_eq15_fluctuation_and_forces():
     force, h = run(model, u, v, a, keys=("spring_force", "force_fluctuation", "friction_force"))
     np.testing.assert_array_equal(h["spring_force"], force)  # no friction configured
     assert np.all(h["friction_force"] == 0.0)
-    np.testing.assert_allclose(h["force_fluctuation"], force - 1589.0 * a - p.damping * v,
-                               rtol=0, atol=1e-9 * np.max(np.abs(force)))  # fmt: skip
+    np.testing.assert_allclose(
+        h["force_fluctuation"],
+        force - 1589.0 * a - p.damping * v,
+        rtol=0,
+        atol=1e-9 * np.max(np.abs(force)),
+    )
 
 
 # --- registry -----------------------------------------------------------------------------
 
 
 def test_registry_and_factory():
-    assert IMD_MODELS == {"imd_simplified": SimplifiedIMD, "imd_internal": InternalStiffnessIMD}
+    assert SPECIMENS.get("imd_simplified").target is SimplifiedIMD
+    assert SPECIMENS.get("imd_internal").target is InternalStiffnessIMD
     assert isinstance(imd_from_parameters(TYPE_II), InternalStiffnessIMD)
     rigid = replace(TYPE_II, internal_stiffness=False)
     assert isinstance(imd_from_parameters(rigid), SimplifiedIMD)
     assert isinstance(imd_from_parameters(TYPE_II, kind="imd_simplified"), SimplifiedIMD)
     assert InternalStiffnessIMD(TYPE_II).rigid_inertance == 0.0
     assert InternalStiffnessIMD(TYPE_II).rigid_damping == 0.0
-    for cls in IMD_MODELS.values():
-        assert issubclass(cls, Specimen) and IMD_MODELS[cls.kind] is cls
+    for cls in (SimplifiedIMD, InternalStiffnessIMD):
+        assert issubclass(cls, Specimen) and SPECIMENS.get(cls.kind).target is cls
+    with pytest.raises(ParameterError, match="unknown IMD kind 'linear'"):
+        imd_from_parameters(TYPE_II, kind="linear")
 
 
 # --- validation ---------------------------------------------------------------------------
@@ -515,22 +536,32 @@ LAW = AmplitudeDamping(0.079, 0.153)
         ({"inertance": float("nan")}, r"inertance m_e must be finite; got nan"),
         ({"inertance": 1.0, "damping": -1.0}, r"damping c_d must be non-negative; got -1\.0"),
         ({"inertance": 1.0, "stiffness": -5.0}, r"stiffness k0 must be positive; got -5\.0"),
-        ({"inertance": 1.0, "stiffness": 1.0, "free_length": 0.0},
-         r"free length l_f must be positive; got 0\.0"),
-        ({"inertance": 1.0, "clearance": -1e-3},
-         r"backlash clearance h_d must be non-negative; got -0\.001"),
+        (
+            {"inertance": 1.0, "stiffness": 1.0, "free_length": 0.0},
+            r"free length l_f must be positive; got 0\.0",
+        ),
+        (
+            {"inertance": 1.0, "clearance": -1e-3},
+            r"backlash clearance h_d must be non-negative; got -0\.001",
+        ),
         ({"inertance": 1.0, "contact_stiffness": 0.0}, r"contact stiffness must be positive"),
         ({"inertance": 1.0, "friction": -2.0}, r"friction F_r must be non-negative; got -2\.0"),
-        ({"inertance": 1.0, "friction_velocity": 0.0},
-         r"friction regularisation velocity v_eps must be positive; got 0\.0"),
+        (
+            {"inertance": 1.0, "friction_velocity": 0.0},
+            r"friction regularisation velocity v_eps must be positive; got 0\.0",
+        ),
         ({"inertance": 1.0, "damping_law": LAW}, r"damping_law .* needs stiffness k0 .*got None"),
-        ({"inertance": 1.0, "stiffness": 1.0, "damping": 5.0, "damping_law": LAW},
-         r"not both; got damping=5\.0"),
+        (
+            {"inertance": 1.0, "stiffness": 1.0, "damping": 5.0, "damping_law": LAW},
+            r"not both; got damping=5\.0",
+        ),
         ({"inertance": 1.0, "free_length": 0.3}, r"free_length l_f .* needs an active internal"),
-        ({"inertance": 1.0, "stiffness": 1.0, "internal_stiffness": False, "free_length": 0.3},
-         r"internal_stiffness=False"),
+        (
+            {"inertance": 1.0, "stiffness": 1.0, "internal_stiffness": False, "free_length": 0.3},
+            r"internal_stiffness=False",
+        ),
     ],
-)  # fmt: skip
+)
 def test_parameter_validation(kwargs, match):
     with pytest.raises(ParameterError, match=match):
         IMDParameters(**kwargs)
@@ -545,15 +576,18 @@ def test_parameter_validation(kwargs, match):
         ({"c1": 0.1, "c2": 0.1, "small_amplitude_ratio": 0.0}, r"small-amplitude damping ratio"),
         ({"c1": 0.1, "c2": 0.1, "reversal_tolerance": 0.0}, r"reversal tolerance must be pos"),
     ],
-)  # fmt: skip
+)
 def test_damping_law_validation(kwargs, match):
     with pytest.raises(ParameterError, match=match):
         AmplitudeDamping(**kwargs)
 
 
 def test_preset_and_model_validation():
-    with pytest.raises(ParameterError, match=r"unknown IMD preset 'type_iii'; choose one of "
-                                              r"'eimd_full', 'eimd_small', 'type_i', 'type_ii'"):
+    with pytest.raises(
+        ParameterError,
+        match=r"unknown IMD preset 'type_iii'; choose one of "
+        r"'eimd_full', 'eimd_small', 'type_i', 'type_ii'",
+    ):
         IMDParameters.preset("type_iii")
     with pytest.raises(ParameterError, match=r"bad override for IMD preset 'type_ii'"):
         IMDParameters.preset("type_ii", mass=3.0)
@@ -585,8 +619,14 @@ def test_helper_validation():
     with pytest.raises(ParameterError, match=r"screw lead l_d must be positive; got 0"):
         screw_series_stiffness(1.0, 1.0, 0)
     good = (2e-4, 2.1e11, 8.1e10, 6.4e-9, 4e-3, 0.8)
-    names = ["screw area A", "Young's modulus E", "shear modulus G", "torsion constant J_s",
-             "screw lead l_d", "free length l_f"]  # fmt: skip
+    names = [
+        "screw area A",
+        "Young's modulus E",
+        "shear modulus G",
+        "torsion constant J_s",
+        "screw lead l_d",
+        "free length l_f",
+    ]
     for i, name in enumerate(names):
         bad = list(good)
         bad[i] = -1.0
@@ -608,7 +648,7 @@ def test_amplitude_estimate_ignores_wiggles_small_against_the_motion():
     """A 2 mm, 2 Hz sine with a 10 µm, 150 Hz ripple (command jitter): the load amplitude stays
     2 mm (relative hysteresis 10 %); with the hysteresis absolute only, the ripple's reversals
     collapse it to the ripple's size."""
-    from plants._imd_amplitude import AmplitudeTracker
+    from plants.imd.amplitude import AmplitudeTracker
 
     t = np.arange(0, 3.0, 1 / 4096)
     u = 2e-3 * np.sin(2 * np.pi * 2 * t) + 10e-6 * np.sin(2 * np.pi * 150 * t)

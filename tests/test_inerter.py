@@ -1,4 +1,4 @@
-"""Oracles for the ideal and rack-and-pinion inerters (plants.inerter, S1 Eq.9-11)."""
+"""Oracles for the ideal and rack-and-pinion inerters (plants.tmdi.inerter, S1 Eq.9-11)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from plants.base import drive
-from plants.inerter import (
+from plants.tmdi.inerter import (
     FLYWHEELS,
     S1_IDEAL_INERTANCE,
     S1_RACK_PINION,
@@ -19,7 +19,7 @@ from plants.inerter import (
     ideal_inerter_preset,
     rack_pinion_preset,
 )
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 J_B, R_P = S1_RACK_PINION.flywheel_inertia, S1_RACK_PINION.pinion_radius
 
@@ -42,10 +42,18 @@ def sine_drive(dt: float, duration: float, amplitude: float, freq: float, start_
     t = np.arange(0.0, duration + 0.5 * dt, dt)
     w = 2.0 * math.pi * freq
     if start_at_rest:
-        return t, amplitude * (1 - np.cos(w * t)), amplitude * w * np.sin(w * t), \
-            amplitude * w * w * np.cos(w * t)
-    return t, amplitude * np.sin(w * t), amplitude * w * np.cos(w * t), \
-        -amplitude * w * w * np.sin(w * t)
+        return (
+            t,
+            amplitude * (1 - np.cos(w * t)),
+            amplitude * w * np.sin(w * t),
+            amplitude * w * w * np.cos(w * t),
+        )
+    return (
+        t,
+        amplitude * np.sin(w * t),
+        amplitude * w * np.cos(w * t),
+        -amplitude * w * w * np.sin(w * t),
+    )
 
 
 def test_presets_match_s1_table_1_and_section_4_2() -> None:

@@ -10,7 +10,7 @@ import pytest
 from plants.actuator import ServoHydraulicActuator, TransferFunctionActuator
 from plants.lab import Converter, EmulatedLab, LabConverters
 from plants.linear_specimen import LinearSpecimen, benchmark_specimen
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 DT = 1.0 / 4096.0
 QUIET = LabConverters(
@@ -18,9 +18,7 @@ QUIET = LabConverters(
 )  # benchmark converters without noise
 
 
-def benchmark_lab(
-    converters: LabConverters | None = None, seed: int | None = 0
-) -> EmulatedLab:
+def benchmark_lab(converters: LabConverters | None = None, seed: int | None = 0) -> EmulatedLab:
     return EmulatedLab(ServoHydraulicActuator(benchmark_specimen(), DT), converters, seed=seed)
 
 
@@ -147,8 +145,7 @@ def test_block_noise_equals_per_step_draws():
             force=Converter(100.0, noise_rms=0.01),
         )
         specimen = LinearSpecimen(1.0, 10.0, 1e4)
-        out = EmulatedLab(TransferFunctionActuator([1.0], [1.0, 1.0], specimen, 1e-3), conv,
-                          seed=7)  # fmt: skip
+        out = EmulatedLab(TransferFunctionActuator([1.0], [1.0, 1.0], specimen, 1e-3), conv, seed=7)
         out.NOISE_BLOCK = block
         out.reset()
         return out

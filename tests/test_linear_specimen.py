@@ -8,8 +8,12 @@ import numpy as np
 import pytest
 
 from plants.base import drive
-from plants.linear_specimen import BenchmarkSpecimenParameters, LinearSpecimen, benchmark_specimen
-from rths.errors import ParameterError
+from plants.linear_specimen import (
+    BenchmarkSpecimenParameters,
+    LinearSpecimen,
+    benchmark_specimen,
+)
+from rths.core.errors import ParameterError
 
 
 def test_force_is_the_algebraic_sum_and_all_of_mass_and_dashpot_is_rigid() -> None:

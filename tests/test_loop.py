@@ -8,24 +8,31 @@ import threading
 
 import numpy as np
 import pytest
+from _scenarios import PERFECT_ACTUATOR, QUIET, SAME_AS_MODEL, short
 
 from controllers.factory import make_compensator
-from rths import build
-from rths.errors import ParameterError, RTHSError
-from rths.loop import InProcessLink, LinkSample, Loop, Scaling
-from rths.mock import numerical_run
-from rths.scenario import parse_scenario
-from _scenarios import PERFECT_ACTUATOR, QUIET, SAME_AS_MODEL, short
+from rths.config import build
+from rths.config.scenario import parse_scenario
+from rths.core.errors import ParameterError, RTHSError
+from rths.core.scaling import Scaling
+from rths.runtime.loop import InProcessLink, LinkSample, Loop
+from rths.session.mock import numerical_run
 
 
 def _run(scn, link=None, n=None, **kw):
     n = n or scn.run.steps
     rec: list[dict] = []
     loop = Loop(
-        build.substructure(scn), build.compensator(scn), link or InProcessLink(build.lab(scn)),
-        scn.scaling, n, sink=rec.append, force_filter=build.correction_filter(scn),
-        command_limit=scn.loop.stroke, **kw,
-    )  # fmt: skip
+        build.substructure(scn),
+        build.compensator(scn),
+        link or InProcessLink(build.lab(scn)),
+        scn.scaling,
+        n,
+        sink=rec.append,
+        force_filter=build.correction_filter(scn),
+        command_limit=scn.loop.stroke,
+        **kw,
+    )
     return loop.run(), rec
 
 
@@ -99,10 +106,13 @@ def test_time_steps_must_agree():
         Loop(build.substructure(scn), comp, _NaNLink(0), scn.scaling, 10)
 
 
-@pytest.mark.parametrize("kw, match", [
-    ({"displacement": 0.0}, "displacement scale factor"),
-    ({"force": -1.0}, "force scale factor"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "kw, match",
+    [
+        ({"displacement": 0.0}, "displacement scale factor"),
+        ({"force": -1.0}, "force scale factor"),
+    ],
+)
 def test_scale_factors_must_be_positive(kw, match):
     with pytest.raises(ParameterError, match=match):
         Scaling(**kw)
@@ -115,5 +125,11 @@ def test_impedance_factor():
 def test_command_limit_must_be_positive():
     scn = parse_scenario(short(0.1))
     with pytest.raises(ParameterError, match="command limit must be positive"):
-        Loop(build.substructure(scn), build.compensator(scn), _NaNLink(0), scn.scaling, 10,
-             command_limit=0.0)  # fmt: skip
+        Loop(
+            build.substructure(scn),
+            build.compensator(scn),
+            _NaNLink(0),
+            scn.scaling,
+            10,
+            command_limit=0.0,
+        )

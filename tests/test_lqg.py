@@ -11,9 +11,15 @@ from filterpy.kalman import KalmanFilter
 
 from controllers.feedforward import FeedforwardCompensator, LowOrderModel
 from controllers.ff_lqg import FFLQGCompensator
-from controllers.lqg import LQGCompensator, LQGDesign, LQGWeights, design_lqg, discrete_nominal
-from plants.base import Kinematics
-from rths.errors import ParameterError
+from controllers.lqg import (
+    LQGCompensator,
+    LQGDesign,
+    LQGWeights,
+    design_lqg,
+    discrete_nominal,
+)
+from rths.core.errors import ParameterError
+from rths.core.kinematics import Kinematics
 
 DT = 1.0 / 4096.0
 
@@ -53,7 +59,9 @@ def test_lqr_gain_agrees_with_scipy_riccati(design):
     a, b, c, n = design.a, design.b, design.c, design.order
     a_aug = np.block([[a, np.zeros((n, 1))], [-DT * (c @ a)[None, :], np.ones((1, 1))]])
     b_aug = np.r_[b, -DT * (c @ b)][:, None]
-    q_aug = sla.block_diag(design.weights.error_weight * np.outer(c, c), design.weights.integral_weight)
+    q_aug = sla.block_diag(
+        design.weights.error_weight * np.outer(c, c), design.weights.integral_weight
+    )
     x = sla.solve_discrete_are(a_aug, b_aug, q_aug, np.eye(1))
     k = np.linalg.solve(np.eye(1) + b_aug.T @ x @ b_aug, b_aug.T @ x @ a_aug)[0]
     np.testing.assert_allclose(np.r_[design.gain_state, design.gain_integral], k, rtol=1e-7)
@@ -92,7 +100,13 @@ def test_lqg_alone_rejects_a_constant_output_disturbance(design):
     assert u[n - 1] == pytest.approx(-d / design.static_gain, rel=1e-5)
     assert comp.state()["integral_error"] != 0.0
     # without feedback the offset stays: the feedforward alone cannot see it
-    y_ff, _ = closed_loop(FeedforwardCompensator(DT, LowOrderModel(1.0, (1.0, 1.0))), plant, zero, output_disturbance=d, disturbance_from=0.5)
+    y_ff, _ = closed_loop(
+        FeedforwardCompensator(DT, LowOrderModel(1.0, (1.0, 1.0))),
+        plant,
+        zero,
+        output_disturbance=d,
+        disturbance_from=0.5,
+    )
     assert y_ff[-1] == pytest.approx(d)
 
 
@@ -116,7 +130,12 @@ def test_state_reports_feedforward_and_feedback_parts(design):
     u = comp.step(Kinematics(1e-3, 0.0, 0.0), 2e-4)
     s = comp.state()
     assert set(s) == {
-        "feedforward", "feedback", "tracking_error", "predicted_error", "integral_error", "innovation",
+        "feedforward",
+        "feedback",
+        "tracking_error",
+        "predicted_error",
+        "integral_error",
+        "innovation",
     }
     assert s["feedforward"] + s["feedback"] == pytest.approx(u, rel=1e-12)
     assert s["feedforward"] == pytest.approx(1e-3 / design.static_gain)
@@ -151,7 +170,9 @@ def test_design_and_compensator_validation(design):
         design_lqg(control.tf([1.0, 1.0], [1.0, 2.0]), DT)
     with pytest.raises(ParameterError, match="design must be an LQGDesign; got None"):
         LQGCompensator(DT, None)  # type: ignore[arg-type]
-    with pytest.raises(ParameterError, match=r"LQG design time step must equal dt=0.001; got 0.000244"):
+    with pytest.raises(
+        ParameterError, match=r"LQG design time step must equal dt=0.001; got 0.000244"
+    ):
         LQGCompensator(0.001, design)
     with pytest.raises(ParameterError, match="feedforward must be a FeedforwardCompensator; got 1"):
         LQGCompensator(DT, design, 1)  # type: ignore[arg-type]

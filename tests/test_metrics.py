@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from rths import metrics
-from rths.errors import DataError, ParameterError
+from rths.core.errors import DataError, ParameterError
 
 FS = 1024.0  # sampling rate [Hz]
 DT = 1.0 / FS  # sampling step [s]

@@ -8,16 +8,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from rths.analysis.montecarlo import run_draws
 from rths.cli import main
-from rths.montecarlo import run_draws
-from rths.scenario import parse_scenario
+from rths.config.scenario import parse_scenario
 
 SCENARIO = Path(__file__).resolve().parent.parent / "scenarios" / "benchmark_mc.toml"
 
 
 def _short(duration: float = 1.0):
-    return parse_scenario(SCENARIO.read_text().replace("duration = 10.0", f"duration = {duration}"),
-                          str(SCENARIO))  # fmt: skip
+    return parse_scenario(
+        SCENARIO.read_text().replace("duration = 10.0", f"duration = {duration}"), str(SCENARIO)
+    )
 
 
 def test_draws_are_reproducible_and_differ_from_each_other():
@@ -38,10 +39,15 @@ def test_feedback_improves_on_feedforward_across_draws():
 
 def test_cli_uses_the_scenario_draws_and_prints_json(tmp_path, capsys):
     scn = tmp_path / "mc.toml"
-    scn.write_text(SCENARIO.read_text().replace("duration = 10.0", "duration = 0.25")
-                   .replace("draws = 20", "draws = 2"))  # fmt: skip
-    assert main(["run", str(scn), "--monte-carlo", "--compensator", "ff", "--json",
-                 "--no-progress"]) == 0  # fmt: skip
+    scn.write_text(
+        SCENARIO.read_text()
+        .replace("duration = 10.0", "duration = 0.25")
+        .replace("draws = 20", "draws = 2")
+    )
+    assert (
+        main(["run", str(scn), "--monte-carlo", "--compensator", "ff", "--json", "--no-progress"])
+        == 0
+    )
     doc = json.loads(capsys.readouterr().out)
     assert doc["draws"] == 2 and doc["rows"][0]["kind"] == "ff" and len(doc["j2"]["ff"]) == 2
 

@@ -1,7 +1,7 @@
-"""Oracles for rths.recording and rths.mcap_io.
+"""Oracles for rths.log.recorder and rths.log.reader.
 
 The log is read back with the *plain* ``mcap`` reader (no project code) to hold the log contract
-of design.md §4; :mod:`rths.mcap_io` is then checked against the same file.  Floats survive JSON
+of design.md §4; :mod:`rths.log.reader` is then checked against the same file.  Floats survive JSON
 exactly (Python writes the shortest repr that round-trips), so equality checks are exact.
 """
 
@@ -19,18 +19,24 @@ import pytest
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
-import rths._mcap_writer
+import rths.log.mcap_writer
 from rths import __version__
-from rths.errors import DataError, ParameterError
-from rths.mcap_io import is_complete, list_topics, read_metadata, read_topic
-from rths.recording import (
+from rths.core.errors import DataError, ParameterError
+from rths.log.reader import is_complete, list_topics, read_metadata, read_topic
+from rths.log.recorder import (
     EVENTS_TOPIC,
     LOOP_SCHEMA,
     LOOP_TOPIC,
     Recorder,
     object_schema,
 )
-from rths.transport import LogBridge, LogPublisher, RunKeys, ZenohEndpoints, open_session
+from rths.wire.transport import (
+    LogBridge,
+    LogPublisher,
+    RunKeys,
+    ZenohEndpoints,
+    open_session,
+)
 
 PATIENCE = 10.0  # upper bound for asynchronous deliveries; reached only if the code is broken
 DT_NS = 250_000  # 4 kHz loop step [ns]
@@ -118,25 +124,31 @@ def test_gaps_and_reordering_are_counted_and_logged(tmp_path: Path) -> None:
 
 
 def test_producer_never_waits_for_the_writer(tmp_path: Path, monkeypatch) -> None:
-    gate = threading.Event()
-    original = rths._mcap_writer.Writer.add_message
+    """The writer thread is stuck inside its first write (think: chunk compression, slow disk);
+    5000 puts still return, all queued.  Events order everything: the test waits until the
+    writer is inside the stuck write, and releases it only after the producer is done."""
+    entered, gate = threading.Event(), threading.Event()
+    original = rths.log.mcap_writer.Writer.add_message
 
     def stuck(self, *args, **kwargs):
-        gate.wait()  # the writer thread is stuck (think: chunk compression, slow disk)
+        entered.set()
+        gate.wait()
         return original(self, *args, **kwargs)
 
-    monkeypatch.setattr(rths._mcap_writer.Writer, "add_message", stuck)
+    monkeypatch.setattr(rths.log.mcap_writer.Writer, "add_message", stuck)
     rec = Recorder(tmp_path / "stuck.mcap").start()
+    rec.put(LOOP_TOPIC, 0, 0, loop_row(0))
+    assert entered.wait(PATIENCE)  # the writer holds message 0 and is stuck
 
     def produce() -> None:
-        for k in range(5000):
+        for k in range(1, 5000):
             rec.put(LOOP_TOPIC, k, k * DT_NS, loop_row(k))
 
     producer = threading.Thread(target=produce)
     producer.start()
-    producer.join(PATIENCE)  # finishes while the writer is still stuck: put never waited
-    assert not producer.is_alive()
-    assert rec._writer.stats()[LOOP_TOPIC].written == 0  # nothing written yet: all queued
+    producer.join(PATIENCE)  # deadlock guard only: put never waits, so this returns at once
+    assert not producer.is_alive() and not gate.is_set()
+    assert LOOP_TOPIC not in rec._writer.stats() or rec._writer.stats()[LOOP_TOPIC].written == 0
     gate.set()
     summary = rec.close()
     assert summary.topics[LOOP_TOPIC].written == 5000 and summary.complete
@@ -154,7 +166,9 @@ def test_file_is_finished_when_the_body_raises(tmp_path: Path) -> None:
     assert facts["summary"] is not None and is_complete(path)
     assert sum(topic == LOOP_TOPIC for topic, *_ in messages) == 100
     events = [json.loads(m.data) for topic, _, _, m in messages if topic == EVENTS_TOPIC]
-    assert events == [{"kind": "error", "message": "run ended by ZeroDivisionError('division by zero')"}]
+    assert events == [
+        {"kind": "error", "message": "run ended by ZeroDivisionError('division by zero')"}
+    ]
     assert read_topic(path, EVENTS_TOPIC)["log_time_ns"][0] == 99 * DT_NS  # last time seen
 
 
@@ -162,7 +176,7 @@ def test_writer_failure_surfaces_on_the_callers_thread(tmp_path: Path, monkeypat
     def broken(self, *args, **kwargs):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(rths._mcap_writer.Writer, "add_message", broken)
+    monkeypatch.setattr(rths.log.mcap_writer.Writer, "add_message", broken)
     rec = Recorder(tmp_path / "full.mcap").start()
     rec.put(LOOP_TOPIC, 0, 0, loop_row(0))
     rec._writer.join(PATIENCE)  # the thread ends after the failure (file finished)
@@ -209,7 +223,9 @@ def test_recorder_validation(tmp_path: Path) -> None:
         Recorder(tmp_path / "a.mcap", chunk_size=0)
     with pytest.raises(ParameterError, match=r"flush_interval must be positive; got -1"):
         Recorder(tmp_path / "a.mcap", flush_interval=-1)
-    with pytest.raises(ParameterError, match=r"metadata\['run'\] keys and values must be strings; got 'dt': 0.001"):
+    with pytest.raises(
+        ParameterError, match=r"metadata\['run'\] keys and values must be strings; got 'dt': 0.001"
+    ):
         Recorder(tmp_path / "a.mcap", metadata={"run": {"dt": 0.001}})  # type: ignore[dict-item]
     with pytest.raises(ParameterError, match=r"metadata must map record names .*got 'run': 'x'"):
         Recorder(tmp_path / "a.mcap", metadata={"run": "x"})  # type: ignore[dict-item]
@@ -224,14 +240,20 @@ def test_recorder_validation(tmp_path: Path) -> None:
         rec.add_topic("", {})
     with pytest.raises(ParameterError, match=r"schema of topic 'x' is not JSON"):
         rec.add_topic("x", {"a": object()})
-    with pytest.raises(ParameterError, match=r"topic 'rths/loop' is already registered with another"):
+    with pytest.raises(
+        ParameterError, match=r"topic 'rths/loop' is already registered with another"
+    ):
         rec.add_topic(LOOP_TOPIC, {"type": "object"})
     with rec:
         with pytest.raises(DataError, match=r"already started"):
             rec.start()
-        with pytest.raises(ParameterError, match=r"topic 'nope' is not registered .*known: \['rths/loop'\]"):
+        with pytest.raises(
+            ParameterError, match=r"topic 'nope' is not registered .*known: \['rths/loop'\]"
+        ):
             rec.put("nope", 0, 0, {})
-        with pytest.raises(ParameterError, match=r"'rths/events' is not registered for put\(\) \(events go"):
+        with pytest.raises(
+            ParameterError, match=r"'rths/events' is not registered for put\(\) \(events go"
+        ):
             rec.put(EVENTS_TOPIC, 0, 0, {})
         with pytest.raises(ParameterError, match=r"seq and times must be integers; got seq=1.0"):
             rec.put(LOOP_TOPIC, 1.0, 0, {})  # type: ignore[arg-type]
@@ -243,7 +265,9 @@ def test_recorder_validation(tmp_path: Path) -> None:
         rec.event(0, "late", "after close")
     with pytest.raises(ParameterError, match=r"needs at least one field"):
         object_schema("empty", {})
-    with pytest.raises(ParameterError, match=r"required fields of schema 's' are not fields: \['y'\]"):
+    with pytest.raises(
+        ParameterError, match=r"required fields of schema 's' are not fields: \['y'\]"
+    ):
         object_schema("s", {"x": "[m]"}, required=["y"])
 
 
@@ -260,14 +284,20 @@ def test_mcap_io_reads_what_was_written(tmp_path: Path) -> None:
         assert np.array_equal(loop[name], [loop_row(k)[name] for k in ks])
     assert np.array_equal(loop["log_time_ns"], [(k + 1) * DT_NS for k in ks])
     meta = read_metadata(path)
-    assert meta["scenario"]["text"].startswith("[cable]") and meta["rths.recording"]["rths/loop.missing"] == "1"
+    assert (
+        meta["scenario"]["text"].startswith("[cable]")
+        and meta["rths.recording"]["rths/loop.missing"] == "1"
+    )
     assert list_topics(path) == {EVENTS_TOPIC: 1, LOOP_TOPIC: 499} and is_complete(path)
 
 
 def test_mcap_io_errors(tmp_path: Path) -> None:
     path = tmp_path / "run.mcap"
     record(path, 3)
-    with pytest.raises(DataError, match=r"topic 'rths/nope' not found in .*; topics: \['rths/events', 'rths/loop'\]"):
+    with pytest.raises(
+        DataError,
+        match=r"topic 'rths/nope' not found in .*; topics: \['rths/events', 'rths/loop'\]",
+    ):
         read_topic(path, "rths/nope")
     with pytest.raises(DataError, match=r"cannot open MCAP log '.*missing.mcap'"):
         read_topic(tmp_path / "missing.mcap", LOOP_TOPIC)
@@ -284,7 +314,9 @@ def test_mcap_io_errors(tmp_path: Path) -> None:
             writer.finish()
     with pytest.raises(DataError, match=r"message on 'rths/loop' in '.*notjson.mcap' is not JSON"):
         read_topic(tmp_path / "notjson.mcap", LOOP_TOPIC)
-    with pytest.raises(DataError, match=r"'rths/loop' in '.*array.mcap' is not a JSON object: \[1, 2\]"):
+    with pytest.raises(
+        DataError, match=r"'rths/loop' in '.*array.mcap' is not a JSON object: \[1, 2\]"
+    ):
         read_topic(tmp_path / "array.mcap", LOOP_TOPIC)
     (tmp_path / "empty.mcap").write_bytes(b"")
     with pytest.raises(DataError, match=r"'.*empty.mcap' is empty or not an MCAP log"):
@@ -371,8 +403,12 @@ def test_log_bridge_records_another_sessions_stream(tmp_path: Path) -> None:
 def test_metadata_added_at_the_end_is_readable_by_the_plain_reader(tmp_path: Path) -> None:
     path = tmp_path / "summary.mcap"
     with Recorder(path, metadata={"scenario": {"text": "x = 1"}}) as rec:
-        rec.put(LOOP_TOPIC, 0, 0, {"t": 0.0, "target": 0.0, "command": 0.0, "measured": 0.0,
-                                   "force": 0.0})  # fmt: skip
+        rec.put(
+            LOOP_TOPIC,
+            0,
+            0,
+            {"t": 0.0, "target": 0.0, "command": 0.0, "measured": 0.0, "force": 0.0},
+        )
         rec.add_metadata("rths.summary", {"j2": "0.0012"})
         with pytest.raises(ParameterError, match="keys and values must be strings"):
             rec.add_metadata("bad", {"j2": 0.1})  # type: ignore[dict-item]
@@ -385,7 +421,7 @@ def test_metadata_added_at_the_end_is_readable_by_the_plain_reader(tmp_path: Pat
 
 
 def test_records_from_another_process_are_written_as_received_unless_non_finite(tmp_path):
-    from rths.codec import LogRecord
+    from rths.wire.codec import LogRecord
 
     path = tmp_path / "records.mcap"
     with Recorder(path) as rec:

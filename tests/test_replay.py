@@ -10,17 +10,31 @@ import zenoh
 from _scenarios import short
 
 from rths.cli import main
-from rths.codec import LogRecord
-from rths.replay import paced
-from rths.transport import RunKeys, ZenohEndpoints, loopback_endpoint, open_session
+from rths.log.replay import paced
+from rths.wire.codec import LogRecord
+from rths.wire.transport import RunKeys, ZenohEndpoints, loopback_endpoint, open_session
 
 
 def test_replay_publishes_every_record_in_order_at_the_recorded_pace(tmp_path):
     scn = tmp_path / "s.toml"
     scn.write_text(short(0.25))
     log = tmp_path / "run.mcap"
-    assert main(["run", str(scn), "--clock", "fast", "--out", str(log), "--no-progress",
-                 "--run-id", "replayed"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "run",
+                str(scn),
+                "--clock",
+                "fast",
+                "--out",
+                str(log),
+                "--no-progress",
+                "--run-id",
+                "replayed",
+            ]
+        )
+        == 0
+    )
     endpoint = loopback_endpoint()
     received: list[LogRecord] = []
     lock = threading.Lock()
@@ -32,8 +46,20 @@ def test_replay_publishes_every_record_in_order_at_the_recorded_pace(tmp_path):
     keys = RunKeys("replayed")
     with open_session(ZenohEndpoints(listen=(endpoint,))) as session:
         sub = session.declare_subscriber(keys.loop, zenoh.handlers.Callback(on_sample))
-        code = main(["replay", str(log), "--connect", endpoint, "--speed", "1", "--wait", "1.0",
-                     "--topic", "rths/loop"])  # fmt: skip
+        code = main(
+            [
+                "replay",
+                str(log),
+                "--connect",
+                endpoint,
+                "--speed",
+                "1",
+                "--wait",
+                "1.0",
+                "--topic",
+                "rths/loop",
+            ]
+        )
         deadline = time.monotonic() + 10
         while len(received) < 512 and time.monotonic() < deadline:
             time.sleep(0.05)

@@ -12,8 +12,8 @@ from _scenarios import short
 from mcap.reader import make_reader
 
 from rths.cli import main
-from rths.runner import RunOptions, run_scenario
-from rths.scenario import parse_scenario
+from rths.config.scenario import parse_scenario
+from rths.session.runner import RunOptions, run_scenario
 
 
 def _plain_loop(path: Path) -> tuple[list[dict], dict[str, dict[str, str]], dict[str, int]]:
@@ -25,8 +25,10 @@ def _plain_loop(path: Path) -> tuple[list[dict], dict[str, dict[str, str]], dict
         reader = make_reader(f)
         meta = {m.name: m.metadata for m in reader.iter_metadata()}
         summary = reader.get_summary()
-        counts = {c.topic: summary.statistics.channel_message_counts.get(c.id, 0)
-                  for c in summary.channels.values()}  # fmt: skip
+        counts = {
+            c.topic: summary.statistics.channel_message_counts.get(c.id, 0)
+            for c in summary.channels.values()
+        }
     return rows, meta, counts
 
 

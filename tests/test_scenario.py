@@ -8,12 +8,13 @@ from pathlib import Path
 import pytest
 from _scenarios import SEED, seed_text
 
-from rths import build
-from rths.errors import ConfigError
-from rths.scenario import load_scenario, parse_scenario
+from rths.config import build
+from rths.config.scenario import load_scenario, parse_scenario
+from rths.core.errors import ConfigError
 
 SCENARIOS = sorted(
-    p for p in (Path(__file__).resolve().parent.parent / "scenarios").glob("*.toml")
+    p
+    for p in (Path(__file__).resolve().parent.parent / "scenarios").glob("*.toml")
     if "[substructure]" in p.read_text()  # RTHS scenarios (rths sweep files have their own schema)
 )
 
@@ -27,10 +28,10 @@ def test_shipped_scenarios_parse(path):
 def test_seed_scenario_realises_the_seed_normalised_inertance():
     """S0 §5.3: realised m_e = 0.529 (S0 Eq.23; for a string m_e = m̄_e/(mL))."""
     scn = load_scenario(SEED)
-    s = scn.substructure
+    s = scn.substructure.options
     m_bar = scn.scaling.impedance * scn.model.inertance
     assert m_bar / (s.mass_per_length * s.length) == pytest.approx(0.529, abs=0.001)
-    assert s.damper_position == 0.02 and s.load_mode == 3
+    assert s.damper_position == 0.02 and s.load.mode == 3
 
 
 @pytest.mark.parametrize(
@@ -40,16 +41,53 @@ def test_seed_scenario_realises_the_seed_normalised_inertance():
         (r'^clock = "lockstep".*$', 'clock = "sometimes"', r"\[run\] clock: must be one of"),
         (r"^duration = 20.0.*$", "duration = -1.0", r"\[run\] duration: must be positive"),
         (r"^tension = 5.0e6.*$", "tension = 5.0e6\ntensoin = 1.0", r"tensoin: unknown key"),
-        (r"^damper_position = 0.02.*$", "damper_position = 1.5", r"damper_position: must lie in"),
-        (r'^elements = "auto".*$', "elements = 1", r'elements: must be an integer >= 2 or "auto"'),
-        (r"^mode = 3.*$", "mode = 0", r"\[substructure.load\] mode: must be >= 1"),
+        (
+            r"^damper_position = 0.02.*$",
+            "damper_position = 1.5",
+            r"\[substructure\] damper_position must lie in \[1e-06, 0.999999\]; got 1.5",
+        ),
+        (
+            r'^elements = "auto".*$',
+            "elements = 1",
+            r'\[substructure\] elements must be an integer >= 2 or "auto"; got 1',
+        ),
+        (r"^mode = 3.*$", "mode = 0", r"\[substructure.load\] mode must be >= 1; got 0"),
         (r'^kind = "imd".*$', 'kind = "sponge"', r"\[specimen\] kind: must be one of"),
-        (r'^preset = "mts_identified".*$', "num = [1.0]",
-         r"\[actuator\] num: give both num and den"),  # fmt: skip
-        (r"^damping_ratio = 0.038.*$", "damping_ratio = 0.038\ndamping = 1.0",
-         r"\[model\] damping_ratio: give damping or damping_ratio"),  # fmt: skip
-        (r"^correction_filter = 60.0.*$", "correction_filter = 5000.0",
-         r"\[loop\] correction_filter: must lie below the Nyquist frequency 1024 Hz"),  # fmt: skip
+        (
+            r'^preset = "mts_identified".*$',
+            "num = [1.0]",
+            r"\[actuator\] num/den: give both num and den, or a preset",
+        ),
+        (
+            r'^preset = "type_ii".*$',
+            'preset = "type_iii"',
+            r"\[specimen\] preset: must be one of 'eimd_full', 'eimd_small', 'type_i', 'type_ii'",
+        ),
+        (
+            r'^preset = "mts_identified".*$',
+            'preset = "moog"',
+            r"\[actuator\] preset: must be one of 'mts_identified'; got 'moog'",
+        ),
+        (
+            r'^kind = "ff_lqg".*$',
+            'kind = "magic"',
+            r"\[compensator\] kind: must be one of .*'ff_lqg'",
+        ),
+        (
+            r'^preset = "type_ii".*$',
+            'preset = "type_ii"\nmass = 3.0',
+            r"\[specimen\] mass: unknown key; expected one of .*'inertance'",
+        ),
+        (
+            r"^damping_ratio = 0.038.*$",
+            "damping_ratio = 0.038\ndamping = 1.0",
+            r"\[model\] damping_ratio: give damping or damping_ratio",
+        ),
+        (
+            r"^correction_filter = 60.0.*$",
+            "correction_filter = 5000.0",
+            r"\[loop\] correction_filter: must lie below the Nyquist frequency 1024 Hz",
+        ),
         (r"^\[loop\]", "[lop]", r"\[top level\] lop: unknown key"),
     ],
 )
@@ -60,9 +98,11 @@ def test_bad_values_name_file_table_and_key(pattern, replacement, match):
 
 def test_missing_section_and_missing_file(tmp_path):
     with pytest.raises(ConfigError, match=r"\[top level\] specimen: missing \(required\)"):
-        parse_scenario("[run]\nname='x'\nduration=1.0\nrate=100.0\n[substructure]\nkind='cable'\n"
-                       "length=1.0\ntension=1.0\nmass_per_length=1.0\ndamper_position=0.5\n",
-                       "x.toml")  # fmt: skip
+        parse_scenario(
+            "[run]\nname='x'\nduration=1.0\nrate=100.0\n[substructure]\nkind='cable'\n"
+            "length=1.0\ntension=1.0\nmass_per_length=1.0\ndamper_position=0.5\n",
+            "x.toml",
+        )
     with pytest.raises(ConfigError, match="no such file"):
         load_scenario(tmp_path / "none.toml")
 
@@ -70,10 +110,11 @@ def test_missing_section_and_missing_file(tmp_path):
 @pytest.mark.parametrize(
     "pattern, replacement, match",
     [
-        (r'^preset = "type_ii".*$', 'preset = "type_iii"', r"\[specimen\] unknown IMD preset"),
-        (r'^preset = "mts_identified".*$', 'preset = "moog"',
-         r"\[actuator\] unknown transfer_function preset 'moog'"),  # fmt: skip
-        (r'^kind = "ff_lqg".*$', 'kind = "magic"', r"\[compensator\] unknown compensator"),
+        (
+            r'^preset = "mts_identified".*$',
+            "num = [1.0]\nden = [1.0, -2.0]",
+            r"\[actuator\] .*unstable",
+        ),
     ],
 )
 def test_builders_name_the_table_a_plant_rejected(pattern, replacement, match):
@@ -87,6 +128,6 @@ def test_auto_mesh_resolves_the_internal_stiffness():
     """elements = "auto": the damper node radiates at the device's local frequency, element
     size below 4 T / k_s (prototype series stiffness = impedance factor x 1.2e7 N/m)."""
     scn = load_scenario(SEED)
-    cable = build.cable(scn)
+    cable = build.substructure(scn)
     h = cable.positions[cable.damper_index] - cable.positions[cable.damper_index - 1]
-    assert h < 4 * scn.substructure.tension / (scn.scaling.impedance * 1.2e7)
+    assert h < 4 * scn.substructure.options.tension / (scn.scaling.impedance * 1.2e7)

@@ -1,4 +1,4 @@
-"""Stepped-sine shake-table emulation (rths.sweep): signal, tables, scenario file, runs, CLI."""
+"""Stepped-sine shake-table emulation (rths.experiments.s1_shake_table.sweep): signal, tables, scenario file, runs, CLI."""
 
 from __future__ import annotations
 
@@ -11,11 +11,17 @@ import pytest
 
 from plants.actuator import MTS_IDENTIFIED, TransferFunctionActuator
 from plants.base import Specimen
-from plants.inerter import IdealInerter
-from plants.tmdi import NominalInerter, TMDIStructure, TMDISubstructure, s1_configuration
+from plants.tmdi import (
+    NominalInerter,
+    TMDIStructure,
+    TMDISubstructure,
+    s1_configuration,
+)
+from plants.tmdi.inerter import IdealInerter
 from rths.cli import main
-from rths.errors import ConfigError, ParameterError
-from rths.sweep import (
+from rths.core.errors import ConfigError, ParameterError
+from rths.experiments.s1_shake_table.report import frf_table, loops_figure, summarise
+from rths.experiments.s1_shake_table.sweep import (
     STANDARD_GRAVITY,
     IdealTable,
     SteppedSine,
@@ -29,7 +35,6 @@ from rths.sweep import (
     step_frequencies,
     stepped_sine_acceleration,
 )
-from rths.tmdi_report import frf_table, loops_figure, summarise
 
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "tmdi_shake_table.toml"
 DT = 1e-3
@@ -105,7 +110,7 @@ def test_stepped_sine_drives_an_rths_substructure() -> None:
 
 # --- table models -------------------------------------------------------------------------------
 class _Rigid(Specimen):
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         pass
 
     def _step_impl(self, u: float, v: float, a: float, dt: float) -> float:
@@ -124,12 +129,14 @@ def test_transfer_function_table_is_the_project_actuator_stepped() -> None:
         reference[n + 1] = kin.displacement, kin.velocity, kin.acceleration
     for i, x in enumerate((motion.displacement, motion.velocity, motion.acceleration)):
         # two exact ZOH realisations of one model: round-off (measured ≤ 7e-13)
-        np.testing.assert_allclose(x, reference[:, i], rtol=0,
-                                   atol=1e-10 * np.max(np.abs(reference[:, i])))
+        np.testing.assert_allclose(
+            x, reference[:, i], rtol=0, atol=1e-10 * np.max(np.abs(reference[:, i]))
+        )
 
 
-@pytest.mark.parametrize("table", [IdealTable(), TransferFunctionTable(MTS_IDENTIFIED.num,
-                                                                       MTS_IDENTIFIED.den, DT)])
+@pytest.mark.parametrize(
+    "table", [IdealTable(), TransferFunctionTable(MTS_IDENTIFIED.num, MTS_IDENTIFIED.den, DT)]
+)
 def test_amplitude_correction_gives_the_target_pga(table) -> None:
     freqs = np.array([1.0, 4.0, 10.0])
     sine = SteppedSine(freqs, cycles=20)
@@ -142,8 +149,9 @@ def test_amplitude_correction_gives_the_target_pga(table) -> None:
         # 1 - cos(π f dt) of its crest
         assert peak == pytest.approx(0.15 * STANDARD_GRAVITY, rel=1 - math.cos(math.pi * f * DT))
     plain = command_amplitudes(table, freqs, 0.15, DT, correction=False)
-    np.testing.assert_allclose(plain, 0.15 * STANDARD_GRAVITY / (2 * np.pi * freqs) ** 2,
-                               rtol=1e-15)
+    np.testing.assert_allclose(
+        plain, 0.15 * STANDARD_GRAVITY / (2 * np.pi * freqs) ** 2, rtol=1e-15
+    )
 
 
 def test_ideal_table_derivatives_are_consistent() -> None:
@@ -151,10 +159,16 @@ def test_ideal_table_derivatives_are_consistent() -> None:
     m = IdealTable().run(sine, 0.002, DT)
     inner = slice(1, m.time.size - 2)
     # central differences of a 3 Hz sine at 1 kHz: relative error (ω dt)²/6 = 6e-5
-    np.testing.assert_allclose(np.gradient(m.displacement, DT)[inner], m.velocity[inner],
-                               atol=1e-4 * np.max(np.abs(m.velocity)))
-    np.testing.assert_allclose(np.gradient(m.velocity, DT)[inner], m.acceleration[inner],
-                               atol=1e-4 * np.max(np.abs(m.acceleration)))
+    np.testing.assert_allclose(
+        np.gradient(m.displacement, DT)[inner],
+        m.velocity[inner],
+        atol=1e-4 * np.max(np.abs(m.velocity)),
+    )
+    np.testing.assert_allclose(
+        np.gradient(m.velocity, DT)[inner],
+        m.acceleration[inner],
+        atol=1e-4 * np.max(np.abs(m.acceleration)),
+    )
     assert np.array_equal(m.command, m.displacement)
 
 
@@ -178,32 +192,57 @@ def test_shipped_scenario() -> None:
     [
         (("rate = 1000.0", "rate = -1.0"), r"\[sweep\] rate: must be positive; got -1.0"),
         (("pga = [0.1]", "pga = [0.1, -0.2]"), r"\[sweep\] pga: entries must be positive"),
-        (("pga = [0.1]", "pga = [0.1]\ndirections = ['up', 'sideways']"),
-         r"\[sweep\] directions: entries must be among 'up', 'down'; got 'sideways'"),
-        (("pga = [0.1]", "pga = [0.1]\ndirections = []"),
-         r"\[sweep\] directions: must be a non-empty list"),
-        (("pga = [0.1]", "pga = [0.1]\ndirections = ['up', 'up']"),
-         r"\[sweep\] directions: entries must be distinct"),
-        (("steady_cycles = 2", "steady_cycles = 7"),
-         r"\[sweep\] steady_cycles: must not exceed cycles = 6; got 7"),
+        (
+            ("pga = [0.1]", "pga = [0.1]\ndirections = ['up', 'sideways']"),
+            r"\[sweep\] directions: entries must be among 'up', 'down'; got 'sideways'",
+        ),
+        (
+            ("pga = [0.1]", "pga = [0.1]\ndirections = []"),
+            r"\[sweep\] directions: must be a non-empty list",
+        ),
+        (
+            ("pga = [0.1]", "pga = [0.1]\ndirections = ['up', 'up']"),
+            r"\[sweep\] directions: entries must be distinct",
+        ),
+        (
+            ("steady_cycles = 2", "steady_cycles = 7"),
+            r"\[sweep\] steady_cycles: must not exceed cycles = 6; got 7",
+        ),
         (("f_stop = 2.8", "f_stop = 1.0"), r"\[sweep.grid\] f_stop: must exceed f_start"),
-        (("fine_band = [0.9, 1.1]", "fine_band = [1.1, 0.9]"),
-         r"\[sweep.grid\] fine_band: must be \[lo, hi\] with 0 < lo <= 1 <= hi"),
-        (("fine_band = [0.9, 1.1]", "fine_band = [0.9, 1.1, 1.2]"),
-         r"\[sweep.grid\] fine_band: must be \[lo, hi\]"),
-        (('models = ["uncontrolled", "rack_pinion", "ideal"]', 'models = ["tmd"]'),
-         r"\[specimen\] models: entries must be among 'uncontrolled', 'rack_pinion', 'ideal'"),
+        (
+            ("fine_band = [0.9, 1.1]", "fine_band = [1.1, 0.9]"),
+            r"\[sweep.grid\] fine_band: must be \[lo, hi\] with 0 < lo <= 1 <= hi",
+        ),
+        (
+            ("fine_band = [0.9, 1.1]", "fine_band = [0.9, 1.1, 1.2]"),
+            r"\[sweep.grid\] fine_band: must be \[lo, hi\]",
+        ),
+        (
+            ('models = ["uncontrolled", "rack_pinion", "ideal"]', 'models = ["tmd"]'),
+            r"\[specimen\] models: entries must be among 'uncontrolled', 'rack_pinion', 'ideal'",
+        ),
         (("[specimen]", "[specimen]\nmass = 'XL'"), r"\[specimen\] mass: must be one of 'SM'"),
-        (("[specimen]", "[specimen]\nhdrb = 'bouc_wen'"),
-         r"\[specimen\] hdrb: must be one of 'viscous', 'amplitude'; got 'bouc_wen'"),
+        (
+            ("[specimen]", "[specimen]\nhdrb = 'bouc_wen'"),
+            r"\[specimen\] hdrb: must be one of 'viscous', 'amplitude'; got 'bouc_wen'",
+        ),
         (('kind = "ideal"', 'kind = "ideal"\nspeed = 3'), r"\[table\] speed: unknown key"),
         (('kind = "ideal"', 'kind = "hexapod"'), r"\[table\] kind: must be one of"),
-        (('kind = "ideal"', 'kind = "transfer_function"\npreset = "mts_identified"\nnum = [1.0]'),
-         r"\[table\] preset: give either preset or num/den"),
-        (('kind = "ideal"', 'kind = "transfer_function"\npreset = "moog"'),
-         r"\[table\] preset: must be one of 'mts_identified'; got 'moog'"),
-        (('kind = "ideal"', 'kind = "transfer_function"\nnum = [1.0]\nden = [1.0, 2.0, 1.0]'),
-         r"\[table\] den: relative degree must be >= 3; got 2"),
+        (
+            (
+                'kind = "ideal"',
+                'kind = "transfer_function"\npreset = "mts_identified"\nnum = [1.0]',
+            ),
+            r"\[table\] preset: give either preset or num/den",
+        ),
+        (
+            ('kind = "ideal"', 'kind = "transfer_function"\npreset = "moog"'),
+            r"\[table\] preset: must be one of 'mts_identified'; got 'moog'",
+        ),
+        (
+            ('kind = "ideal"', 'kind = "transfer_function"\nnum = [1.0]\nden = [1.0, 2.0, 1.0]'),
+            r"\[table\] den: relative degree must be >= 3; got 2",
+        ),
         (("cycles = 6", "cycles = 6\nrepeat = 2"), r"\[sweep\] repeat: unknown key"),
         (("[sweep]", "[run]\n[sweep]"), r"\[top level\] run: unknown key"),
     ],
@@ -220,8 +259,13 @@ def test_scenario_file_errors(tmp_path: Path) -> None:
         load_sweep(tmp_path / "missing.toml")
     with pytest.raises(ConfigError, match=r"x.toml: \[top level\] sweep: missing \(required\)"):
         parse_sweep("", "x.toml")
-    cfg = parse_sweep(TINY.replace('kind = "ideal"', 'kind = "transfer_function"\n'
-                                   'num = [8.0e6]\nden = [1.0, 400.0, 4.0e4, 8.0e6]'), "t.toml")
+    cfg = parse_sweep(
+        TINY.replace(
+            'kind = "ideal"',
+            'kind = "transfer_function"\nnum = [8.0e6]\nden = [1.0, 400.0, 4.0e4, 8.0e6]',
+        ),
+        "t.toml",
+    )
     assert cfg.table.num == (8.0e6,) and cfg.table.den == (1.0, 400.0, 4.0e4, 8.0e6)
 
 
@@ -257,8 +301,10 @@ def test_tiny_sweep_runs_and_reports() -> None:
 
 def test_cli_writes_table_summary_and_figures(tmp_path: Path, capsys) -> None:
     scenario = tmp_path / "tiny.toml"
-    scenario.write_text(TINY.replace('["uncontrolled", "rack_pinion", "ideal"]',
-                                     '["uncontrolled", "rack_pinion"]'), encoding="utf-8")
+    scenario.write_text(
+        TINY.replace('["uncontrolled", "rack_pinion", "ideal"]', '["uncontrolled", "rack_pinion"]'),
+        encoding="utf-8",
+    )
     out = tmp_path / "out"
     assert main(["sweep", str(scenario), "--pga", "0.05", "--out", str(out), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
@@ -274,9 +320,14 @@ def test_cli_writes_table_summary_and_figures(tmp_path: Path, capsys) -> None:
     # the JSON and the CSV carry the same numbers (CSV at 9 significant digits)
     assert float(lines[1].split(",")[5]) == pytest.approx(first["frf"]["u_I"][0], rel=1e-8)
     assert sorted(p.name for p in out.glob("*.png")) == [
-        "frf_0.05g.png", "loops_0.05g.png", "ps_displacement.png"]
-    assert main(["sweep", str(scenario), "--out", str(tmp_path / "o2"), "--no-figures",
-                 "--quiet"]) == 0
+        "frf_0.05g.png",
+        "loops_0.05g.png",
+        "ps_displacement.png",
+    ]
+    assert (
+        main(["sweep", str(scenario), "--out", str(tmp_path / "o2"), "--no-figures", "--quiet"])
+        == 0
+    )
     text = capsys.readouterr().out
     assert "rack_pinion" in text and "wrote" in text
     assert not list((tmp_path / "o2").glob("*.png"))
@@ -314,8 +365,9 @@ def test_model_and_table_validation() -> None:
         SteppedSine(np.array([1.0]), 0)
     with pytest.raises(ParameterError, match="f_stop must exceed f_start = 2.0 Hz; got 1.0"):
         frequency_grid(2.0, 1.0, 0.1, 0.05)
-    with pytest.raises(ParameterError,
-                       match=r"fine band must satisfy 0 < lo <= 1 <= hi; got \(1.2, 1.5\)"):
+    with pytest.raises(
+        ParameterError, match=r"fine band must satisfy 0 < lo <= 1 <= hi; got \(1.2, 1.5\)"
+    ):
         frequency_grid(1.0, 2.0, 0.1, 0.05, [1.5], (1.2, 1.5))
     with pytest.raises(ParameterError, match="resonance centre must be positive; got -1.5"):
         frequency_grid(1.0, 2.0, 0.1, 0.05, [-1.5])
@@ -334,8 +386,9 @@ def test_model_and_table_validation() -> None:
 
 
 def test_loops_need_a_tmdi_model() -> None:
-    cfg = parse_sweep(TINY.replace('["uncontrolled", "rack_pinion", "ideal"]', '["uncontrolled"]'),
-                      "ps.toml")
+    cfg = parse_sweep(
+        TINY.replace('["uncontrolled", "rack_pinion", "ideal"]', '["uncontrolled"]'), "ps.toml"
+    )
     result = run_sweep(cfg)
     with pytest.raises(ParameterError, match="force-deformation loops need a TMDI model"):
         loops_figure(result, 0.1)

@@ -1,4 +1,4 @@
-"""Oracles for the TMDI structure of S1 Eq.12 (plants.tmdi): full model and RTHS substructure."""
+"""Oracles for the TMDI structure of S1 Eq.12 (plants.tmdi.structure): full model and RTHS substructure."""
 
 from __future__ import annotations
 
@@ -10,23 +10,8 @@ import pytest
 from scipy.integrate import cumulative_trapezoid
 
 from controllers.baselines import NoCompensation
-from plants._imd_amplitude import AmplitudeTracker
 from plants.base import Specimen
-from plants.hdrb import (
-    HDRB,
-    S1_PRIMARY,
-    S1_PRIMARY_AMPLITUDE,
-    S1_PRIMARY_UNCONTROLLED,
-    S1_SECONDARY,
-    S1_SECONDARY_AMPLITUDE,
-    AmplitudeDamping,
-)
-from plants.inerter import (
-    S1_RACK_PINION,
-    IdealInerter,
-    RackPinionInerter,
-    rack_pinion_preset,
-)
+from plants.imd.amplitude import AmplitudeTracker
 from plants.tmdi import (
     EQ7_QUANTITIES,
     IntegrationError,
@@ -38,8 +23,24 @@ from plants.tmdi import (
     linearised_frequencies,
     s1_configuration,
 )
-from rths.errors import ParameterError
-from rths.loop import LinkSample, Loop, Scaling
+from plants.tmdi.hdrb import (
+    HDRB,
+    S1_PRIMARY,
+    S1_PRIMARY_AMPLITUDE,
+    S1_PRIMARY_UNCONTROLLED,
+    S1_SECONDARY,
+    S1_SECONDARY_AMPLITUDE,
+    AmplitudeDamping,
+)
+from plants.tmdi.inerter import (
+    S1_RACK_PINION,
+    IdealInerter,
+    RackPinionInerter,
+    rack_pinion_preset,
+)
+from rths.core.errors import ParameterError
+from rths.core.scaling import Scaling
+from rths.runtime.loop import LinkSample, Loop
 
 G = 9.81
 J_B, R_P = S1_RACK_PINION.flywheel_inertia, S1_RACK_PINION.pinion_radius
@@ -66,16 +67,28 @@ def closed_form(par: TMDIParameters, b: float, freq: float) -> dict[str, complex
     dyn = np.array([[-(w**2) * m_i + z_i + z_t, -z_t], [-z_t, -(w**2) * (m_t + b) + z_t]])
     u_i, u_t = np.linalg.solve(dyn, -np.array([m_i, m_t], dtype=complex))
     return {
-        "u_I": u_i, "a_I_tot": 1 - w**2 * u_i, "F_I": z_i * u_i, "u_TI": u_t - u_i,
-        "a_T_tot": 1 - w**2 * u_t, "F_T": z_t * (u_t - u_i), "u_T": u_t, "a_T": -(w**2) * u_t,
+        "u_I": u_i,
+        "a_I_tot": 1 - w**2 * u_i,
+        "F_I": z_i * u_i,
+        "u_TI": u_t - u_i,
+        "a_T_tot": 1 - w**2 * u_t,
+        "F_T": z_t * (u_t - u_i),
+        "u_T": u_t,
+        "a_T": -(w**2) * u_t,
         "F_B": -b * w**2 * u_t,
     }
 
 
 def rigid_device(stiffness: float = 1e7):
-    return replace(S1_RACK_PINION, series_stiffness=stiffness,
-                   series_damping=2.0 * math.sqrt(stiffness * J_B), clearance_forward=0.0,
-                   clearance_backward=0.0, flywheel_damping=0.0, friction_force=0.0)
+    return replace(
+        S1_RACK_PINION,
+        series_stiffness=stiffness,
+        series_damping=2.0 * math.sqrt(stiffness * J_B),
+        clearance_forward=0.0,
+        clearance_backward=0.0,
+        flywheel_damping=0.0,
+        friction_force=0.0,
+    )
 
 
 # --- presets ----------------------------------------------------------------------------------
@@ -167,20 +180,28 @@ def energy_error(par: TMDIParameters, inerter: Specimen, dt: float) -> float:
     iso_i, iso_t = par.primary_isolator, par.secondary_isolator
     m_i, m_t = par.primary_mass, par.secondary_mass
     power_in = -ag * (m_i * r.v_I + m_t * r.v_T)
-    stored = (0.5 * m_i * r.v_I**2 + 0.5 * m_t * r.v_T**2
-              + iso_i.elastic_energy(r.u_I) + iso_t.elastic_energy(r.u_TI))
+    stored = (
+        0.5 * m_i * r.v_I**2
+        + 0.5 * m_t * r.v_T**2
+        + iso_i.elastic_energy(r.u_I)
+        + iso_t.elastic_energy(r.u_TI)
+    )
     loss = r.c_I * r.v_I**2 + r.c_T * (r.v_T - r.v_I) ** 2  # the dashpots in force
     if isinstance(inerter, IdealInerter):
         stored = stored + 0.5 * inerter.inertance * r.v_T**2
     else:
         p = inerter.parameters
         stretch = r.u_T / p.pinion_radius - r.theta_S  # series element θ_P - θ_S
-        stored = stored + 0.5 * p.flywheel_inertia * r.omega_G**2 \
-            + 0.5 * p.series_stiffness * stretch**2
+        stored = (
+            stored + 0.5 * p.flywheel_inertia * r.omega_G**2 + 0.5 * p.series_stiffness * stretch**2
+        )
         # c_S (θ̇_P - θ̇_S)² with c_S(θ̇_P - θ̇_S) = T - k_S(θ_P - θ_S) (T = 0 while open)
-        loss = loss + p.flywheel_damping * r.omega_G**2 \
-            + (r.torque - p.series_stiffness * stretch) ** 2 / p.series_damping \
+        loss = (
+            loss
+            + p.flywheel_damping * r.omega_G**2
+            + (r.torque - p.series_stiffness * stretch) ** 2 / p.series_damping
             + p.friction_force * np.tanh(r.v_T / p.friction_velocity) * r.v_T
+        )
     work_in = cumulative_trapezoid(power_in, t, initial=0.0)
     dissipated = cumulative_trapezoid(loss, t, initial=0.0)
     assert work_in[-1] > 10.0  # J: a strongly forced, nonlinear run
@@ -206,17 +227,20 @@ def test_energy_balance_with_the_rack_and_pinion_inerter(flywheel: str) -> None:
 # --- amplitude-dependent HDRB damping ---------------------------------------------------------
 def test_kernel_amplitude_estimate_is_the_imd_tracker_rule() -> None:
     """Two implementations of one rule: the numba kernel's per-step tracker on ``u_I`` and
-    ``u_TI`` against :class:`plants._imd_amplitude.AmplitudeTracker` fed the same samples."""
+    ``u_TI`` against :class:`plants.imd.amplitude.AmplitudeTracker` fed the same samples."""
     law = AmplitudeDamping(0.5, 0.005, (0.0005, 0.03))  # wide range: both dashpots vary
-    par = TMDIParameters(125.0, S1_PRIMARY.with_damping_law(law), 10.0,
-                         S1_SECONDARY.with_damping_law(law))
+    par = TMDIParameters(
+        125.0, S1_PRIMARY.with_damping_law(law), 10.0, S1_SECONDARY.with_damping_law(law)
+    )
     inerter = rack_pinion_preset("IF")
     dt = 1e-3
     t, ag = harmonic(dt, 6.0, 2.0, 0.1, ramp=1.0)
     ag = ag * (1.0 + 0.5 * np.sin(2 * math.pi * 0.3 * t))  # a varying amplitude
     r = TMDIStructure(par, RackPinionInerter(inerter), dt).run(ag)
-    for deformation, iso, c in ((r.u_I, par.primary_isolator, r.c_I),
-                                (r.u_TI, par.secondary_isolator, r.c_T)):
+    for deformation, iso, c in (
+        (r.u_I, par.primary_isolator, r.c_I),
+        (r.u_TI, par.secondary_isolator, r.c_T),
+    ):
         law = iso.damping_law
         tracker = AmplitudeTracker(law.reversal_tolerance)
         expected = [iso.damping_coefficient(0.0)]
@@ -231,8 +255,9 @@ def test_kernel_amplitude_estimate_is_the_imd_tracker_rule() -> None:
 def test_zero_exponent_law_is_the_viscous_bearing() -> None:
     law = AmplitudeDamping(0.0, 0.01, (0.005, 0.038))
     viscous, _ = s1_configuration("IM", "IF")
-    par = TMDIParameters(125.0, S1_PRIMARY.with_damping_law(law), 10.0,
-                         S1_SECONDARY.with_damping_law(law))
+    par = TMDIParameters(
+        125.0, S1_PRIMARY.with_damping_law(law), 10.0, S1_SECONDARY.with_damping_law(law)
+    )
     dt = 1e-3
     t, ag = harmonic(dt, 3.0, 2.25, 0.1, ramp=0.5)
     a = TMDIStructure(par, None, dt).run(ag)
@@ -245,8 +270,10 @@ def test_zero_exponent_law_is_the_viscous_bearing() -> None:
 def test_amplitude_configurations() -> None:
     par, inerter = s1_configuration("IM", "IF", hdrb="amplitude")
     assert isinstance(inerter, RackPinionInerter)
-    assert (par.primary_isolator, par.secondary_isolator) == (S1_PRIMARY_AMPLITUDE,
-                                                              S1_SECONDARY_AMPLITUDE)
+    assert (par.primary_isolator, par.secondary_isolator) == (
+        S1_PRIMARY_AMPLITUDE,
+        S1_SECONDARY_AMPLITUDE,
+    )
     ideal, _ = s1_configuration("IM", "IF", inerter="ideal", hdrb="amplitude")
     assert ideal.primary_isolator.damping_coefficient(0.0139) == pytest.approx(743.3, rel=1e-12)
     assert ideal.secondary_isolator.c == 324.7
@@ -265,8 +292,12 @@ def test_partitioned_run_with_amplitude_law_is_the_monolithic_run() -> None:
     part = partitioned_run(IdealInerter(b), NominalInerter(b), ag, dt, par)
     for name in ("u_I", "u_T", "F_B"):
         # zero correction every step: the same kernel does the same arithmetic
-        np.testing.assert_allclose(part[name], getattr(mono, name), rtol=0.0,
-                                   atol=1e-12 * np.max(np.abs(getattr(mono, name))))
+        np.testing.assert_allclose(
+            part[name],
+            getattr(mono, name),
+            rtol=0.0,
+            atol=1e-12 * np.max(np.abs(getattr(mono, name))),
+        )
 
 
 # --- rack-and-pinion inside the structure ------------------------------------------------------
@@ -333,7 +364,7 @@ def test_structure_with_rack_converges_with_the_step() -> None:
 def make_substructure(source=None, dt: float = 1e-3) -> TMDISubstructure:
     par, _ = s1_configuration("IM", "IF")
     if source is None:
-        source = lambda t: 0.1 * G * math.sin(2 * math.pi * 2.25 * t)  # noqa: E731
+        source = lambda t: 0.1 * G * math.sin(2 * math.pi * 2.25 * t)
     return TMDISubstructure(par, source, dt)
 
 
@@ -378,8 +409,9 @@ def test_callable_and_sampled_excitation_agree() -> None:
         sampled.step(0.0)
     assert sampled.outputs()["a_G"] == 0.0
     # coarser samples are interpolated linearly between the loop steps
-    coarse = TMDISubstructure(s1_configuration("IM", "IF")[0], [0.0, 2.0, 4.0], dt,
-                              excitation_dt=2 * dt)
+    coarse = TMDISubstructure(
+        s1_configuration("IM", "IF")[0], [0.0, 2.0, 4.0], dt, excitation_dt=2 * dt
+    )
     seen = [coarse.outputs()["a_G"]]
     for _ in range(5):
         coarse.step(0.0)
@@ -400,19 +432,33 @@ class ExactKinematicsLink:
         return LinkSample(kin.displacement, force, 0, seq)
 
 
-def partitioned_run(specimen: Specimen, device: NominalInerter | None, ag: np.ndarray,
-                    dt: float, par: TMDIParameters | None = None) -> dict[str, np.ndarray]:
-    """RTHS through rths.loop.Loop: TMDISubstructure + specimen, correction fed one step late."""
+def partitioned_run(
+    specimen: Specimen,
+    device: NominalInerter | None,
+    ag: np.ndarray,
+    dt: float,
+    par: TMDIParameters | None = None,
+) -> dict[str, np.ndarray]:
+    """RTHS through rths.runtime.loop.Loop: TMDISubstructure + specimen, correction fed one step late."""
     par = par or s1_configuration("IM", "IF")[0]
     sub = TMDISubstructure(par, ag, dt, device=device)
     specimen.reset()
     records: list[dict[str, float]] = []
-    loop = Loop(sub, NoCompensation(dt), ExactKinematicsLink(sub, specimen), Scaling(),
-                ag.size - 1, sink=records.append, command_limit=0.5)
+    loop = Loop(
+        sub,
+        NoCompensation(dt),
+        ExactKinematicsLink(sub, specimen),
+        Scaling(),
+        ag.size - 1,
+        sink=records.append,
+        command_limit=0.5,
+    )
     result = loop.run()
     assert result.stopped is None, result.stopped
-    return {name: np.array([0.0] + [r["sub_" + name] for r in records])
-            for name in ("u_I", "u_T", "F_B")}
+    return {
+        name: np.array([0.0] + [r["sub_" + name] for r in records])
+        for name in ("u_I", "u_T", "F_B")
+    }
 
 
 def test_nominal_inerter_matching_a_specimen() -> None:
@@ -426,8 +472,9 @@ def test_nominal_inerter_matching_a_specimen() -> None:
 def test_device_force_is_the_nominal_inerter_force() -> None:
     device = NominalInerter(40.0, 90.0)
     par, _ = s1_configuration("IM", "IF")
-    sub = TMDISubstructure(par, lambda t: 0.1 * G * math.sin(2 * math.pi * 2.25 * t), 1e-3,
-                           device=device)
+    sub = TMDISubstructure(
+        par, lambda t: 0.1 * G * math.sin(2 * math.pi * 2.25 * t), 1e-3, device=device
+    )
     assert sub.device_force == 0.0  # at rest
     for k in range(200):
         sub.step(3.0 * math.sin(0.05 * k))
@@ -451,8 +498,9 @@ def test_nominal_device_alone_is_the_linear_closed_form_with_a_grounded_dashpot(
     w = 2.0 * math.pi * freq
     z_i = lin.primary_isolator.k1 + 1j * w * lin.primary_isolator.c
     z_t = lin.secondary_isolator.k1 + 1j * w * lin.secondary_isolator.c
-    dyn = np.array([[-(w**2) * 125.0 + z_i + z_t, -z_t],
-                    [-z_t, -(w**2) * (10.0 + b) + z_t + 1j * w * c]])
+    dyn = np.array(
+        [[-(w**2) * 125.0 + z_i + z_t, -z_t], [-z_t, -(w**2) * (10.0 + b) + z_t + 1j * w * c]]
+    )
     expected = np.linalg.solve(dyn, -np.array([125.0, 10.0], dtype=complex))[1]
     last = t >= 12.0  # 10 whole periods; slowest decay ≥ 1.7 1/s → transient e^-20 by 12 s
     last[-1] = False
@@ -469,8 +517,12 @@ def test_partitioned_ideal_inerter_with_nominal_device_is_the_monolithic_run() -
     part = partitioned_run(IdealInerter(b), NominalInerter(b), ag, dt)
     for name in ("u_I", "u_T", "F_B"):
         # zero correction every step: the same kernel does the same arithmetic (measured: 0.0)
-        np.testing.assert_allclose(part[name], getattr(mono, name), rtol=0.0,
-                                   atol=1e-12 * np.max(np.abs(getattr(mono, name))))
+        np.testing.assert_allclose(
+            part[name],
+            getattr(mono, name),
+            rtol=0.0,
+            atol=1e-12 * np.max(np.abs(getattr(mono, name))),
+        )
 
 
 def test_partitioned_ideal_inerter_without_nominal_device_diverges() -> None:
@@ -496,14 +548,14 @@ def test_partitioned_rack_and_pinion_is_stable_and_close_to_monolithic(
     par, rack = s1_configuration("IM", "IF")
     t, ag = harmonic(dt, 6.0, 2.25, 0.1, ramp=0.5)
     mono = TMDIStructure(par, rack, dt).run(ag)
-    part = partitioned_run(RackPinionInerter(rack.parameters),
-                           NominalInerter.matching(rack), ag, dt)
+    part = partitioned_run(
+        RackPinionInerter(rack.parameters), NominalInerter.matching(rack), ag, dt
+    )
     for name in ("u_I", "u_T"):
         ref = getattr(mono, name)
         # the correction (backlash, friction, series compliance) lags one step: O(dt) error;
         # measured (u_I, u_T) (3.6e-3, 6.6e-3) of the peak at 1 ms, (1.1e-3, 2.1e-3) at 1/4096 s
-        np.testing.assert_allclose(part[name], ref, rtol=0.0,
-                                   atol=tolerance * np.max(np.abs(ref)))
+        np.testing.assert_allclose(part[name], ref, rtol=0.0, atol=tolerance * np.max(np.abs(ref)))
 
 
 # --- validation --------------------------------------------------------------------------------
@@ -535,7 +587,7 @@ def test_bad_parameters_are_rejected() -> None:
 
 
 class _OtherSpecimen(Specimen):
-    def reset(self) -> None:
+    def _reset_impl(self) -> None:
         pass
 
     def _step_impl(self, u: float, v: float, a: float, dt: float) -> float:
@@ -566,8 +618,9 @@ def test_bad_substructure_inputs_are_rejected() -> None:
     ps, _ = s1_configuration(None)
     with pytest.raises(ParameterError, match="needs a secondary mass; got 0.0 kg"):
         TMDISubstructure(ps, lambda t: 0.0, 1e-3)
-    with pytest.raises(ParameterError,
-                       match=r"samples must be a non-empty 1-D array; got shape \(0,\)"):
+    with pytest.raises(
+        ParameterError, match=r"samples must be a non-empty 1-D array; got shape \(0,\)"
+    ):
         make_substructure(np.array([]))
     with pytest.raises(ParameterError, match="ground acceleration samples must be finite"):
         make_substructure(np.array([0.0, math.nan]))

@@ -6,8 +6,8 @@ frequency than up-sweep peaks), f1 < f0 < f2, and a peak PS displacement reducti
 37 % at 0.05 g and 25 % at 0.15 g.  S1 §4.2: the ideal-inerter model matches the PS FRFs near f1
 but not the secondary-mass and inerter accelerations.
 
-The specimens are the ``hdrb = "amplitude"`` models of :func:`rths.sweep.model_configuration`:
-the uncontrolled PS calibrated on the numbers S1 reports for it (:mod:`plants._tmdi_calibration`:
+The specimens are the ``hdrb = "amplitude"`` models of :func:`rths.experiments.s1_shake_table.sweep.model_configuration`:
+the uncontrolled PS calibrated on the numbers S1 reports for it (:mod:`rths.experiments.s1_shake_table.calibration`:
 5 mm at 0.05 g, 38 mm at 0.15 g, f0 = 2.25 Hz at 0.10 g), the TMDIs with the S1 §4.2 bearings
 and the same amplitude law anchored at S1's dashpots.  Each test states our numbers next to the
 seed's; where the model departs from a seed observation the test says so and checks what holds.
@@ -19,22 +19,27 @@ import numpy as np
 import pytest
 
 from plants.actuator import MTS_IDENTIFIED
-from plants.hdrb import (
+from plants.tmdi.hdrb import (
     AMPLITUDE_EXPONENT,
     HDRB,
     S1_PRIMARY,
     S1_PRIMARY_UNCONTROLLED,
     UNCONTROLLED_STIFFNESS_SCALE,
 )
-from plants.tmdi import (
+from rths.core.errors import NumericalError, ParameterError
+from rths.experiments.s1_shake_table.calibration import (
     S1_UNCONTROLLED,
     calibrate_uncontrolled_ps,
     harmonic_balance_crest,
     stepped_sine_crest,
 )
-from rths.errors import NumericalError, ParameterError
-from rths.frf import FRF, frf_nrmse, resonance, second_resonance
-from rths.sweep import (
+from rths.experiments.s1_shake_table.frf import (
+    FRF,
+    frf_nrmse,
+    resonance,
+    second_resonance,
+)
+from rths.experiments.s1_shake_table.sweep import (
     STANDARD_GRAVITY,
     SteppedSine,
     TransferFunctionTable,
@@ -56,8 +61,9 @@ def table() -> TransferFunctionTable:
     return TransferFunctionTable(MTS_IDENTIFIED.num, MTS_IDENTIFIED.den, DT)
 
 
-def sweep(model: str, grid: np.ndarray, pga: float, direction: str = "down",
-          hdrb: str = "amplitude") -> FRF:
+def sweep(
+    model: str, grid: np.ndarray, pga: float, direction: str = "down", hdrb: str = "amplitude"
+) -> FRF:
     """One stepped-sine run of a scenario model through the MTS table (amplitude-corrected)."""
     tab = table()
     sine = SteppedSine.sweep(grid, direction, 20)
@@ -69,8 +75,12 @@ def sweep(model: str, grid: np.ndarray, pga: float, direction: str = "down",
 @pytest.fixture(scope="module")
 def campaign() -> dict[tuple[str, float, str], FRF]:
     """Up and down sweeps of the three models at the three PGAs (S1 grid, MTS table)."""
-    return {(model, pga, d): sweep(model, GRID, pga, d)
-            for model in MODELS for pga in PGAS for d in ("up", "down")}
+    return {
+        (model, pga, d): sweep(model, GRID, pga, d)
+        for model in MODELS
+        for pga in PGAS
+        for d in ("up", "down")
+    }
 
 
 def peak_mm(frf: FRF) -> float:
@@ -183,8 +193,12 @@ def test_uncontrolled_ps_softens(campaign) -> None:
         # ζ >= 0.1): equal to 1e-6; where it folds the down sweep stays on the upper branch
         assert r_down.value >= r_up.value * (1.0 - 1e-6)
         assert r_down.frequency <= r_up.frequency
-        area.append(float(np.sum(down.normalised("u_I") - up.normalised("u_I"))
-                          / np.sum(down.normalised("u_I"))))
+        area.append(
+            float(
+                np.sum(down.normalised("u_I") - up.normalised("u_I"))
+                / np.sum(down.normalised("u_I"))
+            )
+        )
         assert (folds(S1_PRIMARY_UNCONTROLLED, 125.0, pga) > 0) == (pga == 0.15)
     assert r_down.value > 1.02 * r_up.value and r_down.frequency < r_up.frequency  # 0.15 g
     # the up/down "hysteresis area" (S1 §3.1) relative to the area under the FRF: measured
@@ -221,8 +235,11 @@ def test_tmdi_lowers_the_peak_ps_displacement(campaign) -> None:
             rack = resonance(campaign["rack_pinion", pga, d]).value / ps - 1.0
             ideal = resonance(campaign["ideal", pga, d]).value / ps - 1.0
             assert rack < -0.10 and ideal < -0.05, (pga, d)  # lower at every PGA
-    change = resonance(campaign["rack_pinion", 0.15, "down"]).value / resonance(
-        campaign["uncontrolled", 0.15, "down"]).value - 1.0
+    change = (
+        resonance(campaign["rack_pinion", 0.15, "down"]).value
+        / resonance(campaign["uncontrolled", 0.15, "down"]).value
+        - 1.0
+    )
     assert change == pytest.approx(S1_PEAK_CHANGE[0.15], abs=0.01)
 
 
@@ -231,9 +248,14 @@ def test_tmdi_lowers_the_peak_ps_displacement(campaign) -> None:
 def full_range() -> dict[tuple[str, str], FRF]:
     """Down sweeps over 1-10 Hz at 0.10 g (the S1 Eq.14 identification test)."""
     grid = np.round(np.arange(1.0, 10.001, 0.1), 9)
-    return {(model, hdrb): sweep(model, grid, 0.10, "down", hdrb)
-            for model, hdrb in (("rack_pinion", "amplitude"), ("ideal", "amplitude"),
-                                ("rack_pinion", "viscous"))}
+    return {
+        (model, hdrb): sweep(model, grid, 0.10, "down", hdrb)
+        for model, hdrb in (
+            ("rack_pinion", "amplitude"),
+            ("ideal", "amplitude"),
+            ("rack_pinion", "viscous"),
+        )
+    }
 
 
 def test_amplitude_law_keeps_the_s1_identification(full_range) -> None:
@@ -282,7 +304,8 @@ def test_crest_methods_agree_for_a_viscous_bearing() -> None:
     harmonic balance."""
     amplitude, frequency = harmonic_balance_crest(S1_PRIMARY, 125.0, 0.10)
     td_amplitude, td_frequency = stepped_sine_crest(
-        S1_PRIMARY, 125.0, 0.10, (0.95 * frequency, 1.05 * frequency))
+        S1_PRIMARY, 125.0, 0.10, (0.95 * frequency, 1.05 * frequency)
+    )
     # describing function + peak measure at 14 mm: measured -0.5 % and +1 mHz
     assert td_amplitude == pytest.approx(amplitude, rel=0.01)
     assert td_frequency == pytest.approx(frequency, abs=0.01)

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from rths.config.scenario import parse_scenario
 from rths.metrics import normalised_rms_error
-from rths.mock import numerical_run
-from rths.runner import RunOptions, run_scenario
-from rths.scenario import parse_scenario
+from rths.session.mock import numerical_run
+from rths.session.runner import RunOptions, run_scenario
 
 SCENARIO = Path(__file__).resolve().parent.parent / "scenarios" / "tmdi_rths.toml"
 
@@ -21,10 +21,13 @@ def test_tmdi_rths_reproduces_the_monolithic_model(tmp_path):
     converters, sensor noise, one-step force lag) against the monolithic S1 Eq.12 model.  1 %
     NRMSE on the primary displacement: the measured tracking error is ~0.04 % and the force
     noise (0.1 N RMS on a ~140 N force) enters a structure dominated by its own inertia."""
-    text = SCENARIO.read_text().replace("duration = 15.3", "duration = 5.1").replace(
-        "frequencies = [1.9, 2.0, 2.1]", "frequencies = [2.0]")  # fmt: skip
+    text = (
+        SCENARIO.read_text()
+        .replace("duration = 15.3", "duration = 5.1")
+        .replace("frequencies = [1.9, 2.0, 2.1]", "frequencies = [2.0]")
+    )
     scn = parse_scenario(text, str(SCENARIO))
-    from rths.mcap_io import read_topic
+    from rths.log.reader import read_topic
 
     outcome = run_scenario(scn, RunOptions(clock="fast", out=tmp_path / "t.mcap"))
     assert outcome.result.stopped is None
@@ -35,15 +38,20 @@ def test_tmdi_rths_reproduces_the_monolithic_model(tmp_path):
     # the monolithic model itself differs by ~12 % there, mostly in the timing of the impacts)
     ideal = numerical_run(scn, "model")
     assert normalised_rms_error(ideal["force"], loop["force"]) > 1.2 * normalised_rms_error(
-        mono["force"], loop["force"])  # fmt: skip
+        mono["force"], loop["force"]
+    )
 
 
 def test_model_kind_must_suit_the_substructure():
-    from rths import build
-    from rths.errors import ConfigError
+    from rths.config import build
+    from rths.core.errors import ConfigError
 
-    text = SCENARIO.read_text().replace('kind = "inerter"', 'kind = "linear"\nmass = 1.0').replace(
-        "inertance = 47.84\n", "").replace("damping = 92.6\n", "damping = 0.0\n")  # fmt: skip
+    text = (
+        SCENARIO.read_text()
+        .replace('kind = "inerter"', 'kind = "linear"\nmass = 1.0')
+        .replace("inertance = 47.84\n", "")
+        .replace("damping = 92.6\n", "damping = 0.0\n")
+    )
     scn = parse_scenario(text, "t.toml")
     with pytest.raises(ConfigError, match=r"\[model\] a tmdi substructure takes a model of kind"):
         build.substructure(scn)
@@ -58,8 +66,11 @@ def test_diagnose_localises_the_ideal_inerter_gap_in_the_inerter_channel(tmp_pat
     from rths.diagnose.nominal import load_nominal
     from rths.diagnose.verdict import diagnose
 
-    text = SCENARIO.read_text().replace("duration = 15.3", "duration = 5.1").replace(
-        "frequencies = [1.9, 2.0, 2.1]", "frequencies = [2.0]")  # fmt: skip
+    text = (
+        SCENARIO.read_text()
+        .replace("duration = 15.3", "duration = 5.1")
+        .replace("frequencies = [1.9, 2.0, 2.1]", "frequencies = [2.0]")
+    )
     scn = parse_scenario(text, str(SCENARIO))
     log = tmp_path / "t.mcap"
     run_scenario(scn, RunOptions(clock="fast", out=log))

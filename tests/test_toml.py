@@ -2,8 +2,8 @@
 
 import pytest
 
-from rths._toml import load_toml, parse_toml
-from rths.errors import ConfigError
+from rths.config.toml import load_toml, parse_toml
+from rths.core.errors import ConfigError
 
 DOC = """
 [run]

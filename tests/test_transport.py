@@ -1,4 +1,4 @@
-"""Oracles for rths.codec and rths.transport: exact round trips, the lockstep protocol against an
+"""Oracles for rths.wire.codec and rths.wire.transport: exact round trips, the lockstep protocol against an
 echo specimen (in-process and in a child process), timeouts and the readiness handshake.
 
 Every wait in these tests is a *timeout* (an upper bound that only matters when something is
@@ -19,10 +19,10 @@ from collections.abc import Iterator
 import pytest
 import zenoh
 
-from rths._inbox import _ALARM
-from rths.codec import Command, LogRecord, Measurement
-from rths.errors import DataError, ParameterError, TransportError
-from rths.transport import (
+from rths.core.errors import DataError, ParameterError, TransportError
+from rths.wire.codec import Command, LogRecord, Measurement
+from rths.wire.inbox import _ALARM
+from rths.wire.transport import (
     Inbox,
     LockstepClient,
     LockstepServer,
@@ -119,13 +119,19 @@ def test_endpoints_validation_and_peer() -> None:
     assert ep.peer() == ZenohEndpoints(connect=("tcp/127.0.0.1:7447",))
     assert ZenohEndpoints(listen=["tcp/[::1]:1"]).listen == ("tcp/[::1]:1",)  # list → tuple
     assert ep.describe() == "listen tcp/127.0.0.1:7447"
-    with pytest.raises(ParameterError, match=r"listen endpoint must look like .*got '127.0.0.1:7447'"):
+    with pytest.raises(
+        ParameterError, match=r"listen endpoint must look like .*got '127.0.0.1:7447'"
+    ):
         ZenohEndpoints(listen=("127.0.0.1:7447",))
-    with pytest.raises(ParameterError, match=r"connect endpoints must be a sequence of strings; got 'tcp/a:1'"):
+    with pytest.raises(
+        ParameterError, match=r"connect endpoints must be a sequence of strings; got 'tcp/a:1'"
+    ):
         ZenohEndpoints(connect="tcp/a:1")  # type: ignore[arg-type]
     with pytest.raises(ParameterError, match=r"at least one listen or connect locator; got none"):
         ZenohEndpoints()
-    with pytest.raises(ParameterError, match=r"peer\(\) needs listen endpoints; got connect tcp/a:1"):
+    with pytest.raises(
+        ParameterError, match=r"peer\(\) needs listen endpoints; got connect tcp/a:1"
+    ):
         ZenohEndpoints(connect=("tcp/a:1",)).peer()
     with pytest.raises(ParameterError, match=r"TCP port must be an integer in \[1, 65535\]; got 0"):
         loopback_endpoint(0)
@@ -172,7 +178,9 @@ def test_run_keys_are_scoped_and_validated() -> None:
         keys.ready("lab")  # type: ignore[arg-type]
     with pytest.raises(ParameterError, match=r"log stream name must be like .*got 'a//b'"):
         keys.log("a//b")
-    with pytest.raises(ParameterError, match=r"key must start with 'rths/run-1/log/'; got 'rths/x/log/a'"):
+    with pytest.raises(
+        ParameterError, match=r"key must start with 'rths/run-1/log/'; got 'rths/x/log/a'"
+    ):
         keys.topic_of("rths/x/log/a")
 
 
@@ -251,10 +259,14 @@ def test_lockstep_discards_stale_and_rejects_future_measurements(pair) -> None:
                 rogue.put(Measurement(seq, 0, 0.0, 0.0, 0).pack())
             assert client.receive(3).seq == 3
             assert client.stale == 2  # seq 1 and 2 were for steps already gone
-            with pytest.raises(TransportError, match=r"measurement seq=9 .* ahead of the command seq=4"):
+            with pytest.raises(
+                TransportError, match=r"measurement seq=9 .* ahead of the command seq=4"
+            ):
                 client.receive(4)
             rogue.put(b"short")
-            with pytest.raises(DataError, match=r"on key 'rths/order/measurement': Measurement payload"):
+            with pytest.raises(
+                DataError, match=r"on key 'rths/order/measurement': Measurement payload"
+            ):
                 client.receive(5)
 
 
@@ -290,7 +302,10 @@ def test_mailbox_counts_malformed_payloads(pair) -> None:
             _wait_matched(pub)
             pub.put(b"bad")
             pub.put(Measurement(1, 0, 0.0, 0.0, 0).pack())
-            assert raw.get(PATIENCE) == b"bad" and raw.get(PATIENCE) == Measurement(1, 0, 0.0, 0.0, 0).pack()
+            assert (
+                raw.get(PATIENCE) == b"bad"
+                and raw.get(PATIENCE) == Measurement(1, 0, 0.0, 0.0, 0).pack()
+            )
         # counts are taken when the box is read (it drains the channel)
         assert box.latest().message.seq == 1 and box.rejected == 1 and box.received == 1
 
@@ -310,7 +325,9 @@ def test_inbox_timeouts_stale_alarms_and_close(pair) -> None:
         assert inbox.get(PATIENCE) == Command(1, 2, 3.0)
     # close() wakes a get() blocked in another thread instead of leaving it hanging.
     outcome: list[BaseException] = []
-    waiter = threading.Thread(target=lambda: outcome.append(pytest.raises(TransportError, inbox.get, None).value))
+    waiter = threading.Thread(
+        target=lambda: outcome.append(pytest.raises(TransportError, inbox.get, None).value)
+    )
     waiter.start()
     deadline = time.monotonic() + PATIENCE
     while not inbox._receiving.locked() and time.monotonic() < deadline:
@@ -330,7 +347,7 @@ def test_handshake_timeout_names_peer_and_endpoint(pair) -> None:
     with Presence(co, RunKeys("alone"), "coordinator", ep.describe()) as presence:
         with pytest.raises(
             TransportError,
-            match=rf"specimen process did not come up within 0.2 s on listen tcp/127.0.0.1:\d+",
+            match=r"specimen process did not come up within 0.2 s on listen tcp/127.0.0.1:\d+",
         ):
             presence.wait_for_peer(0.2)
         with pytest.raises(ParameterError, match=r"handshake timeout must be positive; got 0"):
@@ -348,7 +365,9 @@ def test_handshake_detects_peer_without_subscriber(pair) -> None:
         Presence(sp, keys, "specimen", ep.describe()) as ps,
     ):
         ps.announce()  # specimen is up but never declared its command subscriber
-        with pytest.raises(TransportError, match=r"up but did not subscribe to 'rths/nosub/command'"):
+        with pytest.raises(
+            TransportError, match=r"up but did not subscribe to 'rths/nosub/command'"
+        ):
             pc.wait_for_peer(0.3, [client.publisher])
 
 
@@ -368,8 +387,8 @@ def test_peer_going_away_sets_stop(pair) -> None:
 
 ECHO_SPECIMEN = """
 import sys
-from rths.codec import Measurement
-from rths.transport import LockstepServer, Presence, RunKeys, ZenohEndpoints, open_session
+from rths.wire.codec import Measurement
+from rths.wire.transport import LockstepServer, Presence, RunKeys, ZenohEndpoints, open_session
 ep = ZenohEndpoints(connect=(sys.argv[1],))
 keys = RunKeys(sys.argv[2])
 with open_session(ep) as session, LockstepServer(session, keys) as server:

@@ -35,7 +35,7 @@ from plants.actuator import (
 )
 from plants.lab import EmulatedLab
 from plants.linear_specimen import LinearSpecimen, benchmark_specimen
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 DT = 1.0 / 4096.0
 IMD_MASS, IMD_K0 = 1589.0, 1.2e7  # S0 Table 4, Type II
@@ -76,8 +76,10 @@ def main() -> None:
 
     benchmark = ServoHydraulicActuator(benchmark_specimen(), DT)
     generic = TransferFunctionActuator(
-        [50.0 * 102500.0], np.polymul([1.0, 50.0], [1.0, 400.0, 102500.0]),
-        LinearSpecimen(29.13, 114.0, 1.19e6), DT,
+        [50.0 * 102500.0],
+        np.polymul([1.0, 50.0], [1.0, 400.0, 102500.0]),
+        LinearSpecimen(29.13, 114.0, 1.19e6),
+        DT,
     )
     lab = EmulatedLab(ServoHydraulicActuator(benchmark_specimen(), DT), seed=0)
     print(f"loop rate {1 / DT:.0f} Hz, {args.blocks} blocks x {args.block_steps} steps, median")

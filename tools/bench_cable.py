@@ -1,4 +1,4 @@
-"""Benchmark of ``plants.cable.Cable.step`` (and the mass-matrix convergence study).
+"""Benchmark of ``plants.cable.model.Cable.step`` (and the mass-matrix convergence study).
 
 Usage::
 
@@ -21,7 +21,7 @@ import math
 import statistics
 import time
 
-from plants.cable import (
+from plants.cable.model import (
     Cable,
     CableProperties,
     DistributedLoad,
@@ -42,9 +42,14 @@ def time_per_step(
 ) -> float:
     """Median wall time of one ``Cable.step`` [µs]."""
     cable = Cable(
-        PROPS, 0.02, 1.0 / 4096, elements=elements, load=DistributedLoad(100.0, mode=3),
-        damper=device, use_numba=use_numba,
-    )  # fmt: skip
+        PROPS,
+        0.02,
+        1.0 / 4096,
+        elements=elements,
+        load=DistributedLoad(100.0, mode=3),
+        damper=device,
+        use_numba=use_numba,
+    )
     forces = [1e3 * math.sin(0.01 * k) for k in range(steps)]
     cable.step(0.0)  # compile / warm up
     samples = []
@@ -59,7 +64,7 @@ def time_per_step(
 
 def mass_study() -> None:
     """Relative damping-ratio error of the FE model vs the exact frequency equation."""
-    from plants.cable_damper import _state_space_eigenvalues, exact_roots
+    from plants.cable.frequency_equation import _state_space_eigenvalues, exact_roots
 
     unit = CableProperties(1.0, 1.0, 1.0)
     cases = {

@@ -49,8 +49,10 @@ def main() -> None:
     command = band_limited_command(rng, args.duration, dt, (0.3, 6.0), 3e-3)
     t0 = time.perf_counter()
     record = lab_record(case, command, dt, seed=1, name="bench.csv")
-    print(f"lab record: {record.n} samples ({args.duration:g} s at {args.rate:g} Hz), "
-          f"generated in {time.perf_counter() - t0:.1f} s")  # fmt: skip
+    print(
+        f"lab record: {record.n} samples ({args.duration:g} s at {args.rate:g} Hz), "
+        f"generated in {time.perf_counter() - t0:.1f} s"
+    )
     nominal = case.nominal(0.95 * 1589.0, 1.2 * c, 1.02)
     diagnose([record], nominal)  # warm-up: numba kernels from the on-disk cache
     for drive in ("auto", "measured"):
@@ -60,9 +62,11 @@ def main() -> None:
             d = diagnose([record], nominal, Options(drive=drive))
             times.append(time.perf_counter() - t0)
             verdict = d.verdict
-        print(f"drive={drive:9} median {statistics.median(times):6.2f} s  "
-              f"(min {min(times):.2f}, max {max(times):.2f}, n={args.repeats})  "
-              f"verdict {verdict}")  # fmt: skip
+        print(
+            f"drive={drive:9} median {statistics.median(times):6.2f} s  "
+            f"(min {min(times):.2f}, max {max(times):.2f}, n={args.repeats})  "
+            f"verdict {verdict}"
+        )
 
 
 if __name__ == "__main__":

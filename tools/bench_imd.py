@@ -18,7 +18,7 @@ from dataclasses import replace
 import numpy as np
 
 from plants.base import Specimen
-from plants.imd import IMDParameters, InternalStiffnessIMD, SimplifiedIMD
+from plants.imd.models import IMDParameters, InternalStiffnessIMD, SimplifiedIMD
 
 FS = 4096.0
 

@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from rths.mcap_io import read_metadata, read_topic
-from rths.runner import RunOptions, run_scenario
-from rths.scenario import parse_scenario
+from rths.config.scenario import parse_scenario
+from rths.log.reader import read_metadata, read_topic
+from rths.session.runner import RunOptions, run_scenario
 
 SEED = Path(__file__).resolve().parent.parent / "scenarios" / "cable_imd_mode3.toml"
 
@@ -43,13 +43,18 @@ def run(clock: str, rate: float, duration: float, out: Path) -> dict:
     summary = read_metadata(out)["rths.summary"]
     t = outcome.result.timing
     return {
-        "clock": clock, "rate": rate, "steps": outcome.result.steps, "wall_s": wall,
+        "clock": clock,
+        "rate": rate,
+        "steps": outcome.result.steps,
+        "wall_s": wall,
         "sim_per_wall": outcome.result.steps * scn.run.dt / wall,
-        "overrun_fraction": t.overrun_fraction, "jitter_p99_us": 1e6 * t.jitter_p99,
-        "busy_mean_us": 1e6 * t.busy_mean, "age_mean_us": 1e6 * float(np.mean(loop["age"])),
+        "overrun_fraction": t.overrun_fraction,
+        "jitter_p99_us": 1e6 * t.jitter_p99,
+        "busy_mean_us": 1e6 * t.busy_mean,
+        "age_mean_us": 1e6 * float(np.mean(loop["age"])),
         "sync_rmse_pct": 100 * float(summary.get("sync_rmse", "nan")),
         "stopped": outcome.result.stopped,
-    }  # fmt: skip
+    }
 
 
 def main() -> None:
@@ -64,13 +69,17 @@ def main() -> None:
         if not args.skip_realtime:
             for rate in args.rates:
                 rows.append(run("realtime", rate, args.duration, Path(tmp) / f"rt{rate:g}.mcap"))
-    print(f"{'clock':<9} {'rate':>6} {'sim/wall':>9} {'overruns':>9} {'p99 jit us':>10} "
-          f"{'busy us':>8} {'age us':>8} {'sync %':>7}  stopped")  # fmt: skip
+    print(
+        f"{'clock':<9} {'rate':>6} {'sim/wall':>9} {'overruns':>9} {'p99 jit us':>10} "
+        f"{'busy us':>8} {'age us':>8} {'sync %':>7}  stopped"
+    )
     for r in rows:
-        print(f"{r['clock']:<9} {r['rate']:>6.0f} {r['sim_per_wall']:>9.2f} "
-              f"{100 * r['overrun_fraction']:>8.2f}% {r['jitter_p99_us']:>10.0f} "
-              f"{r['busy_mean_us']:>8.0f} {r['age_mean_us']:>8.0f} {r['sync_rmse_pct']:>7.3f}  "
-              f"{r['stopped'] or ''}")  # fmt: skip
+        print(
+            f"{r['clock']:<9} {r['rate']:>6.0f} {r['sim_per_wall']:>9.2f} "
+            f"{100 * r['overrun_fraction']:>8.2f}% {r['jitter_p99_us']:>10.0f} "
+            f"{r['busy_mean_us']:>8.0f} {r['age_mean_us']:>8.0f} {r['sync_rmse_pct']:>7.3f}  "
+            f"{r['stopped'] or ''}"
+        )
 
 
 if __name__ == "__main__":

@@ -12,7 +12,7 @@ loads the numba kernels):
   it -- in seconds, with the simulated seconds and microseconds per simulated sample and model;
 * its parts for the up sweep: table motion (python-control ZOH model through ``lfilter``), each
   model's ``TMDIStructure.run``, and the FRF/last-cycle reduction of all nine S1 Eq.7
-  quantities (``rths.frf``).
+  quantities (``rths.experiments.s1_shake_table.frf``).
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 from plants.tmdi import TMDIStructure
-from rths.frf import estimate_frf, steady_state_windows
-from rths.sweep import (
+from rths.experiments.s1_shake_table.frf import estimate_frf, steady_state_windows
+from rths.experiments.s1_shake_table.sweep import (
     SteppedSine,
     build_table,
     command_amplitudes,
@@ -62,15 +62,20 @@ def main() -> None:
     runs = len(cfg.models) * len(cfg.directions)
 
     full = median_seconds(lambda: run_sweep(cfg, pga=[args.pga]), args.repeats)
-    print(f"scenario {cfg.name}: {grid.size} steps, {sine.duration:.0f} s per direction at "
-          f"{cfg.rate:g} Hz, table {cfg.table.kind}")
-    print(f"one full sweep at {args.pga:g} g ({len(cfg.models)} models x "
-          f"{len(cfg.directions)} directions = {runs * sine.duration:.0f} s simulated): "
-          f"{full:.2f} s  ({1e6 * full / (runs * samples):.2f} us per sample and model)")
+    print(
+        f"scenario {cfg.name}: {grid.size} steps, {sine.duration:.0f} s per direction at "
+        f"{cfg.rate:g} Hz, table {cfg.table.kind}"
+    )
+    print(
+        f"one full sweep at {args.pga:g} g ({len(cfg.models)} models x "
+        f"{len(cfg.directions)} directions = {runs * sine.duration:.0f} s simulated): "
+        f"{full:.2f} s  ({1e6 * full / (runs * samples):.2f} us per sample and model)"
+    )
 
     table = build_table(cfg.table, cfg.dt)
-    amplitudes = command_amplitudes(table, sine.frequencies, args.pga, cfg.dt,
-                                    cfg.table.amplitude_correction)
+    amplitudes = command_amplitudes(
+        table, sine.frequencies, args.pga, cfg.dt, cfg.table.amplitude_correction
+    )
     t_table = median_seconds(lambda: table.run(sine, amplitudes, cfg.dt), args.repeats)
     print(f"  table motion (up):            {t_table:7.3f} s")
     motion = table.run(sine, amplitudes, cfg.dt)
@@ -82,15 +87,25 @@ def main() -> None:
         signals = {n: getattr(response, n) for n in response.quantities()}
 
         def reduce(signals: dict = signals) -> None:
-            estimate_frf(signals, motion.acceleration, sine.frequencies, sine.boundaries,
-                         cfg.dt, cfg.steady_cycles, cfg.amplitude)
-            windows = steady_state_windows(sine.boundaries, sine.frequencies, cfg.dt,
-                                           motion.acceleration.size, 1.0)
+            estimate_frf(
+                signals,
+                motion.acceleration,
+                sine.frequencies,
+                sine.boundaries,
+                cfg.dt,
+                cfg.steady_cycles,
+                cfg.amplitude,
+            )
+            windows = steady_state_windows(
+                sine.boundaries, sine.frequencies, cfg.dt, motion.acceleration.size, 1.0
+            )
             [{n: x[w].copy() for n, x in signals.items()} for w in windows]
 
         t_frf = median_seconds(reduce, args.repeats)
-        print(f"  {model:<13} TMDIStructure.run {t_run:7.3f} s "
-              f"({1e6 * t_run / samples:.2f} us/sample), FRF + loops {t_frf:6.3f} s")
+        print(
+            f"  {model:<13} TMDIStructure.run {t_run:7.3f} s "
+            f"({1e6 * t_run / samples:.2f} us/sample), FRF + loops {t_frf:6.3f} s"
+        )
 
 
 if __name__ == "__main__":

@@ -29,8 +29,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from plants.inerter import RackPinionInerter, rack_pinion_preset
 from plants.tmdi import TMDIStructure, TMDISubstructure, s1_configuration
+from plants.tmdi.inerter import RackPinionInerter, rack_pinion_preset
 
 G = 9.81
 FREQ = 2.25  # Hz, f_0 of S1 Fig.12
@@ -65,8 +65,10 @@ def bench_specimen(rate: float, seconds: float, repeats: int) -> None:
                 step(u[k], v[k], a[k], dt)
 
         per_step = median_seconds(run, repeats) / len(u) * 1e6
-        print(f"  rack-and-pinion {flywheel}  {rate:7.0f} Hz  {spec.substeps(dt):4d} sub-steps"
-              f"  {per_step:8.2f} us/step")
+        print(
+            f"  rack-and-pinion {flywheel}  {rate:7.0f} Hz  {spec.substeps(dt):4d} sub-steps"
+            f"  {per_step:8.2f} us/step"
+        )
 
 
 def bench_structure(rate: float, seconds: float, repeats: int) -> None:
@@ -87,9 +89,11 @@ def bench_structure(rate: float, seconds: float, repeats: int) -> None:
     for name, par, inerter in cases:
         structure = TMDIStructure(par, inerter, dt)
         wall = median_seconds(lambda s=structure: s.run(ag), repeats)
-        print(f"  TMDIStructure {name:15s} {rate:7.0f} Hz  {structure.substeps:4d} sub-steps"
-              f"  {wall / t.size * 1e6:8.2f} us/step  {wall / seconds:8.5f} s/s"
-              f"  (900 s sweep: {900.0 * wall / seconds:6.1f} s)")
+        print(
+            f"  TMDIStructure {name:15s} {rate:7.0f} Hz  {structure.substeps:4d} sub-steps"
+            f"  {wall / t.size * 1e6:8.2f} us/step  {wall / seconds:8.5f} s/s"
+            f"  (900 s sweep: {900.0 * wall / seconds:6.1f} s)"
+        )
 
 
 def bench_substructure(rate: float, seconds: float, repeats: int) -> None:
@@ -114,8 +118,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=7, help="timed runs per case (median)")
     parser.add_argument("--seconds", type=float, default=20.0, help="simulated seconds per run")
-    parser.add_argument("--rates", type=float, nargs="+", default=[1000.0, 2000.0, 4096.0],
-                        help="loop / sampling rates [Hz]")
+    parser.add_argument(
+        "--rates",
+        type=float,
+        nargs="+",
+        default=[1000.0, 2000.0, 4096.0],
+        help="loop / sampling rates [Hz]",
+    )
     args = parser.parse_args()
     specimen_seconds = min(args.seconds, 5.0)  # Python-loop benchmarks: keep them short
     for rate in args.rates:

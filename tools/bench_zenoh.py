@@ -8,7 +8,7 @@ Round trip: the parent (coordinator) listens on a free loopback port and spawns 
 echo specimen (``--echo``) that connects; after the readiness handshake the parent sends a
 24-byte command and waits for the 40-byte measurement with the same seq, ``--steps`` times after
 a warm-up, and reports the median (p50) and 99th percentile (p99) of the round trip [µs],
-pooled over ``--rounds`` interleaved rounds.  Mechanisms (``*`` = what rths.transport uses):
+pooled over ``--rounds`` interleaved rounds.  Mechanisms (``*`` = what rths.wire.transport uses):
 
 * ``rths*``          LockstepClient/LockstepServer: publisher.put(bytes), reliable + express +
   BLOCK; FifoChannel ``recv()`` with the watchdog that implements the timeout
@@ -44,9 +44,9 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
-from rths.codec import Command, Measurement
-from rths.recording import LOOP_TOPIC, Recorder
-from rths.transport import (
+from rths.log.recorder import LOOP_TOPIC, Recorder
+from rths.wire.codec import Command, Measurement
+from rths.wire.transport import (
     LockstepClient,
     LockstepServer,
     Presence,
@@ -57,9 +57,17 @@ from rths.transport import (
 )
 
 MECHANISMS = (
-    "rths", "fifo", "queue-direct", "queue-indirect", "reply-in-cb", "batched", "lowlatency",
-    "query", "recording", "recording-si",
-)  # fmt: skip
+    "rths",
+    "fifo",
+    "queue-direct",
+    "queue-indirect",
+    "reply-in-cb",
+    "batched",
+    "lowlatency",
+    "query",
+    "recording",
+    "recording-si",
+)
 RTHS_LINKS = ("rths", "batched", "lowlatency", "recording", "recording-si")
 WARMUP = 300
 STOP = b"stop"
@@ -129,7 +137,8 @@ def run_echo(mechanism: str, endpoint: str, run_id: str) -> None:
             session.declare_subscriber(
                 keys.command,
                 zenoh.handlers.Callback(
-                    lambda s: inbox.put(s.payload.to_bytes()), indirect=mechanism.endswith("indirect")
+                    lambda s: inbox.put(s.payload.to_bytes()),
+                    indirect=mechanism.endswith("indirect"),
                 ),
             )
             pubs = [pub]
@@ -172,20 +181,22 @@ def round_trips(mechanism: str, steps: int) -> list[float]:
                 reply = querier.get(payload=c.pack()).recv()
                 return Measurement.unpack(reply.ok.payload.to_bytes())
 
-            stop = lambda: session.put(keys.stop, b"{}")  # noqa: E731
+            stop = lambda: session.put(keys.stop, b"{}")
         elif mechanism in ("queue-direct", "queue-indirect", "fifo"):
             pub = declare_hot_publisher(session, keys.command)
             if mechanism == "fifo":
                 sub = session.declare_subscriber(keys.measurement, zenoh.handlers.FifoChannel(1024))
-                recv = lambda: sub.recv().payload.to_bytes()  # noqa: E731
+                recv = lambda: sub.recv().payload.to_bytes()
             else:
                 inbox: queue.SimpleQueue[bytes] = queue.SimpleQueue()
                 indirect = mechanism.endswith("indirect")
                 session.declare_subscriber(
                     keys.measurement,
-                    zenoh.handlers.Callback(lambda s: inbox.put(s.payload.to_bytes()), indirect=indirect),
+                    zenoh.handlers.Callback(
+                        lambda s: inbox.put(s.payload.to_bytes()), indirect=indirect
+                    ),
                 )
-                recv = lambda: inbox.get(timeout=10.0)  # noqa: E731
+                recv = lambda: inbox.get(timeout=10.0)
             presence = Presence(session, keys, "coordinator", ep.describe())
             presence.wait_for_peer(30.0, [pub])
 
@@ -193,7 +204,7 @@ def round_trips(mechanism: str, steps: int) -> list[float]:
                 pub.put(c.pack())
                 return Measurement.unpack(recv())
 
-            stop = lambda: pub.put(STOP)  # noqa: E731
+            stop = lambda: pub.put(STOP)
         else:
             client = LockstepClient(session, keys, timeout=10.0)
             if mechanism == "batched":
@@ -202,7 +213,7 @@ def round_trips(mechanism: str, steps: int) -> list[float]:
             presence = Presence(session, keys, "coordinator", ep.describe())
             presence.wait_for_peer(30.0, [client.publisher])
             exchange = client.exchange
-            stop = lambda: presence.request_stop("bench done")  # noqa: E731
+            stop = lambda: presence.request_stop("bench done")
         times = []
         clock = time.perf_counter_ns
         with tempfile.TemporaryDirectory() as tmp:
@@ -217,8 +228,18 @@ def round_trips(mechanism: str, steps: int) -> list[float]:
                 if m.seq != k:
                     raise RuntimeError(f"{mechanism}: got seq {m.seq} for command {k}")
                 if rec is not None:
-                    rec.put(LOOP_TOPIC, k, k * 250_000, {"t": k * 2.5e-4, "target": 1e-3,
-                            "command": 1e-3, "measured": m.displacement, "force": m.force})
+                    rec.put(
+                        LOOP_TOPIC,
+                        k,
+                        k * 250_000,
+                        {
+                            "t": k * 2.5e-4,
+                            "target": 1e-3,
+                            "command": 1e-3,
+                            "measured": m.displacement,
+                            "force": m.force,
+                        },
+                    )
             sys.setswitchinterval(switch_interval)
             if rec is not None:
                 rec.close()
@@ -238,10 +259,15 @@ def round_trips(mechanism: str, steps: int) -> list[float]:
 def recorder_throughput(messages: int, compression: str) -> tuple[float, float]:
     """(median put() cost [µs] over batches of 1000, end-to-end messages/s until closed)."""
     rows = [
-        {"t": k * 2.5e-4, "target": math.sin(k * 1e-3), "command": math.sin(k * 1e-3 + 0.1),
-         "measured": math.sin(k * 1e-3 - 0.1), "force": 1e3 * math.cos(k * 1e-3)}
+        {
+            "t": k * 2.5e-4,
+            "target": math.sin(k * 1e-3),
+            "command": math.sin(k * 1e-3 + 0.1),
+            "measured": math.sin(k * 1e-3 - 0.1),
+            "force": 1e3 * math.cos(k * 1e-3),
+        }
         for k in range(1000)
-    ]  # fmt: skip
+    ]
     batch_costs = []
     with tempfile.TemporaryDirectory() as tmp:
         rec = Recorder(Path(tmp) / "bench.mcap", compression=compression).start()  # type: ignore[arg-type]
@@ -264,7 +290,9 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3, help="interleaved rounds per mechanism")
     parser.add_argument("--messages", type=int, default=200_000, help="recorder messages")
     parser.add_argument("--only", nargs="*", choices=MECHANISMS, default=list(MECHANISMS))
-    parser.add_argument("--echo", nargs=3, metavar=("MECH", "ENDPOINT", "RUN"), help=argparse.SUPPRESS)
+    parser.add_argument(
+        "--echo", nargs=3, metavar=("MECH", "ENDPOINT", "RUN"), help=argparse.SUPPRESS
+    )
     args = parser.parse_args()
     if args.echo:
         run_echo(*args.echo)
@@ -273,7 +301,10 @@ def main() -> None:
     for _ in range(args.rounds):
         for mechanism in args.only:
             pooled[mechanism] += round_trips(mechanism, args.steps)
-    print(f"cross-process lockstep round trip, {args.rounds} x {args.steps} steps, 24 B out / 40 B back")
+    print(
+        f"cross-process lockstep round trip, {args.rounds} x {args.steps} steps, "
+        "24 B out / 40 B back"
+    )
     print(f"{'mechanism':<16}{'p50 [us]':>10}{'p90 [us]':>10}{'p99 [us]':>10}{'max [us]':>10}")
     for mechanism, times in pooled.items():
         p50, p90, p99 = np.percentile(times, [50, 90, 99])

@@ -4,11 +4,11 @@
     python tools/blind_suite.py score /tmp/suite
 
 ``generate`` runs the project's emulated lab (:class:`plants.lab.EmulatedLab`: 16-bit +/-10 V
-converters with noise, :class:`plants.actuator.TransferFunctionActuator` with the MTS-identified
-TF, an IMD specimen) with one hidden effect per case, the six classes in turn, and writes per case
-``case_NNN/run_1.csv``, ``run_2.csv`` (two independent band-limited random tests: the first
-identifies, the second is held out) and ``NOMINAL.toml``.  The labels and true parameters go to
-``truth.json`` beside the case folders; ``score`` reads it only *after* running the diagnosis,
+converters with noise, :class:`plants.actuator.TransferFunctionActuator` with the
+MTS-identified TF, an IMD specimen) with one hidden effect per case, the six classes in turn, and
+writes per case ``case_NNN/run_1.csv``, ``run_2.csv`` (two independent band-limited random tests:
+the first identifies, the second is held out) and ``NOMINAL.toml``.  The labels and true parameters
+go to ``truth.json`` beside the case folders; ``score`` reads it only *after* running the diagnosis,
 which sees the case folder alone.
 
 Random draws (uniform unless said; physically plausible and detectable at the default settings):
@@ -62,8 +62,13 @@ from rths.diagnose.synthetic import (
 DT = 1.0 / 2048.0
 DURATION = 20.0
 #: The verdict parameter compared with the truth, per class.
-PARAMETER = {"internal_stiffness": "stiffness", "backlash": "gap", "coulomb_friction": "friction",
-             "actuator_delay": "delay", "rate_limit": "velocity_limit"}  # fmt: skip
+PARAMETER = {
+    "internal_stiffness": "stiffness",
+    "backlash": "gap",
+    "coulomb_friction": "friction",
+    "actuator_delay": "delay",
+    "rate_limit": "velocity_limit",
+}
 
 
 def _draw(rng: np.random.Generator, label: str, commands: list[np.ndarray]) -> LabCase:
@@ -113,8 +118,10 @@ def generate(cases: int, out: Path, seed: int) -> None:
             case.inertance * rng.uniform(0.9, 1.1), case.damping * rng.uniform(0.7, 1.3), 1.0
         )
         (folder / "NOMINAL.toml").write_text(nominal_toml(nominal, "blind-suite case"))
-        truth[folder.name] = {"label": label, "params": {PARAMETER[label]: case.value}
-                              if label in PARAMETER else {}}  # fmt: skip
+        truth[folder.name] = {
+            "label": label,
+            "params": {PARAMETER[label]: case.value} if label in PARAMETER else {},
+        }
         print(f"{folder.name}: written", flush=True)
     (out / "truth.json").write_text(json.dumps(truth, indent=2) + "\n")
 
@@ -124,11 +131,20 @@ def _diagnose(folder: Path, drive: str) -> dict:
     from rths.cli import main
 
     target = folder / f"diagnosis_{drive}.json"
-    code = main([
-        "diagnose", str(folder / "run_1.csv"), str(folder / "run_2.csv"),
-        "--nominal", str(folder / "NOMINAL.toml"), "--json", str(target), "--quiet",
-        "--drive", drive,
-    ])  # fmt: skip
+    code = main(
+        [
+            "diagnose",
+            str(folder / "run_1.csv"),
+            str(folder / "run_2.csv"),
+            "--nominal",
+            str(folder / "NOMINAL.toml"),
+            "--json",
+            str(target),
+            "--quiet",
+            "--drive",
+            drive,
+        ]
+    )
     if code != 0:
         raise SystemExit(f"rths diagnose failed on {folder} (exit {code})")
     return json.loads(target.read_text())
@@ -159,8 +175,10 @@ def score(directory: Path, drive: str = "auto") -> None:
         true = truth[name]["params"][key]
         errors[label].append(abs(cand["params"][key] - true) / true)
         shrink.append(cand["closed"])
-        print(f"{name}: {label:18} -> {res['verdict']:18} {key}={cand['params'][key]:.4g} "
-              f"(true {true:.4g}) closed {100 * cand['closed']:.1f} %")  # fmt: skip
+        print(
+            f"{name}: {label:18} -> {res['verdict']:18} {key}={cand['params'][key]:.4g} "
+            f"(true {true:.4g}) closed {100 * cand['closed']:.1f} %"
+        )
     print(f"\n{len(results)} cases, top-1 accuracy {100 * correct / len(results):.1f} %")
     print("confusion (rows: truth, columns: verdict)")
     short = [c[:10] for c in CLASSES]
@@ -170,11 +188,15 @@ def score(directory: Path, drive: str = "auto") -> None:
     print("median relative parameter error (true-effect candidate):")
     for c, e in errors.items():
         if e:
-            print(f"  {c:19} {PARAMETER[c]:15} {100 * statistics.median(e):.2f} %  (max "
-                  f"{100 * max(e):.2f} %, n={len(e)})")  # fmt: skip
+            print(
+                f"  {c:19} {PARAMETER[c]:15} {100 * statistics.median(e):.2f} %  (max "
+                f"{100 * max(e):.2f} %, n={len(e)})"
+            )
     if shrink:
-        print(f"median held-out shrink (true-effect cases): {100 * statistics.median(shrink):.1f}"
-              f" % of the reducible gap (min {100 * min(shrink):.1f} %)")
+        print(
+            f"median held-out shrink (true-effect cases): {100 * statistics.median(shrink):.1f}"
+            f" % of the reducible gap (min {100 * min(shrink):.1f} %)"
+        )
     if n_none:
         print(f"false-alarm rate on none: {false_alarm}/{n_none}")
     print(f"diagnosis time per case: median {statistics.median(times):.2f} s")
@@ -190,8 +212,12 @@ def main(argv: list[str] | None = None) -> int:
     g.add_argument("--seed", type=int, default=0)
     s = sub.add_parser("score", help="diagnose every case and compare with truth.json")
     s.add_argument("directory", type=Path)
-    s.add_argument("--drive", choices=("auto", "measured"), default="auto",
-                   help="rths diagnose --drive (default auto)")
+    s.add_argument(
+        "--drive",
+        choices=("auto", "measured"),
+        default="auto",
+        help="rths diagnose --drive (default auto)",
+    )
     args = p.parse_args(argv)
     if args.action == "generate":
         generate(args.cases, args.out, args.seed)

@@ -22,23 +22,37 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         "the synchronisation-subspace RMSE = RMS(measured - target)/RMS(target) with a bound.",
     )
     p.add_argument("log", type=Path, help="MCAP log written by 'rths run'")
-    p.add_argument("--max-rmse", type=float, required=True, metavar="PCT",
-                   help="largest acceptable sync-subspace RMSE [%%]")  # fmt: skip
-    p.add_argument("--from", dest="start", type=float, default=0.0, metavar="S",
-                   help="ignore the record before this time [s] (start-up transient)")  # fmt: skip
-    p.add_argument("--allow-gaps", action="store_true",
-                   help="do not fail on missing loop samples (sequence gaps)")  # fmt: skip
+    p.add_argument(
+        "--max-rmse",
+        type=float,
+        required=True,
+        metavar="PCT",
+        help="largest acceptable sync-subspace RMSE [%%]",
+    )
+    p.add_argument(
+        "--from",
+        dest="start",
+        type=float,
+        default=0.0,
+        metavar="S",
+        help="ignore the record before this time [s] (start-up transient)",
+    )
+    p.add_argument(
+        "--allow-gaps",
+        action="store_true",
+        help="do not fail on missing loop samples (sequence gaps)",
+    )
     return p
 
 
 def run(args: argparse.Namespace) -> int:
     """Compare the log's sync-subspace RMSE with the bound; 0 pass, 1 fail."""
-    import numpy as np
-
     import math
 
-    from rths.errors import DataError
-    from rths.mcap_io import is_complete, read_metadata, read_topic
+    import numpy as np
+
+    from rths.core.errors import DataError
+    from rths.log.reader import is_complete, read_metadata, read_topic
     from rths.metrics import sync_subspace_rmse
 
     if not (math.isfinite(args.max_rmse) and args.max_rmse > 0):
@@ -47,8 +61,10 @@ def run(args: argparse.Namespace) -> int:
     meta = read_metadata(args.log)
     for name in ("t", "target", "measured"):
         if name not in loop:
-            raise DataError(f"'{args.log}': topic rths/loop has no field {name!r}; "
-                            "is this a log written by 'rths run'?")  # fmt: skip
+            raise DataError(
+                f"'{args.log}': topic rths/loop has no field {name!r}; "
+                "is this a log written by 'rths run'?"
+            )
     seq = loop["sequence"]
     gaps = int(np.sum(np.diff(seq) - 1)) if seq.size > 1 else 0
     keep = loop["t"] >= args.start
@@ -69,6 +85,8 @@ def run(args: argparse.Namespace) -> int:
     if not is_complete(args.log):
         problems.append("log not finished (the run was cut off)")
     verdict = "FAIL: " + "; ".join(problems) if problems else "PASS"
-    print(f"{verdict} -- sync-subspace RMSE {rmse:.3f} % (bound {args.max_rmse:g} %), "
-          f"{int(np.count_nonzero(keep))} samples, {gaps} gaps -- {args.log}")  # fmt: skip
+    print(
+        f"{verdict} -- sync-subspace RMSE {rmse:.3f} % (bound {args.max_rmse:g} %), "
+        f"{int(np.count_nonzero(keep))} samples, {gaps} gaps -- {args.log}"
+    )
     return 1 if problems else 0

@@ -16,9 +16,9 @@ or ``--ke`` (normalised, ``k_e = K L/(pi^2 T)``) puts the damper's inertance and
 an internal series spring (S0 Eq.12); without it the damper is rigid (simplified S0 Eq.1).  The
 command prints, for every root of the exact frequency equation near mode N, its complex
 wavenumber ``beta``, damping ratio and frequency ratio, paired with the nearest FE eigenvalue
-(:mod:`plants.cable_damper`).  With a series spring it also says where the device's own mode
-(node held, ``beta = pi sqrt(k_e/m_e)``) lies: a root of the device (a soft spring gives one) is
-listed only when it falls in the window of mode N.
+(:mod:`plants.cable.frequency_equation`).  With a series spring it also says where the device's own
+mode (node held, ``beta = pi sqrt(k_e/m_e)``) lies: a root of the device (a soft spring gives one)
+is listed only when it falls in the window of mode N.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ import json
 import math
 from typing import Any
 
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 __all__ = ["add_parser", "run"]
 
@@ -66,17 +66,25 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def _normalised_parameters(args: argparse.Namespace) -> tuple[float, float, float | None]:
     """``(m_e, c_d, k_e)`` from exactly one of the two parameter sets (``k_e`` None: rigid)."""
-    from plants.cable import CableProperties, normalised_damper, normalised_stiffness
+    from plants.cable.model import (
+        CableProperties,
+        normalised_damper,
+        normalised_stiffness,
+    )
 
     normalised = [v for v in (args.me, args.cd, args.ke) if v is not None]
     physical = [
         v
         for v in (
-            args.length, args.tension, args.mass_per_length, args.inertance, args.damping,
+            args.length,
+            args.tension,
+            args.mass_per_length,
+            args.inertance,
+            args.damping,
             args.stiffness,
         )
         if v is not None
-    ]  # fmt: skip
+    ]
     if normalised and physical:
         raise ParameterError(
             "give the damper either normalised (--me/--cd/--ke) or physically (--length, "
@@ -131,7 +139,11 @@ def _pairs(exact: tuple[Any, ...], fe: tuple[Any, ...]) -> list[tuple[Any | None
 
 def run(args: argparse.Namespace) -> int:
     """Compute and print the roots; returns 0."""
-    from plants.cable_damper import asymptotic_damping, exact_roots, fe_roots
+    from plants.cable.frequency_equation import (
+        asymptotic_damping,
+        exact_roots,
+        fe_roots,
+    )
 
     m_e, c_d, k_e = _normalised_parameters(args)
     exact = exact_roots(args.mode, args.xd, m_e, c_d, k_e=k_e)

@@ -45,18 +45,24 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--json", metavar="OUT", help="write the diagnosis as JSON")
     p.add_argument("--plots", metavar="DIR", help="write the figures (PNG) into DIR")
     p.add_argument(
-        "--cutoff", type=float, default=None, metavar="HZ",
+        "--cutoff",
+        type=float,
+        default=None,
+        metavar="HZ",
         help="specimen-channel smoothing cutoff [Hz] (default 30)",
-    )  # fmt: skip
+    )
     p.add_argument(
-        "--effects", metavar="NAMES",
+        "--effects",
+        metavar="NAMES",
         help="comma-separated candidate effects to try (default: all)",
-    )  # fmt: skip
+    )
     p.add_argument(
-        "--drive", choices=("auto", "measured"), default="auto",
+        "--drive",
+        choices=("auto", "measured"),
+        default="auto",
         help="specimen drive: the transfer model's replay when it explains the measured "
         "displacement to its noise floor (auto, default) or always the measured displacement",
-    )  # fmt: skip
+    )
     p.add_argument("--quiet", action="store_true", help="print only the verdict line")
     return p
 
@@ -70,8 +76,11 @@ def run(args: argparse.Namespace) -> int:
 
     nominal = load_nominal(args.nominal)
     records = [load_record(path) for path in args.data]
-    effects = tuple(EFFECTS) if args.effects is None else tuple(
-        e.strip() for e in args.effects.split(",") if e.strip())  # fmt: skip
+    effects = (
+        tuple(EFFECTS)
+        if args.effects is None
+        else tuple(e.strip() for e in args.effects.split(",") if e.strip())
+    )
     options = Options(
         cutoff=DEFAULT_CUTOFF if args.cutoff is None else args.cutoff,
         effects=effects,

@@ -22,23 +22,43 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("log", type=Path, help="MCAP log written by 'rths run'")
     p.add_argument("--speed", type=float, default=1.0, help="pace multiplier (2 = twice as fast)")
     p.add_argument("--run-id", help="key prefix rths/<run-id>/ (default: the recorded run id)")
-    p.add_argument("--topic", action="append", default=None, metavar="TOPIC",
-                   help="topics to replay (default rths/loop and rths/specimen if present)")  # fmt: skip
-    p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
-                   help="zenoh endpoint to listen on for subscribers (default "
-                   f"{DEFAULT_LISTEN} when no --connect is given)")  # fmt: skip
-    p.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
-                   help="zenoh endpoint of a subscriber/router to connect to")  # fmt: skip
-    p.add_argument("--wait", type=float, default=0.0, metavar="S",
-                   help="wait this long for subscribers before publishing")  # fmt: skip
+    p.add_argument(
+        "--topic",
+        action="append",
+        default=None,
+        metavar="TOPIC",
+        help="topics to replay (default rths/loop and rths/specimen if present)",
+    )
+    p.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="zenoh endpoint to listen on for subscribers (default "
+        f"{DEFAULT_LISTEN} when no --connect is given)",
+    )
+    p.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="zenoh endpoint of a subscriber/router to connect to",
+    )
+    p.add_argument(
+        "--wait",
+        type=float,
+        default=0.0,
+        metavar="S",
+        help="wait this long for subscribers before publishing",
+    )
     return p
 
 
 def run(args: argparse.Namespace) -> int:
     """Republish the log; returns 0."""
-    from rths.errors import DataError
-    from rths.replay import replay
-    from rths.transport import ZenohEndpoints
+    from rths.core.errors import DataError
+    from rths.log.replay import replay
+    from rths.wire.transport import ZenohEndpoints
 
     if not args.speed > 0:
         raise DataError(f"--speed must be positive; got {args.speed!r}")
@@ -46,7 +66,8 @@ def run(args: argparse.Namespace) -> int:
         raise DataError(f"--wait must be >= 0; got {args.wait!r}")
     listen = tuple(args.listen) or (() if args.connect else (DEFAULT_LISTEN,))
     endpoints = ZenohEndpoints(listen=listen, connect=tuple(args.connect))
-    count = replay(args.log, endpoints, speed=args.speed, run_id=args.run_id, topics=args.topic,
-                   wait=args.wait)  # fmt: skip
+    count = replay(
+        args.log, endpoints, speed=args.speed, run_id=args.run_id, topics=args.topic, wait=args.wait
+    )
     print(f"replayed {count} records from {args.log}")
     return 0

@@ -18,22 +18,28 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     )
     p.add_argument("log", type=Path, help="MCAP log written by 'rths run'")
     p.add_argument("--out", type=Path, help="output directory (default <log>.report/)")
-    p.add_argument("--cycles", type=float, default=3.0,
-                   help="steady-state cycles of the load shown in the figures")  # fmt: skip
+    p.add_argument(
+        "--cycles",
+        type=float,
+        default=3.0,
+        help="steady-state cycles of the load shown in the figures",
+    )
     p.add_argument("--no-mock", action="store_true", help="skip the fully numerical mock runs")
     return p
 
 
 def run(args: argparse.Namespace) -> int:
     """Write metrics.json and the figures; returns 0."""
-    from rths.errors import DataError
-    from rths.report import write_report
+    from rths.analysis.report import write_report
+    from rths.core.errors import DataError
 
     if not args.cycles > 0:
         raise DataError(f"--cycles must be positive; got {args.cycles!r}")
     out = args.out or args.log.with_suffix(".report")
     doc = write_report(args.log, out, cycles=args.cycles, mock=not args.no_mock)
     tr = doc["tracking"]
-    print(f"J1 {1e3 * tr['j1_delay']:.3f} ms, J2 {100 * tr['j2']:.3f} %, "
-          f"J3 {100 * tr['j3']:.3f} %, sync RMSE {100 * tr['sync_rmse']:.3f} % -> {out}/")
+    print(
+        f"J1 {1e3 * tr['j1_delay']:.3f} ms, J2 {100 * tr['j2']:.3f} %, "
+        f"J3 {100 * tr['j3']:.3f} %, sync RMSE {100 * tr['sync_rmse']:.3f} % -> {out}/"
+    )
     return 0

@@ -6,38 +6,86 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+from rths.core.errors import ConfigError
+
+if TYPE_CHECKING:
+    from rths.config.scenario import Scenario
 
 __all__ = ["add_parser", "run"]
+
+
+class _KindsFormatter(argparse.HelpFormatter):
+    """Help that ends with the registered kinds (read from the registries only when the help is
+    printed, so ``rths --help`` stays fast)."""
+
+    def format_help(self) -> str:
+        from rths.config.kinds import registry
+
+        lines = ["kinds a scenario can name (details: rths kinds):"]
+        for family in ("substructure", "specimen", "actuator", "compensator"):
+            lines.append(f"  [{family}] " + ", ".join(registry(family).names()))
+        return super().format_help() + "\n" + "\n".join(lines) + "\n"
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Register ``rths run``."""
     p = subparsers.add_parser(
         "run",
+        formatter_class=_KindsFormatter,
         help="run a scenario (RTHS over zenoh, or in process) and record it to MCAP",
         description="Run an RTHS scenario. The specimen process is started on loopback unless "
         "--external-specimen is given. Prints a one-line summary: J1, J2, J3, sync-subspace RMSE, "
         "overruns, recording gaps.",
     )
     p.add_argument("scenario", type=Path, help="scenario TOML file")
-    p.add_argument("--clock", choices=("lockstep", "realtime", "fast"),
-                   help="override the scenario's clock")  # fmt: skip
+    p.add_argument(
+        "--clock", choices=("lockstep", "realtime", "fast"), help="override the scenario's clock"
+    )
     p.add_argument("--out", type=Path, help="MCAP log path (default runs/<run-id>.mcap)")
-    p.add_argument("--compensator", help="override the compensator kind (none, polynomial, ats, "
-                   "ff, lqg, ff_lqg); with --monte-carlo also 'all'")  # fmt: skip
-    p.add_argument("--monte-carlo", type=int, metavar="N", default=None, nargs="?", const=0,
-                   help="run N perturbed draws of the lab on the fast clock instead (no N: the "
-                   "scenario's [monte_carlo] draws)")  # fmt: skip
+    p.add_argument(
+        "--compensator",
+        help="override the compensator kind (see the list below); with --monte-carlo also 'all'",
+    )
+    p.add_argument(
+        "--monte-carlo",
+        type=int,
+        metavar="N",
+        default=None,
+        nargs="?",
+        const=0,
+        help="run N perturbed draws of the lab on the fast clock instead (no N: the "
+        "scenario's [monte_carlo] draws)",
+    )
     p.add_argument("--seed", type=int, help="noise seed (default: the scenario's)")
-    p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
-                   help="zenoh endpoint to listen on (default tcp/127.0.0.1:<free port>)")  # fmt: skip
-    p.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
-                   help="zenoh endpoint to connect to")  # fmt: skip
-    p.add_argument("--external-specimen", action="store_true",
-                   help="do not start 'rths specimen'; wait for one started elsewhere")  # fmt: skip
+    p.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="zenoh endpoint to listen on (default tcp/127.0.0.1:<free port>)",
+    )
+    p.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="zenoh endpoint to connect to",
+    )
+    p.add_argument(
+        "--external-specimen",
+        action="store_true",
+        help="do not start 'rths specimen'; wait for one started elsewhere",
+    )
     p.add_argument("--run-id", help="run id (zenoh keys rths/<run-id>/); default generated")
-    p.add_argument("--ready-timeout", type=float, default=30.0, metavar="S",
-                   help="how long to wait for the specimen process [s]")  # fmt: skip
+    p.add_argument(
+        "--ready-timeout",
+        type=float,
+        default=30.0,
+        metavar="S",
+        help="how long to wait for the specimen process [s]",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     return p
@@ -45,46 +93,103 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 def run(args: argparse.Namespace) -> int:
     """Run the scenario (or its Monte Carlo); 0 when it ran to the end, 1 if stopped early."""
-    from rths.scenario import load_scenario
+    from rths.config.scenario import load_scenario
 
     scn = load_scenario(args.scenario)
     if args.monte_carlo is not None:
-        from rths.montecarlo import main as monte_carlo
-
-        return monte_carlo(scn, args)
+        return _monte_carlo(scn, args)
     from tqdm import tqdm
 
-    from rths.runner import RunOptions, run_scenario
+    from rths.session.runner import RunOptions, run_scenario
 
-    bar = None if args.no_progress else tqdm(total=scn.run.steps, unit="step", leave=False,
-                                             desc=scn.run.name, file=sys.stderr)  # fmt: skip
+    # disable=None: no bar when stderr is not a terminal (CI logs stay free of carriage returns)
+    bar = (
+        None
+        if args.no_progress
+        else tqdm(
+            total=scn.run.steps,
+            unit="step",
+            leave=False,
+            desc=scn.run.name,
+            file=sys.stderr,
+            disable=None,
+        )
+    )
 
     def progress(done: int, total: int) -> None:
         if bar is not None:
             bar.update(done - bar.n)
 
     options = RunOptions(
-        clock=args.clock, out=args.out, compensator=args.compensator, listen=tuple(args.listen),
-        connect=tuple(args.connect), external_specimen=args.external_specimen,
-        ready_timeout=args.ready_timeout, progress=progress if bar else None, seed=args.seed,
+        clock=args.clock,
+        out=args.out,
+        compensator=args.compensator,
+        listen=tuple(args.listen),
+        connect=tuple(args.connect),
+        external_specimen=args.external_specimen,
+        ready_timeout=args.ready_timeout,
+        progress=progress if bar else None,
+        seed=args.seed,
         run_id=args.run_id,
-        on_waiting=lambda cmd: print(f"waiting for the specimen; start it with:\n  {cmd}",
-                                     file=sys.stderr, flush=True),
-    )  # fmt: skip
+        on_waiting=lambda cmd: print(
+            f"waiting for the specimen; start it with:\n  {cmd}", file=sys.stderr, flush=True
+        ),
+    )
     try:
         outcome = run_scenario(scn, options)
     finally:
         if bar is not None:
             bar.close()
     if args.json:
-        doc = {"path": str(outcome.path), "run_id": outcome.run_id, "clock": outcome.clock,
-               "steps": outcome.result.steps, "stopped": outcome.result.stopped,
-               "overruns": outcome.result.timing.overruns,
-               "metrics": outcome.metrics.to_dict() if outcome.metrics else None}  # fmt: skip
+        doc = {
+            "path": str(outcome.path),
+            "run_id": outcome.run_id,
+            "clock": outcome.clock,
+            "steps": outcome.result.steps,
+            "stopped": outcome.result.stopped,
+            "overruns": outcome.result.timing.overruns,
+            "metrics": outcome.metrics.to_dict() if outcome.metrics else None,
+        }
         print(json.dumps(doc, indent=2))
     else:
         print(outcome.line())
     if outcome.result.stopped:
         print(f"rths run: stopped early: {outcome.result.stopped}", file=sys.stderr)
         return 1
+    return 0
+
+
+def _monte_carlo(scn: Scenario, args: argparse.Namespace) -> int:
+    """``rths run SCENARIO --monte-carlo N [--compensator KIND|all] [--json]``."""
+    from controllers.factory import kinds
+    from rths.analysis.montecarlo import run_draws
+
+    draws = args.monte_carlo or scn.monte_carlo_draws
+    if draws < 1:
+        raise ConfigError(f"--monte-carlo needs a number of draws >= 1; got {args.monte_carlo!r}")
+    kind = args.compensator or scn.compensator.kind
+    chosen = list(kinds()) if kind == "all" else [kind]
+    seed = scn.run.seed if args.seed is None else args.seed
+    result = run_draws(scn, chosen, draws, seed, progress=not args.no_progress)
+    rows = result.table()
+    if args.json:
+        print(
+            json.dumps(
+                {
+                    "scenario": scn.run.name,
+                    "draws": draws,
+                    "seed": seed,
+                    "rows": rows,
+                    "j2": {k: v.tolist() for k, v in result.j2.items()},
+                },
+                indent=2,
+            )
+        )
+    else:
+        print(f"{scn.run.name}: J2 over {draws} perturbed labs (seed {seed})")
+        print(f"{'compensator':<12} {'median %':>9} {'worst %':>9} {'stopped':>8}")
+        for r in rows:
+            med = "-" if r["median"] is None else f"{100 * r['median']:.3f}"
+            worst = "-" if r["worst"] is None else f"{100 * r['worst']:.3f}"
+            print(f"{r['kind']:<12} {med:>9} {worst:>9} {r['stopped']:>8}")
     return 0

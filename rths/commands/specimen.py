@@ -18,23 +18,34 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     )
     p.add_argument("scenario", type=Path, help="scenario TOML file (the same as the coordinator's)")
     p.add_argument("--run-id", required=True, help="the coordinator's run id")
-    p.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
-                   help="coordinator endpoint, e.g. tcp/127.0.0.1:7447")  # fmt: skip
-    p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
-                   help="endpoint to listen on instead")  # fmt: skip
+    p.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="coordinator endpoint, e.g. tcp/127.0.0.1:7447",
+    )
+    p.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="endpoint to listen on instead",
+    )
     p.add_argument("--clock", choices=("lockstep", "realtime"), default="lockstep")
     p.add_argument("--ready-timeout", type=float, default=30.0, metavar="S")
-    p.add_argument("--seed", type=int, help="noise seed (default: the scenario's; 'rths run' "
-                   "passes its own)")  # fmt: skip
+    p.add_argument(
+        "--seed", type=int, help="noise seed (default: the scenario's; 'rths run' passes its own)"
+    )
     return p
 
 
 def run(args: argparse.Namespace) -> int:
     """Serve the lab until the coordinator stops; returns 0."""
-    from rths.errors import ConfigError
-    from rths.scenario import load_scenario
-    from rths.specimen_process import serve
-    from rths.transport import ZenohEndpoints
+    from rths.config.scenario import load_scenario
+    from rths.core.errors import ConfigError
+    from rths.session.specimen import serve
+    from rths.wire.transport import ZenohEndpoints
 
     if not args.connect and not args.listen:
         raise ConfigError("give the coordinator's endpoint with --connect (or --listen)")
@@ -42,6 +53,5 @@ def run(args: argparse.Namespace) -> int:
     endpoints = ZenohEndpoints(listen=tuple(args.listen), connect=tuple(args.connect))
     if args.seed is not None and args.seed < 0:
         raise ConfigError(f"--seed must be >= 0; got {args.seed}")
-    serve(scn, args.run_id, endpoints, args.clock, ready_timeout=args.ready_timeout,
-          seed=args.seed)  # fmt: skip
+    serve(scn, args.run_id, endpoints, args.clock, ready_timeout=args.ready_timeout, seed=args.seed)
     return 0

@@ -37,7 +37,7 @@ class ActuatorBaseline(Model):
     def prior(self, channel: Channel) -> NDArray:
         return np.array([1.0, 0.0])  # nominal gain, no offset
 
-    def describe(self, channel: Channel, theta: NDArray, beta: NDArray):  # noqa: ANN201
+    def describe(self, channel: Channel, theta: NDArray, beta: NDArray):
         return {}, {"gain": float(beta[0]), "offset": float(beta[1])}
 
 
@@ -66,13 +66,13 @@ class ActuatorDelay(Model):
         step = max(channel.dt, 1e-3)
         return [np.array([t]) for t in np.arange(lo[0], hi[0], step)]
 
-    def bounds(self, channel: Channel, base: dict[str, float]):  # noqa: ANN201
+    def bounds(self, channel: Channel, base: dict[str, float]):
         return np.array([-channel.nominal.actuator.delay]), np.array([self.max_delay])
 
     def prior(self, channel: Channel) -> NDArray:
         return np.array([1.0, 0.0])  # nominal gain, no offset
 
-    def describe(self, channel: Channel, theta: NDArray, beta: NDArray):  # noqa: ANN201
+    def describe(self, channel: Channel, theta: NDArray, beta: NDArray):
         return {"delay": float(theta[0])}, {"gain": float(beta[0]), "offset": float(beta[1])}
 
 
@@ -109,7 +109,7 @@ class RateLimit(Model):
         gains = sorted({1.0, min(max(base["gain"], 0.5), 1.5)})
         return [np.array([g, peak * q]) for g in gains for q in np.geomspace(0.1, 1.0, 31)]
 
-    def bounds(self, channel: Channel, base: dict[str, float]):  # noqa: ANN201
+    def bounds(self, channel: Channel, base: dict[str, float]):
         """Gain re-calibration within [0.5, 1.5] of the nominal; limit up to twice the peak."""
         peak = self._peak_velocity(channel, 1.0)
         return np.array([0.5, 0.02 * peak]), np.array([1.5, 2.0 * peak])
@@ -117,7 +117,7 @@ class RateLimit(Model):
     def prior(self, channel: Channel) -> NDArray:
         return np.zeros(1)  # no offset
 
-    def describe(self, channel: Channel, theta: NDArray, beta: NDArray):  # noqa: ANN201
+    def describe(self, channel: Channel, theta: NDArray, beta: NDArray):
         return {"velocity_limit": float(theta[1])}, {
             "gain": float(theta[0]),
             "offset": float(beta[0]),
@@ -137,7 +137,8 @@ class RateLimit(Model):
             return False
         k = max(1, int(round(0.5 * SECANT_WINDOW / channel.dt)))
         window = 2 * k * channel.dt
-        speed = np.concatenate([np.abs(s.observed[2 * k :] - s.observed[: -2 * k]) / window
-                                for s in channel.segments])  # fmt: skip
+        speed = np.concatenate(
+            [np.abs(s.observed[2 * k :] - s.observed[: -2 * k]) / window for s in channel.segments]
+        )
         noise = math.sqrt(2.0) * channel.noise["measured"] / window
         return float(np.percentile(speed, 99.9)) <= 1.05 * v_max + 4.0 * noise

@@ -1,7 +1,7 @@
 """Whole-record simulation kernels of the nonlinear candidate effects (numba).
 
 The per-interval integrator is the project's own IMD kernel,
-:func:`plants._imd_kernels.advance_flywheel` (S0 Eq.12 with a backlash dead zone in series, RK4
+:func:`plants.imd.kernels.advance_flywheel` (S0 Eq.12 with a backlash dead zone in series, RK4
 on a Hermite drive), so the candidate is exactly the emulated lab's model; this module only loops
 it over a record inside numba, which removes the per-sample Python call (~1 us each).
 """
@@ -14,15 +14,15 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from plants._imd_kernels import advance_flywheel, advance_flywheel_jit
+from plants.imd.kernels import advance_flywheel, advance_flywheel_jit
 
 __all__ = ["series_force_per_mass", "series_force_per_mass_py"]
 
-#: Largest ``omega * dt_sub`` [rad] per RK4 sub-step (as plants.imd.MAX_STEP_PHASE).
+#: Largest ``omega * dt_sub`` [rad] per RK4 sub-step (as plants.imd.models.MAX_STEP_PHASE).
 _MAX_STEP_PHASE = 0.2
 
 
-def _loop(advance, u, v, dt, damping_per_mass, omega, half_gap):  # noqa: ANN001, ANN202
+def _loop(advance, u, v, dt, damping_per_mass, omega, half_gap):
     """Reference loop (plain Python); :func:`_run_jit` is the same with the numba kernel."""
     n = u.size
     out = np.empty(n)
@@ -34,15 +34,26 @@ def _loop(advance, u, v, dt, damping_per_mass, omega, half_gap):  # noqa: ANN001
     out[0] = 0.0
     for i in range(1, n):
         x, w, f = advance(
-            x, w, u[i - 1], v[i - 1], u[i], v[i], dt, n_sub,
-            1.0, damping_per_mass[i], stiffness, 0.0, half_gap,
-        )  # fmt: skip
+            x,
+            w,
+            u[i - 1],
+            v[i - 1],
+            u[i],
+            v[i],
+            dt,
+            n_sub,
+            1.0,
+            damping_per_mass[i],
+            stiffness,
+            0.0,
+            half_gap,
+        )
         out[i] = f
     return out
 
 
 @njit(cache=True)
-def _run_jit(u, v, dt, damping_per_mass, omega, half_gap):  # noqa: ANN001, ANN202
+def _run_jit(u, v, dt, damping_per_mass, omega, half_gap):
     n = u.size
     out = np.empty(n)
     stiffness = omega * omega
@@ -53,9 +64,20 @@ def _run_jit(u, v, dt, damping_per_mass, omega, half_gap):  # noqa: ANN001, ANN2
     out[0] = 0.0
     for i in range(1, n):
         x, w, f = advance_flywheel_jit(
-            x, w, u[i - 1], v[i - 1], u[i], v[i], dt, n_sub,
-            1.0, damping_per_mass[i], stiffness, 0.0, half_gap,
-        )  # fmt: skip
+            x,
+            w,
+            u[i - 1],
+            v[i - 1],
+            u[i],
+            v[i],
+            dt,
+            n_sub,
+            1.0,
+            damping_per_mass[i],
+            stiffness,
+            0.0,
+            half_gap,
+        )
         out[i] = f
     return out
 
@@ -98,9 +120,13 @@ def series_force_per_mass(
         Total clearance [m] (0: internal stiffness only).
     """
     return _run_jit(
-        np.ascontiguousarray(u), np.ascontiguousarray(v), float(dt),
-        _damping_array(damping_per_mass, len(u)), float(omega), 0.5 * float(gap),
-    )  # fmt: skip
+        np.ascontiguousarray(u),
+        np.ascontiguousarray(v),
+        float(dt),
+        _damping_array(damping_per_mass, len(u)),
+        float(omega),
+        0.5 * float(gap),
+    )
 
 
 def series_force_per_mass_py(
@@ -113,6 +139,11 @@ def series_force_per_mass_py(
 ) -> NDArray[np.float64]:
     """Plain-Python reference of :func:`series_force_per_mass` (same source, no numba)."""
     return _loop(
-        advance_flywheel, np.asarray(u, float), np.asarray(v, float), float(dt),
-        _damping_array(damping_per_mass, len(u)), float(omega), 0.5 * float(gap),
-    )  # fmt: skip
+        advance_flywheel,
+        np.asarray(u, float),
+        np.asarray(v, float),
+        float(dt),
+        _damping_array(damping_per_mass, len(u)),
+        float(omega),
+        0.5 * float(gap),
+    )

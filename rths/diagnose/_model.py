@@ -56,7 +56,7 @@ class Model(ABC):
         contradicted by the record."""
         return True
 
-    def prepare(self, channel: Channel, base: dict[str, float]) -> None:  # noqa: B027
+    def prepare(self, channel: Channel, base: dict[str, float]) -> None:
         """Take what the model needs from the re-calibrated baseline (default: nothing)."""
 
     @abstractmethod

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import signal
 
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 
 __all__ = [
     "NOISE_BAND",

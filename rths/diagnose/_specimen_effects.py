@@ -24,7 +24,7 @@ __all__ = [
 ]
 
 
-def _smoothed(seg: Segment, key: str, make) -> NDArray:  # noqa: ANN001
+def _smoothed(seg: Segment, key: str, make) -> NDArray:
     """Cached ``h * make()`` on a segment."""
     if key not in seg.cache:
         seg.cache[key] = seg.h(make())
@@ -53,12 +53,12 @@ AMPLITUDE_SCALE: float = 0.153e-3
 def _amplitude_weight(channel: Channel, seg: Segment) -> NDArray:
     """``A_0/(A + A_0)`` per sample, ``A`` the load amplitude of S0 Eq.17-18 on the drive.
 
-    ``A`` is tracked as the emulated IMD does (:class:`plants._imd_amplitude.AmplitudeTracker`:
+    ``A`` is tracked as the emulated IMD does (:class:`plants.imd.amplitude.AmplitudeTracker`:
     half the peak-to-peak between the last two reversals, 0 until two reversals), with a
     hysteresis of five times the smoothed drive noise so that noise makes no reversals.
     """
     if "amplitude_weight" not in seg.cache:
-        from plants._imd_amplitude import AmplitudeTracker
+        from plants.imd.amplitude import AmplitudeTracker
         from rths.diagnose._signals import impulse_kernel
 
         assert seg.sos is not None
@@ -74,8 +74,9 @@ def _amplitude_weight(channel: Channel, seg: Segment) -> NDArray:
 
 def _amplitude_damping(channel: Channel, seg: Segment) -> NDArray:
     """``h * (v A_0/(A + A_0))``: the regressor of the amplitude-dependent damping ``c_A``."""
-    return _smoothed(seg, "amplitude_damping",
-                     lambda: seg.signals["v"] * _amplitude_weight(channel, seg))  # fmt: skip
+    return _smoothed(
+        seg, "amplitude_damping", lambda: seg.signals["v"] * _amplitude_weight(channel, seg)
+    )
 
 
 class _Flywheel(Model):
@@ -127,10 +128,15 @@ class SpecimenBaseline(Model):
         s = channel.nominal.specimen
         return np.array([s.inertance, s.damping, s.stiffness, 0.0, 0.0])
 
-    def describe(self, channel: Channel, theta: NDArray, beta: NDArray):  # noqa: ANN201
+    def describe(self, channel: Channel, theta: NDArray, beta: NDArray):
         m, c, k, ca, b = (float(q) for q in beta)
-        return {}, {"inertance": m, "damping": c, "stiffness": k, "amplitude_damping": ca,
-                    "offset": b}  # fmt: skip
+        return {}, {
+            "inertance": m,
+            "damping": c,
+            "stiffness": k,
+            "amplitude_damping": ca,
+            "offset": b,
+        }
 
 
 class CoulombFriction(Model):
@@ -154,10 +160,15 @@ class CoulombFriction(Model):
         s = channel.nominal.specimen
         return np.array([s.inertance, s.damping, s.stiffness, 0.0, s.friction, 0.0])
 
-    def describe(self, channel: Channel, theta: NDArray, beta: NDArray):  # noqa: ANN201
+    def describe(self, channel: Channel, theta: NDArray, beta: NDArray):
         m, c, k, ca, fr, b = (float(q) for q in beta)
-        return {"friction": fr}, {"inertance": m, "damping": c, "stiffness": k,
-                                  "amplitude_damping": ca, "offset": b}  # fmt: skip
+        return {"friction": fr}, {
+            "inertance": m,
+            "damping": c,
+            "stiffness": k,
+            "amplitude_damping": ca,
+            "offset": b,
+        }
 
     def physical(self, channel: Channel, params: dict[str, float]) -> bool:
         return params["friction"] > 0.0
@@ -205,23 +216,29 @@ class InternalStiffness(_Flywheel):
         return min(0.4 / channel.dt, 4.0 * (channel.cutoff or 0.2 / channel.dt))
 
     def starts(self, channel: Channel, base: dict[str, float]) -> list[NDArray]:
-        return [np.array([f, kappa]) for f in np.geomspace(1.0, self._top(channel), 28)
-                for kappa in (0.3, 1.0, 3.0)]  # fmt: skip
+        return [
+            np.array([f, kappa])
+            for f in np.geomspace(1.0, self._top(channel), 28)
+            for kappa in (0.3, 1.0, 3.0)
+        ]
 
-    def bounds(self, channel: Channel, base: dict[str, float]):  # noqa: ANN201
+    def bounds(self, channel: Channel, base: dict[str, float]):
         return np.array([0.5, 1e-3]), np.array([self._top(channel), 1e3])
 
     def prior(self, channel: Channel) -> NDArray:
         s = channel.nominal.specimen
         return np.array([s.inertance, s.stiffness, 0.0])
 
-    def describe(self, channel: Channel, theta: NDArray, beta: NDArray):  # noqa: ANN201
+    def describe(self, channel: Channel, theta: NDArray, beta: NDArray):
         f, kappa = float(theta[0]), float(theta[1])
         m, k, b = (float(q) for q in beta)
         w = 2.0 * math.pi * f
         return {"stiffness": m * w * w, "frequency": f}, {
-            "inertance": m, **self._scaled(kappa, m), "stiffness": k, "offset": b,
-        }  # fmt: skip
+            "inertance": m,
+            **self._scaled(kappa, m),
+            "stiffness": k,
+            "offset": b,
+        }
 
     def physical(self, channel: Channel, params: dict[str, float]) -> bool:
         return params["stiffness"] > 0.0
@@ -270,24 +287,30 @@ class Backlash(_Flywheel):
             for kappa in (0.5, 1.0, 2.0)
         ]
         # and the internal-stiffness limit (no gap) on a finer frequency grid
-        return grid + [np.array([1e-4 * scale, f, 1.0])
-                       for f in np.geomspace(2.0, self._top(channel), 28)]  # fmt: skip
+        return grid + [
+            np.array([1e-4 * scale, f, 1.0]) for f in np.geomspace(2.0, self._top(channel), 28)
+        ]
 
-    def bounds(self, channel: Channel, base: dict[str, float]):  # noqa: ANN201
-        return (np.array([0.0, 2.0, 1e-2]),
-                np.array([self._scale(channel), self._top(channel), 1e2]))  # fmt: skip
+    def bounds(self, channel: Channel, base: dict[str, float]):
+        return (
+            np.array([0.0, 2.0, 1e-2]),
+            np.array([self._scale(channel), self._top(channel), 1e2]),
+        )
 
     def prior(self, channel: Channel) -> NDArray:
         s = channel.nominal.specimen
         return np.array([s.inertance, s.stiffness, 0.0])
 
-    def describe(self, channel: Channel, theta: NDArray, beta: NDArray):  # noqa: ANN201
+    def describe(self, channel: Channel, theta: NDArray, beta: NDArray):
         gap, f, kappa = (float(q) for q in theta)
         m, k, b = (float(q) for q in beta)
         w = 2.0 * math.pi * f
         return {"gap": gap, "stiffness": m * w * w, "frequency": f}, {
-            "inertance": m, **self._scaled(kappa, m), "stiffness": k, "offset": b,
-        }  # fmt: skip
+            "inertance": m,
+            **self._scaled(kappa, m),
+            "stiffness": k,
+            "offset": b,
+        }
 
     def physical(self, channel: Channel, params: dict[str, float]) -> bool:
         return params["gap"] > 0.0 and params["stiffness"] > 0.0

@@ -27,6 +27,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from rths.core.errors import DataError
 from rths.diagnose._signals import (
     actuator_replay,
     derivatives,
@@ -37,7 +38,6 @@ from rths.diagnose._signals import (
 )
 from rths.diagnose.data import Record
 from rths.diagnose.nominal import NominalModel
-from rths.errors import DataError
 
 __all__ = [
     "DEFAULT_CUTOFF",
@@ -174,10 +174,11 @@ class Channel:
             impulse = np.zeros(n)
             impulse[0] = 1.0
             k_u = actuator_replay(g.num, g.den, dt, impulse)
-            psd = self.noise["measured"] ** 2 + self.noise["command"] ** 2 * np.abs(
-                np.fft.rfft(k_u)
-            ) ** 2
-            return f, psd * scale
+            psd = (
+                self.noise["measured"] ** 2
+                + self.noise["command"] ** 2 * np.abs(np.fft.rfft(k_u)) ** 2
+            )
+            return np.asarray(f, dtype=np.float64), psd * scale
         sos = self.segments[0].sos
         assert sos is not None
         spec = self.nominal.specimen
@@ -185,7 +186,7 @@ class Channel:
         k_f = np.abs(np.fft.rfft(impulse_kernel(sos, dt))) ** 2
         k_x = np.abs(np.fft.rfft(impulse_kernel(sos, dt, lin))) ** 2
         psd = self.noise["force"] ** 2 * k_f + self.noise["drive"] ** 2 * k_x
-        return f, psd * scale
+        return np.asarray(f, dtype=np.float64), psd * scale
 
 
 def split_roles(records: list[Record], cutoff: float) -> list[tuple[NDArray, NDArray]]:

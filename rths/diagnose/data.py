@@ -8,7 +8,7 @@ the convention of the MCAP topic ``rths/loop`` (``t`` is the end of the step), s
 mean the same thing.  A lab record sampled simultaneously differs from this by at most half a
 sample, which the diagnosis sees as part of the actuator delay.
 
-MCAP logs written by ``rths run`` are read through :func:`rths.mcap_io.read_topic` (topic
+MCAP logs written by ``rths run`` are read through :func:`rths.log.reader.read_topic` (topic
 ``rths/loop``: ``t``, ``target``, ``command``, ``measured``, ``force``); the scenario text in the
 log's metadata is kept for the structure channel.
 """
@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from rths.errors import DataError
+from rths.core.errors import DataError
 
 __all__ = [
     "COLUMNS",
@@ -189,7 +189,7 @@ def read_mcap(path: str | os.PathLike[str]) -> Record:
     DataError
         Unreadable log, no ``rths/loop`` topic, a missing field, or bad sampling.
     """
-    from rths.mcap_io import read_metadata, read_topic
+    from rths.log.reader import read_metadata, read_topic
 
     p = Path(path)
     loop = read_topic(p, _LOOP_TOPIC)

@@ -63,8 +63,7 @@ __all__ = [
 
 #: The candidate effects by verdict name ("room to add more": see the module docstring).
 EFFECTS: dict[str, type[Model]] = {
-    m.name: m
-    for m in (InternalStiffness, Backlash, CoulombFriction, ActuatorDelay, RateLimit)
+    m.name: m for m in (InternalStiffness, Backlash, CoulombFriction, ActuatorDelay, RateLimit)
 }
 
 

@@ -18,9 +18,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import optimize
 
+from rths.core.errors import NumericalError
 from rths.diagnose.channels import Channel, Segment
 from rths.diagnose.effects import Model
-from rths.errors import NumericalError
 
 __all__ = ["RIDGE", "Fit", "fit_model", "noise_floor", "stride_for"]
 
@@ -120,18 +120,23 @@ def _polish(problem: _Problem, theta: NDArray, lo: NDArray, hi: NDArray, stride:
         return float(np.mean(r * r))
 
     result = optimize.minimize(
-        cost, theta / scale, method="Nelder-Mead", bounds=list(zip(lo / scale, hi / scale,
-                                                                    strict=True)),
-        options={"xatol": 1e-6, "fatol": 0.0, "maxfev": 150 * theta.size, "initial_simplex":
-                 np.vstack([theta / scale] + [theta / scale * (1 + 0.02 * e)
-                                              for e in np.eye(theta.size)])},
-    )  # fmt: skip
+        cost,
+        theta / scale,
+        method="Nelder-Mead",
+        bounds=list(zip(lo / scale, hi / scale, strict=True)),
+        options={
+            "xatol": 1e-6,
+            "fatol": 0.0,
+            "maxfev": 150 * theta.size,
+            "initial_simplex": np.vstack(
+                [theta / scale] + [theta / scale * (1 + 0.02 * e) for e in np.eye(theta.size)]
+            ),
+        },
+    )
     return result.x * scale if result.fun <= cost(theta / scale) else theta
 
 
-def fit_model(
-    model: Model, channel: Channel, base: dict[str, float] | None = None
-) -> Fit:
+def fit_model(model: Model, channel: Channel, base: dict[str, float] | None = None) -> Fit:
     """Identify ``model`` on ``channel`` and score it on the held-out samples.
 
     Parameters
@@ -227,8 +232,9 @@ def noise_floor(fit: Fit, channel: Channel, seed: int = 0, repeats: int = 2) -> 
             assert s.sos is not None
             x = s.signals["x"] + smooth(sigma_x * rng.standard_normal(s.observed.size), s.sos)
             v, a = derivatives(x, s.dt)
-            twin = Segment(s.name, s.dt, s.observed, {"x": x, "v": v, "a": a}, s.ident, s.held,
-                           s.sos)  # fmt: skip
+            twin = Segment(
+                s.name, s.dt, s.observed, {"x": x, "v": v, "a": a}, s.ident, s.held, s.sos
+            )
             cols, fixed = fit.model.columns(channel, twin, fit.theta)
             d = (cols @ fit.beta + fixed - p)[s.held]
             acc += float(np.sum(d * d))

@@ -14,18 +14,19 @@ Format (design.md section 7; every key below is required except ``delay``, ``dam
     friction = 0.0        # N
 
 The specimen form is the simplified IMD of S0 Eq.1 plus a parallel spring.  Errors are
-:class:`rths.errors.ConfigError` naming the file, the table, the key and the value.
+:class:`rths.core.errors.ConfigError` naming the file, the table, the key and the value.
 """
 
 from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-from rths._toml import Table, load_toml, parse_toml
-from rths.errors import ParameterError
+from rths.config.toml import Table, load_toml, parse_toml
+from rths.core.errors import ParameterError
 
 __all__ = [
     "ActuatorNominal",
@@ -145,7 +146,7 @@ def load_nominal(path: str | os.PathLike[str]) -> NominalModel:
         Missing file, TOML syntax error, missing/unknown key, wrong type or out-of-range value,
         improper or unstable actuator transfer function.
     """
-    doc, _ = load_toml(path)
+    doc, _ = load_toml(Path(path))
     return _parse(doc)
 
 
@@ -167,4 +168,3 @@ def nominal_toml(model: NominalModel, comment: str = "") -> str:
         f"stiffness = {float(s.stiffness)!r}  # N/m\n"
         f"friction = {float(s.friction)!r}  # N\n"
     )
-

@@ -26,8 +26,14 @@ from rths.diagnose.verdict import ChannelResult, Diagnosis, held_runs
 
 __all__ = ["table", "write_figures"]
 
-_UNITS = {"stiffness": "N/m", "gap": "m", "friction": "N", "delay": "s",
-          "velocity_limit": "m/s", "frequency": "Hz"}  # fmt: skip
+_UNITS = {
+    "stiffness": "N/m",
+    "gap": "m",
+    "friction": "N",
+    "delay": "s",
+    "velocity_limit": "m/s",
+    "frequency": "Hz",
+}
 
 
 def _params(params: dict[str, float]) -> str:
@@ -55,19 +61,26 @@ def table(d: Diagnosis) -> str:
             f"{_pct(c.baseline_nrmse):>9} {_pct(c.floor_nrmse):>9}  "
             f"{'yes' if dec.significant else 'no':11} {band:>13}  {dec.phase}"
         )
-    lines += ["", f"{'candidate':20} {'subsystem':9} {'held-out':>9} {'closed':>8} "
-              f"{'score':>6}  parameters"]  # fmt: skip
-    for c in d.candidates:
-        mark = "*" if c.eligible else " "
+    lines += [
+        "",
+        f"{'candidate':20} {'subsystem':9} {'held-out':>9} {'closed':>8} {'score':>6}  parameters",
+    ]
+    for cand in d.candidates:
+        mark = "*" if cand.eligible else " "
         lines.append(
-            f"{mark}{c.name:19} {c.subsystem:9} {_pct(c.held_nrmse):>9} "
-            f"{100 * c.closed:7.1f}% {c.score:6.2f}  {_params(c.fit.params)}"
+            f"{mark}{cand.name:19} {cand.subsystem:9} {_pct(cand.held_nrmse):>9} "
+            f"{100 * cand.closed:7.1f}% {cand.score:6.2f}  {_params(cand.fit.params)}"
         )
     lines.append("")
     if d.verdict == "none":
-        where = "" if d.subsystem == "none" else (
-            f" (unexplained gap in the {d.subsystem}: {d.band_hz[0]:.3g}-{d.band_hz[1]:.3g} Hz,"
-            f" {d.phase})")  # fmt: skip
+        where = (
+            ""
+            if d.subsystem == "none"
+            else (
+                f" (unexplained gap in the {d.subsystem}: {d.band_hz[0]:.3g}-{d.band_hz[1]:.3g} Hz,"
+                f" {d.phase})"
+            )
+        )
         lines.append(f"verdict: none{where}")
     else:
         lines.append(
@@ -113,8 +126,11 @@ def write_figures(d: Diagnosis, directory: str | os.PathLike[str]) -> list[Path]
         ax.plot(t, r1, lw=0.6, label=f"+ {d.verdict}")
     for a, b in c.decomposition.windows:
         ax.axvspan(a, b, color="tab:red", alpha=0.15, lw=0)
-    ax.set(xlabel="time [s]", ylabel=f"residual [{unit}]",
-           title=f"{c.channel.name} channel, held out (shaded: where the gap concentrates)")
+    ax.set(
+        xlabel="time [s]",
+        ylabel=f"residual [{unit}]",
+        title=f"{c.channel.name} channel, held out (shaded: where the gap concentrates)",
+    )
     ax.legend(loc="upper right")
     paths.append(out / "residual_time.png")
 
@@ -122,8 +138,9 @@ def write_figures(d: Diagnosis, directory: str | os.PathLike[str]) -> list[Path]
     dec = c.decomposition
     ax2.loglog(dec.frequency[1:], dec.residual_psd[1:], lw=0.8, label="re-calibrated nominal")
     if r1 is not None:
-        f, p = signal.welch(r1, fs=1.0 / c.channel.dt, nperseg=min(r1.size, dec.frequency.size
-                                                                    * 2 - 2))  # fmt: skip
+        f, p = signal.welch(
+            r1, fs=1.0 / c.channel.dt, nperseg=min(r1.size, dec.frequency.size * 2 - 2)
+        )
         ax2.loglog(f[1:], p[1:], lw=0.8, label=f"+ {d.verdict}")
     ax2.loglog(dec.frequency[1:], dec.floor_psd[1:], "k--", lw=0.8, label="noise floor + tol.")
     if dec.significant:
@@ -141,8 +158,9 @@ def write_figures(d: Diagnosis, directory: str | os.PathLike[str]) -> list[Path]
     ax3.set(xlabel="held-out reducible gap closed [%]", title=f"verdict: {d.verdict}")
     paths.append(out / "ranking.png")
 
-    fig4, (ax4, ax5) = plt.subplots(2, 1, figsize=(9, 5), sharex=True,
-                                    gridspec_kw={"height_ratios": (2, 1)})  # fmt: skip
+    fig4, (ax4, ax5) = plt.subplots(
+        2, 1, figsize=(9, 5), sharex=True, gridspec_kw={"height_ratios": (2, 1)}
+    )
     tt, obs = _held_part(c, [s.observed for s in c.channel.segments])
     center = np.mean(dec.windows[0]) if dec.windows else tt[tt.size // 2]
     half = float(np.clip(3.0 / max(dec.peak_hz, 0.5), 0.15, 1.0))  # ~6 periods of the peak

@@ -212,6 +212,4 @@ def decompose(
     phase = _phase(drive, residual, floor_var) if significant else "none"
     width = 0.5 / max(peak, 1.0)
     windows = _windows(residual[0], times[0], dt, floor_var, width) if significant else []
-    return Decomposition(
-        significant, (best, threshold), band, peak, phase, windows, f, s_r, s_n
-    )
+    return Decomposition(significant, (best, threshold), band, peak, phase, windows, f, s_r, s_n)

@@ -1,8 +1,8 @@
 """The structure channel of an ``rths run`` log: the RTHS against the fully numerical run.
 
 For an MCAP log that carries the scenario text in its metadata (``scenario.text``), the
-scenario is re-run with :func:`rths.mock.numerical_run` (variant ``"model"``: the scenario's own
-``[model]`` device, no specimen) for as many steps as the log holds, and the logged ``target``
+scenario is re-run with :func:`rths.session.mock.numerical_run` (variant ``"model"``: the scenario's
+own ``[model]`` device, no specimen) for as many steps as the log holds, and the logged ``target``
 (the interface displacement of the numerical substructure) is compared with the mock's.  This
 channel says how far the specimen's departure from the model moved the structure; it has no
 candidate effects of its own.
@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rths.core.errors import RTHSError
 from rths.diagnose.data import Record
 from rths.diagnose.residuals import nrmse
-from rths.errors import RTHSError
 
 __all__ = ["StructureGap", "structure_gap"]
 
@@ -50,8 +50,8 @@ def structure_gap(records: list[Record]) -> StructureGap:
             notes[r.name] = "no target/scenario in the record (CSV or bare log)"
             continue
         try:
-            from rths.mock import numerical_run
-            from rths.scenario import parse_scenario
+            from rths.config.scenario import parse_scenario
+            from rths.session.mock import numerical_run
 
             scn = parse_scenario(r.scenario_text, f"{r.name}:scenario")
             mock = numerical_run(scn, "model", steps=r.n)

@@ -2,8 +2,9 @@
 
 Used by the blind suite (``tools/blind_suite.py``), the tests and the benchmark.  A record is the
 loop ``command -> DAC -> TransferFunctionActuator (+ delay, rate limit) -> IMD specimen -> ADCs``
-of :class:`plants.lab.EmulatedLab`; the specimen is :class:`plants.imd.SimplifiedIMD` (S0 Eq.1),
-or :class:`plants.imd.InternalStiffnessIMD` (S0 Eq.12) when a series element is switched on.
+of :class:`plants.lab.EmulatedLab`; the specimen is :class:`plants.imd.models.SimplifiedIMD`
+(S0 Eq.1), or :class:`plants.imd.models.InternalStiffnessIMD` (S0 Eq.12) when a series element is
+switched on.
 Nothing here is visible to the diagnosis, which sees only the CSV columns and the nominal file.
 """
 
@@ -17,11 +18,11 @@ from numpy.typing import NDArray
 from scipy import signal
 
 from plants.actuator import MTS_IDENTIFIED, TransferFunctionActuator
-from plants.imd import IMDParameters, imd_from_parameters
+from plants.imd.models import IMDParameters, imd_from_parameters
 from plants.lab import Converter, EmulatedLab, LabConverters
+from rths.core.errors import ParameterError, check_positive, format_choices
 from rths.diagnose.data import Record
 from rths.diagnose.nominal import ActuatorNominal, NominalModel, SpecimenNominal
-from rths.errors import ParameterError, check_positive, format_choices
 
 __all__ = ["CLASSES", "LabCase", "band_limited_command", "lab_record", "seed_converters"]
 
@@ -36,8 +37,9 @@ CLASSES: tuple[str, ...] = (
 )
 
 
-def seed_converters(displacement_noise: float = 5e-4, force_noise: float = 1e-3,
-                    force_per_volt: float = 1000.0) -> LabConverters:  # fmt: skip
+def seed_converters(
+    displacement_noise: float = 5e-4, force_noise: float = 1e-3, force_per_volt: float = 1000.0
+) -> LabConverters:
     """16-bit +/-10 V converters of the seed RTHS (S0 section 5.2, dSPACE DS1103).
 
     LVDT 0.0076 m/V (+/-76 mm), load cell ``force_per_volt`` [N/V]; noise in V RMS (defaults:
@@ -120,9 +122,13 @@ class LabCase:
 
 
 def band_limited_command(
-    rng: np.random.Generator, duration: float, dt: float, band: tuple[float, float], rms: float,
+    rng: np.random.Generator,
+    duration: float,
+    dt: float,
+    band: tuple[float, float],
+    rms: float,
     ramp: float = 1.0,
-) -> NDArray[np.float64]:  # fmt: skip
+) -> NDArray[np.float64]:
     """Gaussian noise band-passed to ``band`` [Hz] (4th-order Butterworth, zero phase), scaled
     to ``rms`` [m] and tapered in and out over ``ramp`` [s] (the test starts and ends at rest).
     """
@@ -166,8 +172,12 @@ def lab_record(
     converters = case.converters or seed_converters()
     measured, force, peak, saturated = _run(case, command, dt, seed, converters)
     if saturated["force"]:
-        converters = replace(converters, force=replace(
-            converters.force, units_per_volt=1.25 * peak / converters.force.full_scale))
+        converters = replace(
+            converters,
+            force=replace(
+                converters.force, units_per_volt=1.25 * peak / converters.force.full_scale
+            ),
+        )
         measured, force, _, _ = _run(case, command, dt, seed, converters)
-    t = dt * np.arange(1, command.size + 1)
+    t = dt * np.arange(1, command.size + 1, dtype=np.float64)
     return Record(name, dt, t, np.asarray(command, float).copy(), measured, force)

@@ -22,14 +22,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rths.diagnose.channels import DEFAULT_CUTOFF, Channel, actuator_channel, specimen_channel
+from rths.core.errors import ParameterError, check_positive, format_choices
+from rths.diagnose.channels import (
+    DEFAULT_CUTOFF,
+    Channel,
+    actuator_channel,
+    specimen_channel,
+)
 from rths.diagnose.data import Record
 from rths.diagnose.effects import EFFECTS, baseline_for
 from rths.diagnose.identify import Fit, fit_model, noise_floor
 from rths.diagnose.nominal import NominalModel
 from rths.diagnose.residuals import FLOOR_MARGIN, Decomposition, decompose
 from rths.diagnose.structure import StructureGap, structure_gap
-from rths.errors import ParameterError, check_positive, format_choices
 
 __all__ = [
     "DRIVES",
@@ -81,8 +86,9 @@ class Options:
     def __post_init__(self) -> None:
         check_positive(self.cutoff, "specimen smoothing cutoff [Hz]")
         if self.drive not in DRIVES:
-            raise ParameterError(f"drive must be one of {format_choices(DRIVES)}; got "
-                                 f"{self.drive!r}")  # fmt: skip
+            raise ParameterError(
+                f"drive must be one of {format_choices(DRIVES)}; got {self.drive!r}"
+            )
         unknown = [e for e in self.effects if e not in EFFECTS]
         if unknown:
             raise ParameterError(
@@ -130,11 +136,17 @@ class Candidate:
     def to_dict(self) -> dict[str, object]:
         """JSON form."""
         return {
-            "name": self.name, "subsystem": self.subsystem, "channel": self.channel,
-            "params": self.fit.params, "baseline": self.fit.baseline,
-            "held_out_nrmse": self.held_nrmse, "floor_nrmse": self.floor_nrmse,
-            "closed": self.closed, "score": self.score, "eligible": self.eligible,
-        }  # fmt: skip
+            "name": self.name,
+            "subsystem": self.subsystem,
+            "channel": self.channel,
+            "params": self.fit.params,
+            "baseline": self.fit.baseline,
+            "held_out_nrmse": self.held_nrmse,
+            "floor_nrmse": self.floor_nrmse,
+            "closed": self.closed,
+            "score": self.score,
+            "eligible": self.eligible,
+        }
 
 
 @dataclass(frozen=True)
@@ -178,8 +190,11 @@ class Diagnosis:
         }
         return {
             "verdict": self.verdict,
-            "where": {"subsystem": self.subsystem, "band_hz": list(self.band_hz),
-                      "phase": self.phase},  # fmt: skip
+            "where": {
+                "subsystem": self.subsystem,
+                "band_hz": list(self.band_hz),
+                "phase": self.phase,
+            },
             "params": dict(self.params),
             "gap": {"channel": self.gap_channel, "before": self.before, "after": self.after},
             "shrink": self.shrink,
@@ -198,8 +213,9 @@ def held_runs(mask: np.ndarray) -> list[slice]:
 
 def _held(channel: Channel, arrays: list[np.ndarray]) -> list[np.ndarray]:
     """The held-out samples of per-record arrays, one part per contiguous run."""
-    return [a[run] for s, a in zip(channel.segments, arrays, strict=True)
-            for run in held_runs(s.held)]  # fmt: skip
+    return [
+        a[run] for s, a in zip(channel.segments, arrays, strict=True) for run in held_runs(s.held)
+    ]
 
 
 def _nrmse(channel: Channel, mse: float) -> float:
@@ -241,9 +257,15 @@ def _channel_result(channel: Channel) -> ChannelResult:
         f_max,
     )
     return ChannelResult(
-        channel, base, _nrmse(channel, _nominal_mse(channel, base)),
-        _nrmse(channel, base.held_mse), _nrmse(channel, floor_mse), base.held_mse, floor_mse, dec,
-    )  # fmt: skip
+        channel,
+        base,
+        _nrmse(channel, _nominal_mse(channel, base)),
+        _nrmse(channel, base.held_mse),
+        _nrmse(channel, floor_mse),
+        base.held_mse,
+        floor_mse,
+        dec,
+    )
 
 
 def _candidate(name: str, result: ChannelResult, options: Options) -> Candidate:
@@ -255,8 +277,16 @@ def _candidate(name: str, result: ChannelResult, options: Options) -> Candidate:
     closed = (result.excess - (fit.held_mse - floor)) / result.excess if significant else 0.0
     score = closed - options.penalty * model.n_effect
     eligible = significant and model.physical(channel, fit.params) and closed >= options.min_closed
-    return Candidate(fit, model.subsystem, channel.name, _nrmse(channel, fit.held_mse),
-                     _nrmse(channel, floor), closed, score, eligible)  # fmt: skip
+    return Candidate(
+        fit,
+        model.subsystem,
+        channel.name,
+        _nrmse(channel, fit.held_mse),
+        _nrmse(channel, floor),
+        closed,
+        score,
+        eligible,
+    )
 
 
 def _replayed_drive(transfer: ChannelResult, candidates: list[Candidate]) -> list | None:
@@ -292,21 +322,31 @@ def diagnose(
     """
     options = options or Options()
     transfer = _channel_result(actuator_channel(records, nominal, options.cutoff))
-    candidates = [_candidate(n, transfer, options) for n in options.effects
-                  if EFFECTS[n].subsystem == "actuator"]  # fmt: skip
+    candidates = [
+        _candidate(n, transfer, options)
+        for n in options.effects
+        if EFFECTS[n].subsystem == "actuator"
+    ]
     drive = _replayed_drive(transfer, candidates) if options.drive == "auto" else None
     specimen = _channel_result(specimen_channel(records, nominal, options.cutoff, drive))
-    candidates += [_candidate(n, specimen, options) for n in options.effects
-                   if EFFECTS[n].subsystem == "specimen"]  # fmt: skip
+    candidates += [
+        _candidate(n, specimen, options)
+        for n in options.effects
+        if EFFECTS[n].subsystem == "specimen"
+    ]
     channels = {"measured": transfer, "force": specimen}
     candidates.sort(key=lambda c: (not c.eligible, -c.score))
     best = candidates[0] if candidates and candidates[0].eligible else None
+    where: ChannelResult | None
     if best is not None:
         where = channels[best.channel]
     else:
         significant = [c for c in channels.values() if c.decomposition.significant]
-        where = max(significant, key=lambda c: c.decomposition.ratio[0] / c.decomposition.ratio[1],
-                    default=None)  # fmt: skip
+        where = max(
+            significant,
+            key=lambda c: c.decomposition.ratio[0] / c.decomposition.ratio[1],
+            default=None,
+        )
     split = channels["measured"].channel.segments
     ident = [s.name for s in split if np.any(s.ident)]
     held = [s.name for s in split if np.any(s.held)]

@@ -1,0 +1,129 @@
+"""A command→displacement transfer function ``num(s)/den(s)`` identified with the specimen attached
+(no control-structure interaction): the form of the diagnosis contract's ``NOMINAL.toml
+[actuator]`` (design.md section 7).  The pure delay and the velocity (flow) limit are the base
+class's (:class:`plants.base.Actuator`)."""
+
+from __future__ import annotations
+
+import control
+import numpy as np
+from numpy.typing import ArrayLike
+
+from plants.actuator.linear import (
+    derivative_model,
+    discretise,
+)
+from plants.actuator.options import TransferFunctionOptions
+from plants.base import Actuator, Kinematics, Specimen
+from plants.device_model import DeviceModel
+from rths.core.registry import ACTUATORS
+
+__all__ = ["TransferFunctionActuator"]
+
+
+@ACTUATORS.register("transfer_function", TransferFunctionOptions)
+class TransferFunctionActuator(Actuator):
+    """Command→displacement transfer function ``num(s)/den(s)`` with optional delay/rate limit.
+
+    The TF is understood as identified with the specimen attached, so there is no CSI: the
+    specimen is driven by the actuator output and its force does not act back.  The model is
+    realised by python-control (``tf2ss``) and discretised exactly by zero-order hold at the
+    loop step ``dt`` (no sub-steps; the specimen interpolates internally).
+
+    Drive kinematics: with relative degree ``r = deg den - deg num`` the derivatives of order
+    ``i < r`` are the exact state outputs ``C A^i z`` (continuous across steps); those of order
+    ``i >= r`` would jump or carry impulses where the held command jumps, so they are backward
+    differences over ``dt`` of the next lower derivative sent to the specimen (lag ``dt/2``
+    each).  For ``r >= 3`` (e.g. the ``b0/(s^3 + a2 s^2 + a1 s + a0)`` of ``NOMINAL.toml``) all
+    three are exact.  With a rate limiter the displacement is limited first, differences are
+    taken of the limited signal, and :meth:`RateLimiter.clip` bounds the velocity.
+
+    Parameters
+    ----------
+    num, den
+        Coefficients in descending powers of ``s``; proper and stable.
+    specimen
+        The specimen driven by the displacement.
+    dt
+        Loop step [s].
+    delay
+        Pure delay [s] on the command path, >= 0 (:class:`DelayLine`).
+    velocity_limit
+        Rate limit ``v_max`` [m/s] on the displacement (:class:`RateLimiter`), ``None`` for none.
+    """
+
+    def __init__(
+        self,
+        num: ArrayLike,
+        den: ArrayLike,
+        specimen: Specimen,
+        dt: float,
+        *,
+        delay: float = 0.0,
+        velocity_limit: float | None = None,
+    ) -> None:
+        super().__init__(specimen, dt, delay=delay, velocity_limit=velocity_limit)
+        model, self._tf, self.relative_degree = derivative_model(num, den)
+        self._model = discretise(model, self.dt)
+        m = self._model
+        self._A, self._B = m.A, m.B[:, 0].copy()
+        self._C, self._D = m.C, m.D[:, 0].copy()
+        self.reset()
+
+    @classmethod
+    def from_options(
+        cls, options: TransferFunctionOptions, *, specimen: Specimen, dt: float, **_: object
+    ) -> TransferFunctionActuator:
+        """The ``transfer_function`` kind driving ``specimen``."""
+        assert options.num is not None and options.den is not None  # options validate it
+        return cls(
+            list(options.num),
+            list(options.den),
+            specimen,
+            dt,
+            delay=options.delay,
+            velocity_limit=options.velocity_limit,
+        )
+
+    @classmethod
+    def nominal_plant(
+        cls, options: TransferFunctionOptions, *, model: DeviceModel | None, dt: float
+    ) -> tuple[control.TransferFunction, float]:
+        """The compensator's model: the TF itself (it was identified with the specimen on) or
+        ``nominal_num``/``nominal_den``, and the delay [s]."""
+        num, den = options.nominal
+        return control.tf(list(num), list(den)), options.delay
+
+    def _reset_impl(self) -> None:
+        """Return the state and the drive history to rest."""
+        self._z = np.zeros(self._A.shape[0])
+        self._drive = (0.0, 0.0, 0.0)
+        self._linear = 0.0
+        self._force = 0.0
+
+    def _step_impl(self, command: float) -> tuple[Kinematics, float]:
+        u = command
+        self._z = self._A @ self._z + self._B * u
+        x, v, a = (self._C @ self._z + self._D * u).tolist()
+        self._linear = x
+        x_old, v_old, _ = self._drive
+        limiter = self.limiter
+        if limiter is not None:
+            x = limiter.step(x)
+        if self.relative_degree <= 1:
+            v = (x - x_old) / self.dt
+        if self.relative_degree <= 2:
+            a = (v - v_old) / self.dt
+        if limiter is not None:
+            v, a = limiter.clip(v, a)
+        self._drive = (x, v, a)
+        self._force = self.specimen.step(x, v, a, self.dt)
+        return Kinematics(x, v, a), self._force
+
+    def transfer_function(self) -> control.TransferFunction:
+        """The rational part ``num(s)/den(s)``; the :attr:`delay` [s] is separate."""
+        return self._tf
+
+    def _state_impl(self) -> dict[str, float]:
+        """``displacement_linear`` (before the rate limiter) [m]."""
+        return {"displacement_linear": self._linear}

@@ -1,0 +1,474 @@
+"""Taut stay cable: the numerical substructure of the seed RTHS (S0 §5.1, design.md §5).
+
+The cable is a taut string of length ``L`` [m], tension ``T`` [N] and mass per length ``m``
+[kg/m], fixed at both ends, with a transverse damper at ``x_d = xbar_d/L`` (S0 Eq.23).  It is
+discretised with linear two-node elements that put a node exactly at the damper and are uniform
+on each side of it, and integrated with Newmark's average-acceleration rule.
+
+Modelling choices (with the evidence)
+-------------------------------------
+* **Mass matrix: the average of the consistent and lumped matrices**, element
+  ``m h/12 [[5,1],[1,5]]``.  On a uniform mesh its frequencies are fourth-order accurate (the
+  consistent matrix overestimates by ``(kh)^2/24``, the lumped one underestimates by the same).
+  Measured against the exact frequency equation (:mod:`plants.cable.frequency_equation`), viscous
+  damper at ``x_d = 0.02``, ``kappa = 1``, mode 1, relative error of the damping ratio for N =
+  50/100/200/400 elements: consistent 3.4e-4/8.5e-5/2.1e-5/5.3e-6, lumped
+  -3.3e-4/-8.1e-5/-2.0e-5/-5.1e-6, average 7.0e-6/1.8e-6/4.5e-7/1.1e-7.  For the IMD optimum of mode
+  3 the error is dominated by the sensitivity of the two nearly coalescent roots and all three
+  converge as 1/N^2 with the same constant (consistent 7.6e-4, lumped 8.8e-4, average 8.1e-4 at N =
+  400, worst root), so the average matrix costs nothing there and gains 50x elsewhere; it stays
+  tridiagonal. Reproduce with ``python tools/bench_cable.py --mass-study``.
+* **Intrinsic damping: Rayleigh** ``C = a0 M + a1 K`` anchored at two string modes (default
+  modes 1 and 3, 0.1 %, S0 §1).  It keeps ``C`` tridiagonal and the damping classical, unlike
+  dense modal damping; pure stiffness-proportional damping would triple the ratio of mode 3 (the
+  seed test's mode) when mode 1 has 0.1 %.  Above the upper anchor the ratio grows like
+  ``a1 omega/2``, which quietly damps the spurious high FE modes a stepped device force excites.
+* **Coupling and time alignment**: ``step(F_k)`` advances from ``t_k`` to ``t_{k+1}``; the device
+  restoring force ``F_k`` measured at ``t_k`` is applied as the interface force *at* ``t_{k+1}``
+  (the standard one-step lag of RTHS), and the cable receives ``-F_k`` (sign convention of
+  :mod:`plants.base`).  The distributed load (S0 Eq.22) is evaluated exactly at ``t_{k+1}``.
+* **Nominal interface device** (:class:`InterfaceDevice`): a rigid part (inertance ``m_r``
+  [kg], dashpot ``c_r`` [N s/m], simplified S0 Eq.1, and a grounded spring ``k_r`` [N/m])
+  added to ``M``, ``C`` and ``K``, and an optional series branch (spring ``k_s`` [N/m] to a
+  flywheel ``m_s`` [kg] with dashpot ``c_s`` [N s/m] to ground, S0 Eq.12) whose flywheel DOF is
+  condensed into the damper node's row of the Newmark system, which stays tridiagonal
+  (:mod:`plants.cable.device`).  Both are integrated
+  implicitly; ``device_force`` is the device's restoring force.  Why: in RTHS, feeding the
+  measured force of a stiff or heavy specimen back explicitly (one step late, through an
+  actuator with residual delay ``tau``) into a flexible FE cable is unstable -- a delayed
+  stiffness acts as negative damping ``k tau`` and a string's driving-point impedance is only
+  ``2 sqrt(T m)``.  So the cable carries a nominal model of the device and the loop feeds back
+  only the (filtered) correction ``force_scale F - device_force`` (:mod:`rths.runtime.loop`).  For
+  the S0 Type II IMD the nominal device needs the series stiffness, otherwise the correction is
+  large above its 13.8 Hz self-vibration and the loop diverges.  The same device serves the fully
+  numerical "mock" RTHS and the eigen-analysis (:mod:`plants.cable.frequency_equation`).
+* **Mesh rule** with a series branch: elements shorter than ``h_max = 4 T/k_s``
+  (:func:`max_element_size`, :func:`elements_for`), so that the damper node's local frequency on
+  the device spring lies in the FE string's passband and what is excited there radiates into the
+  string (details and limits in :mod:`plants.cable.device`); not enforced.
+
+The effective matrix ``K + 2/h C + 4/h^2 M`` is factorised once (banded Cholesky) and each step
+is one fused O(N) pass compiled with numba (``use_numba=False`` selects the NumPy/SciPy
+reference path, which gives the same numbers).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import scipy.linalg as sla
+from numpy.typing import ArrayLike, NDArray
+
+from plants.base import Kinematics, Substructure
+from plants.cable.device import (
+    FEMatrices,
+    SeriesCondensation,
+    augmented_matrices,
+    elements_for,
+    fe_matrices,
+    max_element_size,
+)
+from plants.cable.fe import assemble, check_mesh, mesh_nodes, sine_load_shape
+from plants.cable.newmark import newmark_operator, step_kernel, step_reference
+from plants.cable.options import CableOptions
+from plants.cable.properties import (
+    CableProperties,
+    DistributedLoad,
+    InterfaceDevice,
+    PointDamper,
+    RayleighDamping,
+    normalised_damper,
+    normalised_stiffness,
+    physical_damper,
+    physical_stiffness,
+)
+from plants.device_model import DeviceModel
+from rths.core.errors import (
+    ParameterError,
+    check_finite,
+    check_in_range,
+    check_positive_int,
+)
+from rths.core.registry import SUBSTRUCTURES
+
+#: nodal displacement, velocity, acceleration and the flywheel's ``(x, x', x'')``
+_State = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+
+__all__ = [
+    "Cable",
+    "CableProperties",
+    "DistributedLoad",
+    "FEMatrices",
+    "InterfaceDevice",
+    "PointDamper",
+    "RayleighDamping",
+    "elements_for",
+    "fe_matrices",
+    "max_element_size",
+    "normalised_damper",
+    "normalised_stiffness",
+    "physical_damper",
+    "physical_stiffness",
+]
+
+
+@SUBSTRUCTURES.register("cable", CableOptions)
+class Cable(Substructure):
+    """Taut cable FE model integrated with Newmark average acceleration (see module docstring).
+
+    Parameters
+    ----------
+    properties
+        Length, tension and mass per length.
+    damper_position
+        Normalised damper (interface) location ``x_d`` in (0, 1), e.g. 0.02 in S0.
+    dt
+        Fixed time step [s].
+    elements
+        Number of linear elements ``N`` >= 2 (``N - 1`` free nodes).  With a series device
+        branch, see :func:`elements_for` for the mesh rule.
+    load
+        Distributed load (S0 Eq.22); ``None`` for none.
+    intrinsic_damping
+        Rayleigh damping of the cable (default 0.1 % at modes 1 and 3); ``None`` for none.
+    damper
+        Nominal interface device inside the model (:class:`InterfaceDevice`; the old
+        :data:`PointDamper` is the same class); ``None`` for none.
+    use_numba
+        Step with the compiled kernel (default) or the NumPy/SciPy reference path.
+
+    Attributes
+    ----------
+    device
+        The nominal interface device (``damper``), or ``None``.
+
+    Notes
+    -----
+    ``step(F_k)`` applies the force ``F_k`` [N] measured at ``t_k`` as the force at ``t_{k+1}``
+    (one-step lag) with the cable receiving ``-F_k``, and returns the damper node's kinematics
+    at ``t_{k+1}``.  With a device, ``F_k`` is the correction on top of :attr:`device_force`.
+    """
+
+    def __init__(
+        self,
+        properties: CableProperties,
+        damper_position: float,
+        dt: float,
+        *,
+        elements: int = 100,
+        load: DistributedLoad | None = None,
+        intrinsic_damping: RayleighDamping | None = RayleighDamping(),
+        damper: InterfaceDevice | None = None,
+        use_numba: bool = True,
+    ) -> None:
+        super().__init__(dt)
+        x_d, n = check_mesh(damper_position, elements)
+        self.properties = properties
+        self.damper_position = x_d
+        self.device = damper
+        self.load = load if load is not None else DistributedLoad()
+        self.use_numba = bool(use_numba)
+        self._nodes, self._index = mesh_nodes(properties.length, x_d, n)
+        self._stiffness, self._mass, self._damping = assemble(
+            properties, self._nodes, self._index, intrinsic_damping, damper, "average"
+        )
+        self._series: SeriesCondensation | None = None
+        self._series_args = np.zeros(4)  # (k_s, m_s, c_s, D) for the kernel; k_s = 0: none
+        effective_stiffness = self._stiffness
+        if damper is not None and damper.has_series:
+            self._series = cs = SeriesCondensation.of(damper, self.dt)
+            self._series_args[:] = (cs.stiffness, cs.inertance, cs.damping, cs.denominator)
+            # the condensed flywheel's constant k_s (1 - k_s/D) enters the effective matrix only
+            effective_stiffness = self._stiffness.with_point(self._index, cs.diagonal)
+        self._op = newmark_operator(effective_stiffness, self._mass, self._damping, self.dt)
+        self._l_diag = self._op.factor[0].copy()
+        self._l_sub = self._op.factor[1, :-1].copy()
+        wavenumber = self.load.mode * math.pi / properties.length
+        self._load_shape = self.load.amplitude * sine_load_shape(self._nodes, wavenumber)
+        mid = int(np.searchsorted(self._nodes, 0.5 * properties.length, side="right")) - 1
+        mid = min(mid, len(self._nodes) - 2)
+        span = self._nodes[mid + 1] - self._nodes[mid]
+        self._midspan = (mid, (0.5 * properties.length - self._nodes[mid]) / span)
+        resonance = self.load.mode * properties.omega0
+        frequency = self.load.frequency
+        self._load_frequency = resonance if frequency is None else frequency
+        size = n - 1
+        self._u, self._v, self._a = np.zeros(size), np.zeros(size), np.zeros(size)
+        self._fly = np.zeros(3)  # flywheel (x [m], x' [m/s], x'' [m/s^2]); zero without a branch
+        self._next = (np.zeros(size), np.zeros(size), np.zeros(size), np.zeros(3))
+
+    @classmethod
+    def from_options(
+        cls, options: CableOptions, *, dt: float, device: InterfaceDevice | None = None, **_: object
+    ) -> Cable:
+        """The ``cable`` kind: the cable of ``options`` carrying the nominal ``device``.
+
+        With ``elements = "auto"`` the mesh is the finest of 100 elements and what the device's
+        series stiffness needs for the damper node to radiate (:func:`elements_for`).
+        """
+        props = CableProperties(options.length, options.tension, options.mass_per_length)
+        n = options.elements
+        if n == "auto":
+            stiff = device.series_stiffness if device is not None and device.has_series else None
+            n = elements_for(props, options.damper_position, stiff, minimum=100)
+        load = options.load
+        omega = None if load.frequency is None else 2.0 * math.pi * load.frequency
+        damping = options.intrinsic_damping
+        return cls(
+            props,
+            options.damper_position,
+            dt,
+            elements=n,
+            load=DistributedLoad(amplitude=load.amplitude, mode=load.mode, frequency=omega),
+            intrinsic_damping=RayleighDamping(damping) if damping else None,
+            damper=device,
+        )
+
+    @staticmethod
+    def nominal_device(model: DeviceModel | None) -> InterfaceDevice | None:
+        """The interface device (prototype scale) for a ``[model]`` of kind ``imd`` or
+        ``linear`` (S0 Eq.1, or Eq.12 with a series stiffness); None for none.
+
+        Raises
+        ------
+        ParameterError
+            For a model kind a cable cannot carry (``inerter``).
+        """
+        if model is None:
+            return None
+        if model.kind not in ("imd", "linear"):
+            raise ParameterError(
+                f"a cable substructure takes a model of kind 'imd' or 'linear' (or 'none'); "
+                f"got {model.kind!r}"
+            )
+        if model.series_stiffness is None:
+            return InterfaceDevice(
+                inertance=model.inertance, damping=model.damping, stiffness=model.stiffness
+            )
+        return InterfaceDevice(
+            series_stiffness=model.series_stiffness,
+            series_inertance=model.inertance,
+            series_damping=model.damping,
+        )
+
+    # ------------------------------------------------------------------ Substructure contract
+    def _reset_impl(self) -> None:
+        """Return to rest at ``t = 0``."""
+        for x in (self._u, self._v, self._a, self._fly):
+            x[:] = 0.0
+
+    @property
+    def interface(self) -> Kinematics:
+        """Kinematics of the damper node at the current time."""
+        i = self._index
+        return Kinematics(float(self._u[i]), float(self._v[i]), float(self._a[i]))
+
+    @property
+    def device_force(self) -> float:
+        """Restoring force [N] of the nominal device at the current time (0 without one):
+        ``m_r a_d + c_r v_d + k_r u_d + k_s (u_d - x)`` (S0 Eq.1 and Eq.12); the cable receives
+        minus it."""
+        if self.device is None:
+            return 0.0
+        i, dev = self._index, self.device
+        force = dev.inertance * self._a[i] + dev.damping * self._v[i]
+        force += dev.stiffness * self._u[i]
+        if self._series is not None:
+            force += self._series.stiffness * (self._u[i] - self._fly[0])
+        return float(force)
+
+    def _step_impl(self, restoring_force: float) -> Kinematics:
+        state = self._advance(restoring_force, self._next)
+        self._next = (self._u, self._v, self._a, self._fly)
+        self._u, self._v, self._a, self._fly = state
+        return self.interface
+
+    def predict(self, restoring_force: float) -> Kinematics:
+        """The damper node's kinematics at ``t_{k+1}`` for force ``F`` [N], state unchanged."""
+        force = check_finite(restoring_force, "restoring force")
+        size = self._u.size
+        scratch: _State = (np.zeros(size), np.zeros(size), np.zeros(size), np.zeros(3))
+        u1, v1, a1, _ = self._advance(force, scratch)
+        i = self._index
+        return Kinematics(float(u1[i]), float(v1[i]), float(a1[i]))
+
+    def outputs(self) -> dict[str, float]:
+        """Midspan displacement [m] and, with a device, its restoring force [N] and the flywheel
+        displacement [m] and velocity [m/s], for logging every step (cheap: O(1))."""
+        i, w = self._midspan  # O(1) per step: energies are properties, computed on demand
+        out = {"midspan_displacement": float((1.0 - w) * self._full(i) + w * self._full(i + 1))}
+        if self.device is not None:
+            out["device_force"] = self.device_force
+        if self._series is not None:
+            out["flywheel_displacement"] = float(self._fly[0])
+            out["flywheel_velocity"] = float(self._fly[1])
+        return out
+
+    def _advance(self, force: float, out: _State) -> _State:
+        """The state at ``t_{k+1}`` for device force ``force`` [N], written into ``out``."""
+        load_scale = math.sin(self._load_frequency * (self.steps + 1) * self.dt)
+        j, series = self._index, self._series
+        if not self.use_numba:
+            f = load_scale * self._load_shape
+            f[j] -= force
+            if series is None:
+                return (*step_reference(self._op, self._u, self._v, self._a, f), out[3])
+            r_x = series.flywheel_load(self._fly)
+            f[j] += series.node_load(r_x)
+            u1, v1, a1 = step_reference(self._op, self._u, self._v, self._a, f)
+            return u1, v1, a1, series.advance(self._fly, r_x, float(u1[j]), out[3])
+        u1, v1, a1, fly1 = out
+        m, c = self._mass, self._damping
+        step_kernel(
+            m.diag,
+            m.off,
+            c.diag,
+            c.off,
+            self._l_diag,
+            self._l_sub,
+            self.dt,
+            self._u,
+            self._v,
+            self._a,
+            self._load_shape,
+            load_scale,
+            j,
+            -force,
+            self._series_args,
+            self._fly,
+            u1,
+            v1,
+            a1,
+            fly1,
+        )
+        return out
+
+    # ------------------------------------------------------------------ state and views
+    def nodal_load(self, t: float) -> NDArray[np.float64]:
+        """Consistent nodal forces [N] of the distributed load (S0 Eq.22) at time ``t`` [s]."""
+        return math.sin(self._load_frequency * check_finite(t, "time t")) * self._load_shape
+
+    def set_state(
+        self,
+        displacement: ArrayLike,
+        velocity: ArrayLike,
+        *,
+        flywheel: tuple[float, float] | None = None,
+    ) -> None:
+        """Impose nodal displacement [m] and velocity [m/s], shape ``(N-1,)``, at the current time.
+
+        ``flywheel = (x [m], x' [m/s])`` sets a series branch's flywheel; by default its spring is
+        unstretched and it moves with the damper node (``x = u_d``, ``x' = v_d``).  Without
+        flywheel inertance its velocity follows from ``c_s x' = k_s (u_d - x)`` and the given
+        one is ignored.  Accelerations are set from equilibrium with the distributed load at the
+        current time and no correction force, ``M a = f - C v - K u`` (with the spring's force
+        on the node), so the next step starts consistently.
+        """
+        u = np.asarray(displacement, dtype=float)
+        v = np.asarray(velocity, dtype=float)
+        for name, x in (("displacement", u), ("velocity", v)):
+            if x.shape != self._u.shape:
+                raise ParameterError(
+                    f"nodal {name} must have shape {self._u.shape}; got shape {x.shape}"
+                )
+            if not np.all(np.isfinite(x)):
+                raise ParameterError(f"nodal {name} must be finite; got {x[~np.isfinite(x)][0]}")
+        rhs = self.nodal_load(self.time) - self._damping.matvec(v) - self._stiffness.matvec(u)
+        series, j = self._series, self._index
+        if series is None and flywheel is not None:
+            raise ParameterError(
+                f"a flywheel state needs a device with a series branch; got flywheel={flywheel!r}"
+            )
+        if series is not None:
+            self._fly[:] = series.consistent_state(float(u[j]), float(v[j]), flywheel)
+            rhs[j] -= series.stiffness * (u[j] - self._fly[0])
+        self._u[:], self._v[:] = u, v
+        self._a[:] = sla.solveh_banded(self._mass.banded_lower(), rhs, lower=True)
+
+    @property
+    def flywheel(self) -> Kinematics | None:
+        """Displacement [m], velocity [m/s], acceleration [m/s^2] of the series branch's flywheel
+        at the current time; ``None`` without a series branch."""
+        if self._series is None:
+            return None
+        return Kinematics(*(float(x) for x in self._fly))
+
+    @property
+    def positions(self) -> NDArray[np.float64]:
+        """Coordinates of the free nodes [m], shape ``(N-1,)``."""
+        return self._nodes[1:-1].copy()
+
+    @property
+    def damper_index(self) -> int:
+        """Index of the damper node among the free nodes."""
+        return self._index
+
+    @property
+    def displacement(self) -> NDArray[np.float64]:
+        """Nodal displacements [m], shape ``(N-1,)`` (a copy)."""
+        return self._u.copy()
+
+    @property
+    def velocity(self) -> NDArray[np.float64]:
+        """Nodal velocities [m/s], shape ``(N-1,)`` (a copy)."""
+        return self._v.copy()
+
+    @property
+    def acceleration(self) -> NDArray[np.float64]:
+        """Nodal accelerations [m/s^2], shape ``(N-1,)`` (a copy)."""
+        return self._a.copy()
+
+    def _full(self, node: int) -> float:
+        """Displacement of mesh node ``node`` including the fixed ends (0)."""
+        return 0.0 if node == 0 or node == len(self._nodes) - 1 else self._u[node - 1]
+
+    def displacement_at(self, x: float) -> float:
+        """Displacement [m] at the normalised position ``x`` in [0, 1] (linear interpolation)."""
+        xi = check_in_range(x, "position x", 0.0, 1.0) * self.properties.length
+        return float(np.interp(xi, self._nodes, np.concatenate([[0.0], self._u, [0.0]])))
+
+    @property
+    def kinetic_energy(self) -> float:
+        """``v^T M v / 2`` [J], including the device's rigid inertance, plus the flywheel's
+        ``m_s x'^2/2``."""
+        energy = 0.5 * self._mass.quadratic(self._v)
+        if self._series is not None:
+            energy += 0.5 * self._series.inertance * self._fly[1] ** 2
+        return float(energy)
+
+    @property
+    def strain_energy(self) -> float:
+        """``u^T K u / 2`` [J], the work done stretching the string (and a grounded device
+        spring ``k_r u_d^2/2``), plus the series spring's ``k_s (u_d - x)^2/2``."""
+        energy = 0.5 * self._stiffness.quadratic(self._u)
+        if self._series is not None:
+            energy += 0.5 * self._series.stiffness * (self._u[self._index] - self._fly[0]) ** 2
+        return float(energy)
+
+    def modal_frequencies(self, count: int | None = None) -> NDArray[np.float64]:
+        """Undamped natural frequencies [rad/s] of the FE model with the device's inertances.
+
+        A series branch with flywheel inertance adds its DOF (one more frequency, near the
+        branch's own ``sqrt(k_s/m_s)`` for a stiff cable); without inertance the undamped branch
+        carries no force and adds nothing.
+
+        Parameters
+        ----------
+        count
+            How many of the lowest to return (ascending); all of them when ``None``.
+        """
+        k, m = self._stiffness.to_dense(), self._mass.to_dense()
+        what = "free nodes"
+        if self._series is not None and self._series.inertance > 0.0:
+            device: InterfaceDevice = self.device  # type: ignore[assignment]
+            fe_k, fe_m, _ = augmented_matrices(
+                self._stiffness, self._mass, self._damping, self._index, device
+            )
+            k, m, what = fe_k.toarray(), fe_m.toarray(), "DOFs (free nodes and the flywheel)"
+        size = k.shape[0]
+        n = size if count is None else check_positive_int(count, "count")
+        if n > size:
+            raise ParameterError(f"count must not exceed the {size} {what}; got {count!r}")
+        lam = sla.eigh(k, m, eigvals_only=True, subset_by_index=(0, n - 1))
+        return np.sqrt(lam)

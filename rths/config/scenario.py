@@ -1,0 +1,254 @@
+"""Scenario files: what a run is, parsed strictly into frozen specifications.
+
+A scenario is a TOML file with these tables (all SI; see ``scenarios/*.toml`` for commented
+examples users copy)::
+
+    [run]          name, duration [s], rate [Hz], clock, seed
+    [scaling]      displacement (specimen/prototype), force (prototype/specimen)
+    [substructure] kind + its options, e.g. kind = "cable" + geometry, [substructure.load]
+    [specimen]     the physical specimen in the emulated lab (the truth): kind + options
+    [actuator]     kind + options, e.g. "transfer_function" (num, den, delay, velocity_limit)
+    [lab]          converters: bits, range, calibrations, noise
+    [model]        what the numerical side believes about the specimen: the nominal device the
+                   substructure carries, the compensator's plant, the fully numerical mock run
+    [compensator]  kind + options
+    [loop]         correction_filter [Hz], stroke [m] (interlock)
+    [monte_carlo]  draws (perturbed benchmark plants)
+
+The four component tables name a registered kind (:mod:`rths.core.registry`; ``rths kinds``
+lists them with their options): the kind's frozen options dataclass says which keys the table
+takes, and :func:`rths.config.options.parse_options` checks every one.  Every key is checked here,
+before any process starts: a typo, a wrong type or an out-of-range value is a
+:class:`rths.core.errors.ConfigError` naming the file, the table and the key.  Physical
+consistency that needs the plants built (e.g. a stable actuator) is checked when
+:mod:`rths.config.build` constructs them, with the table named in the message.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from plants.device_model import DeviceModel
+from rths.config.kinds import registry
+from rths.config.options import parse_options
+from rths.config.toml import Table, load_toml, parse_toml
+from rths.core.errors import ConfigError, ParameterError
+from rths.core.scaling import Scaling
+
+__all__ = [
+    "CLOCKS",
+    "MODEL_KINDS",
+    "Component",
+    "LabSpec",
+    "LoopSpec",
+    "RunSpec",
+    "Scenario",
+    "load_scenario",
+    "parse_scenario",
+]
+
+CLOCKS = ("lockstep", "realtime", "fast")
+#: Kinds of ``[model]`` (what the numerical side believes about the specimen).
+MODEL_KINDS = ("imd", "linear", "inerter", "none")
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """``[run]``: name, duration [s], loop rate [Hz], clock and seed of the lab's noise."""
+
+    name: str
+    duration: float
+    rate: float
+    clock: str = "lockstep"
+    seed: int = 0
+
+    @property
+    def dt(self) -> float:
+        """Loop step [s]."""
+        return 1.0 / self.rate
+
+    @property
+    def steps(self) -> int:
+        """Number of loop steps."""
+        return max(1, round(self.duration * self.rate))
+
+
+@dataclass(frozen=True)
+class Component:
+    """A component table: the registered ``kind`` and its validated options dataclass."""
+
+    kind: str
+    options: Any
+
+
+@dataclass(frozen=True)
+class LabSpec:
+    """``[lab]``: converters (bits, +/- full scale [V]), calibrations and noise [V RMS]."""
+
+    bits: int = 16
+    full_scale: float = 10.0
+    displacement_per_volt: float = 0.0076
+    force_per_volt: float = 220.0
+    command_noise: float = 0.0
+    displacement_noise: float = 5e-4
+    force_noise: float = 1e-3
+
+
+@dataclass(frozen=True)
+class LoopSpec:
+    """``[loop]``: low-pass on the force correction [Hz] (0: none) and the stroke interlock [m]."""
+
+    correction_filter: float = 60.0
+    stroke: float = math.inf
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A parsed scenario (see the module docstring).
+
+    ``model`` is the ``[model]`` device at specimen scale, or None for ``kind = "none"``.
+    """
+
+    source: str
+    text: str
+    run: RunSpec
+    scaling: Scaling
+    substructure: Component
+    specimen: Component
+    actuator: Component
+    lab: LabSpec
+    model: DeviceModel | None
+    compensator: Component
+    loop: LoopSpec
+    monte_carlo_draws: int = 0
+
+    @property
+    def compensator_kind(self) -> str:
+        """The ``[compensator]`` kind."""
+        return self.compensator.kind
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario file (:class:`rths.core.errors.ConfigError` on any problem)."""
+    doc, text = load_toml(path)
+    return _parse(doc, text)
+
+
+def parse_scenario(text: str, source: str = "<scenario>") -> Scenario:
+    """Validate scenario text (for tests and for logs that carry the scenario)."""
+    return _parse(parse_toml(text, source), text)
+
+
+def _parse(doc: Table, text: str) -> Scenario:
+    run = _run(doc.table("run"))
+    t = doc.table("scaling", {})
+    scaling = Scaling(
+        t.number("displacement", 1.0, positive=True), t.number("force", 1.0, positive=True)
+    )
+    t.finish()
+    sub = _component(doc.table("substructure"), "substructure")
+    specimen = _component(doc.table("specimen"), "specimen")
+    actuator = _component(doc.table("actuator"), "actuator")
+    lab = _lab(doc.table("lab", {}))
+    model = _model(doc.table("model", {"kind": "none"}))
+    comp = _component(doc.table("compensator", {"kind": "ff_lqg"}), "compensator")
+    t = doc.table("loop", {})
+    loop = LoopSpec(
+        t.number("correction_filter", 60.0, nonnegative=True),
+        t.number("stroke", math.inf, positive=True),
+    )
+    t.finish()
+    t = doc.table("monte_carlo", {})
+    draws = t.integer("draws", 0, minimum=0)
+    t.finish()
+    doc.finish()
+    if loop.correction_filter and loop.correction_filter >= 0.5 * run.rate:
+        raise doc.table("loop").error(
+            "correction_filter",
+            f"must lie below the Nyquist frequency {0.5 * run.rate:g} Hz; "
+            f"got {loop.correction_filter!r}",
+        )
+    return Scenario(
+        doc.source, text, run, scaling, sub, specimen, actuator, lab, model, comp, loop, draws
+    )
+
+
+def _run(t: Table) -> RunSpec:
+    spec = RunSpec(
+        name=t.string("name"),
+        duration=t.number("duration", positive=True),
+        rate=t.number("rate", positive=True),
+        clock=t.choice("clock", CLOCKS, default="lockstep"),
+        seed=t.integer("seed", 0, minimum=0),
+    )
+    t.finish()
+    return spec
+
+
+def _component(t: Table, family: str) -> Component:
+    """A ``kind`` of ``family`` and its options, validated against the registry."""
+    kinds = registry(family)
+    kind = t.choice("kind", kinds.names())
+    return Component(kind, parse_options(t, kinds.get(kind).options))
+
+
+def _lab(t: Table) -> LabSpec:
+    d = LabSpec()
+    spec = LabSpec(
+        bits=t.integer("bits", d.bits, minimum=1),
+        full_scale=t.number("full_scale", d.full_scale, positive=True),
+        displacement_per_volt=t.number(
+            "displacement_per_volt", d.displacement_per_volt, positive=True
+        ),
+        force_per_volt=t.number("force_per_volt", d.force_per_volt, positive=True),
+        command_noise=t.number("command_noise", d.command_noise, nonnegative=True),
+        displacement_noise=t.number("displacement_noise", d.displacement_noise, nonnegative=True),
+        force_noise=t.number("force_noise", d.force_noise, nonnegative=True),
+    )
+    t.finish()
+    return spec
+
+
+def _model(t: Table) -> DeviceModel | None:
+    """``[model]``: the nominal device (specimen scale), or None for ``kind = "none"``."""
+    kind = t.choice("kind", MODEL_KINDS)
+    if kind == "none":
+        t.finish()
+        return None
+    try:
+        return _device(t, kind)
+    except ParameterError as exc:
+        raise ConfigError(f"{t.source}: [model] {exc}") from None
+
+
+def _device(t: Table, kind: str) -> DeviceModel:
+    if kind == "inerter":
+        model = DeviceModel(
+            "inerter",
+            inertance=t.number("inertance", nonnegative=True),
+            damping=t.number("damping", 0.0, nonnegative=True),
+        )
+    elif kind == "linear":
+        model = DeviceModel(
+            "linear",
+            inertance=t.number("mass", nonnegative=True),
+            damping=t.number("damping", 0.0, nonnegative=True),
+            stiffness=t.number("stiffness", 0.0, nonnegative=True),
+        )
+    else:
+        inertance = t.number("inertance", positive=True)
+        series = t.number("series_stiffness", None, positive=True)
+        damping = t.number("damping", None, nonnegative=True)
+        ratio = t.number("damping_ratio", None, lo=0.0, hi=10.0)
+        if damping is not None and ratio is not None:
+            raise t.error("damping_ratio", "give damping or damping_ratio, not both")
+        if ratio is not None:
+            if series is None:
+                raise t.error("damping_ratio", "needs series_stiffness (c = 2 xi sqrt(k m))")
+            damping = 2.0 * ratio * math.sqrt(series * inertance)
+        model = DeviceModel("imd", inertance, damping or 0.0, series_stiffness=series)
+    t.finish()
+    return model

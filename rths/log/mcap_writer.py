@@ -1,0 +1,324 @@
+"""The writer thread behind :class:`rths.log.recorder.Recorder` (private).
+
+It owns the ``mcap`` writer and the output stream; everything it does -- JSON encoding, gap
+counting, chunk compression, flushing -- happens here, never on the loop thread.  It consumes
+tagged tuples from a :class:`queue.SimpleQueue`:
+
+* ``("s", topic, schema_json_bytes)`` -- register a topic;
+* ``("m", topic, seq, log_time_ns, publish_time_ns, message)`` -- a message from this process;
+* ``("r", topic, payload)`` -- a :class:`rths.wire.codec.LogRecord` from another process;
+* ``("e", log_time_ns, event_dict)`` -- an event (sequence numbers assigned here);
+* :data:`STOP` -- finish the file and end.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import queue
+import threading
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, Any
+
+from mcap.writer import CompressionType, Writer
+
+from rths import __version__
+from rths.core.errors import DataError
+from rths.wire.codec import LogRecord
+
+__all__ = ["EVENTS_TOPIC", "STOP", "RecordingSummary", "TopicStats", "WriterThread", "open_schema"]
+
+STOP = object()
+
+#: Seconds between two drains of the writer's queue.
+POLL = 0.005
+EVENTS_TOPIC = "rths/events"
+_COMPRESSION = {
+    "zstd": CompressionType.ZSTD,
+    "lz4": CompressionType.LZ4,
+    "none": CompressionType.NONE,
+}
+_COUNTS = ("written", "missing", "reordered", "first_seq", "last_seq", "nonfinite", "rejected")
+
+
+@dataclass(frozen=True, slots=True)
+class TopicStats:
+    """What was written on one topic.
+
+    Attributes
+    ----------
+    written
+        Messages written.
+    missing
+        Sequence numbers skipped (sum of the sizes of all gaps).
+    reordered
+        Messages whose sequence number was not above the previous one (repeats, reordering).
+    first_seq, last_seq
+        First and last sequence numbers seen (-1 if none).
+    nonfinite
+        Messages in which a NaN or infinity was written as ``null``.
+    rejected
+        Payloads from another process that were not valid log records (not written).
+    """
+
+    written: int = 0
+    missing: int = 0
+    reordered: int = 0
+    first_seq: int = -1
+    last_seq: int = -1
+    nonfinite: int = 0
+    rejected: int = 0
+
+    @property
+    def complete(self) -> bool:
+        """No gap, no reordering, no rejected payload."""
+        return self.missing == 0 and self.reordered == 0 and self.rejected == 0
+
+
+@dataclass(frozen=True, slots=True)
+class RecordingSummary:
+    """Returned by :meth:`Recorder.close`: per-topic counts, events, largest queue backlog."""
+
+    path: Path
+    topics: Mapping[str, TopicStats]
+    events: int
+    max_backlog: int
+
+    @property
+    def complete(self) -> bool:
+        """True if every topic is complete (no sample lost, repeated or rejected)."""
+        return all(s.complete for s in self.topics.values())
+
+
+def open_schema(topic: str) -> bytes:
+    """Schema for a topic first seen from another process: any JSON object."""
+    return json.dumps(
+        {"title": topic, "type": "object", "description": "log record from another process"}
+    ).encode()
+
+
+def _plain(obj: Any) -> Any:
+    """``json.dumps`` fallback: numpy scalars and arrays become Python numbers and lists."""
+    if hasattr(obj, "tolist"):
+        return obj.tolist()
+    raise TypeError(f"{type(obj).__name__} is not JSON serialisable")
+
+
+def _finite(obj: Any) -> Any:
+    """``obj`` with every NaN/infinite float replaced by None (JSON has no NaN)."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, Mapping):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    if hasattr(obj, "tolist"):
+        return _finite(obj.tolist())
+    return obj
+
+
+# One encoder each, built once: json.dumps(**options) would build a new one per message.
+_STRICT = json.JSONEncoder(allow_nan=False, separators=(",", ":"), default=_plain)
+_LENIENT = json.JSONEncoder(separators=(",", ":"), default=_plain)
+
+
+class _Topic:
+    """Channel id and counters of one topic (writer thread only)."""
+
+    __slots__ = ("channel_id", *_COUNTS)
+
+    def __init__(self, channel_id: int) -> None:
+        self.channel_id = channel_id
+        self.written = self.missing = self.reordered = self.nonfinite = self.rejected = 0
+        self.first_seq = self.last_seq = -1
+
+
+class WriterThread(threading.Thread):
+    """Background thread that drains ``inbox`` into an MCAP file (see the module docstring).
+
+    After :data:`STOP` it writes the ``rths.recording`` metadata record and finishes the file
+    (footer and summary), also if something failed on the way; the first failure is kept in
+    :attr:`error` and the counts in :meth:`counts`.
+    """
+
+    def __init__(
+        self,
+        stream: IO[bytes],
+        inbox: queue.SimpleQueue[Any],
+        metadata: Mapping[str, Mapping[str, str]],
+        compression: str,
+        chunk_size: int,
+        flush_interval: float,
+    ) -> None:
+        super().__init__(name="rths-recorder", daemon=True)
+        self.error: BaseException | None = None
+        self.max_backlog = 0
+        self.events = 0
+        self._stream = stream
+        self._inbox = inbox
+        self._metadata = metadata
+        self._writer = Writer(stream, chunk_size=chunk_size, compression=_COMPRESSION[compression])
+        self._flush_interval = flush_interval
+        self._topics: dict[str, _Topic] = {}
+        self._dirty = False
+        self._last_flush = time.monotonic()
+
+    def stats(self) -> dict[str, TopicStats]:
+        """Counts per topic so far (``rths/events`` excluded)."""
+        return {
+            name: TopicStats(**{c: getattr(t, c) for c in _COUNTS})
+            for name, t in self._topics.items()
+            if name != EVENTS_TOPIC
+        }
+
+    def run(self) -> None:
+        """Write the header and metadata, drain the queue until :data:`STOP`, finish the file."""
+        try:
+            self._writer.start(profile="", library=f"rths {__version__}")
+            for name, data in self._metadata.items():
+                self._writer.add_metadata(name, dict(data))
+            self._drain()
+        except BaseException as exc:  # kept and re-raised by Recorder on the caller's thread
+            self.error = exc
+        finally:
+            self._finish()
+
+    def _finish(self) -> None:
+        try:
+            summary = {"complete": "true", "max_backlog": str(self.max_backlog)}
+            for name, stats in self.stats().items():
+                summary.update({f"{name}.{c}": str(getattr(stats, c)) for c in _COUNTS})
+                if not stats.complete:
+                    summary["complete"] = "false"
+            self._writer.add_metadata("rths.recording", summary)
+            self._writer.finish()
+        except BaseException as exc:
+            self.error = self.error or exc
+        finally:
+            self._stream.close()
+
+    def _drain(self) -> None:
+        """Poll the queue every :data:`POLL` seconds and write everything waiting.
+
+        Polling, rather than blocking in ``get``, means a producer's ``put`` never wakes this
+        thread: a real-time loop thread does not hand the GIL over once per message.
+        """
+        get, interval = self._inbox.get_nowait, self._flush_interval
+        while True:
+            time.sleep(POLL)
+            handled = 0
+            while True:
+                if handled % 256 == 0:  # the largest backlog seen, sampled while draining
+                    self.max_backlog = max(self.max_backlog, self._inbox.qsize())
+                try:
+                    item = get()
+                except queue.Empty:
+                    break
+                if item is STOP:
+                    return
+                self._handle(item)
+                handled += 1
+            if self._dirty and time.monotonic() - self._last_flush >= interval:
+                self._writer.flush()
+                self._dirty = False
+                self._last_flush = time.monotonic()
+
+    def _handle(self, item: tuple[Any, ...]) -> None:
+        tag = item[0]
+        if tag == "m":
+            _, topic, seq, log_time, publish_time, message = item
+            self._write(topic, seq, log_time, publish_time, message)
+        elif tag == "r":
+            self._record(item[1], item[2])
+        elif tag == "e":
+            self._event(item[1], item[2])
+        elif tag == "s":
+            self._register(item[1], item[2])
+        elif tag == "md":
+            self._writer.add_metadata(item[1], dict(item[2]))
+
+    def _register(self, topic: str, schema: bytes) -> _Topic:
+        schema_id = self._writer.register_schema(name=topic, encoding="jsonschema", data=schema)
+        channel_id = self._writer.register_channel(
+            topic=topic, message_encoding="json", schema_id=schema_id
+        )
+        entry = self._topics[topic] = _Topic(channel_id)
+        return entry
+
+    def _write(
+        self, topic: str, seq: int, log_time: int, publish_time: int, message: Mapping[str, Any]
+    ) -> None:
+        entry = self._topics[topic]
+        try:
+            data = _STRICT.encode(message)
+        except ValueError:
+            data = _LENIENT.encode(_finite(message))
+            entry.nonfinite += 1
+        except TypeError as exc:
+            entry.rejected += 1
+            self._event(log_time, {"kind": "rejected", "message": f"{topic} seq {seq}: {exc}"})
+            return
+        self._add(topic, seq, log_time, publish_time, data.encode())
+
+    def _add(self, topic: str, seq: int, log_time: int, publish_time: int, data: bytes) -> None:
+        """Write encoded JSON ``data`` and keep the counts (sequence gaps, reordering)."""
+        entry = self._topics[topic]
+        self._writer.add_message(entry.channel_id, log_time, data, publish_time, seq & 0xFFFFFFFF)
+        self._dirty = True
+        entry.written += 1
+        last = entry.last_seq
+        if last < 0:
+            entry.first_seq = seq
+        if seq > last + 1:
+            entry.missing += seq - last - 1
+            self._event(
+                log_time,
+                {
+                    "kind": "gap",
+                    "message": f"{topic}: expected seq {last + 1}, got {seq}",
+                    "topic": topic,
+                    "missing": seq - last - 1,
+                },
+            )
+        elif seq <= last:
+            entry.reordered += 1
+            self._event(
+                log_time,
+                {
+                    "kind": "reordered",
+                    "message": f"{topic}: seq {seq} after {last}",
+                    "topic": topic,
+                },
+            )
+        entry.last_seq = max(last, seq)
+
+    def _record(self, topic: str, payload: bytes) -> None:
+        """Write a record from another process; its JSON is written as received unless it
+        carries a non-finite number (JSON has none), which takes the decode/clean path."""
+        try:
+            seq, log_time, body = LogRecord.split(payload)
+            if b"NaN" not in body and b"Infinity" not in body:
+                if topic not in self._topics:
+                    self._register(topic, open_schema(topic))
+                self._add(topic, seq, log_time, log_time, body)
+                return
+            record = LogRecord.decode(payload)
+        except DataError as exc:
+            entry = self._topics.get(topic) or self._register(topic, open_schema(topic))
+            entry.rejected += 1
+            self._event(0, {"kind": "rejected", "message": f"{topic}: {exc}", "topic": topic})
+            return
+        if topic not in self._topics:
+            self._register(topic, open_schema(topic))
+        self._write(topic, record.seq, record.log_time_ns, record.log_time_ns, record.message)
+
+    def _event(self, log_time: int, event: Mapping[str, Any]) -> None:
+        entry = self._topics[EVENTS_TOPIC]
+        data = json.dumps(_finite(event), separators=(",", ":"), default=str).encode()
+        self._writer.add_message(entry.channel_id, log_time, data, log_time, self.events)
+        entry.written += 1
+        self.events += 1
+        self._dirty = True

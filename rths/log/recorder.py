@@ -1,0 +1,404 @@
+"""MCAP recording off the loop thread (design.md §4).
+
+The loop thread only calls :meth:`Recorder.put`, which puts a tuple on a
+:class:`queue.SimpleQueue` and returns: no JSON encoding, no compression, no I/O.  A background
+thread encodes each message as JSON, writes it to an MCAP file with the ``mcap`` package (one
+``jsonschema`` schema per topic, zstd-compressed chunks, ``log_time`` = simulated time [ns]),
+counts per topic the messages written and the gaps in their sequence numbers, and finishes the
+file -- footer and summary -- when the recorder is closed, also when the ``with`` body raises.
+
+Log contract (read it with ``mcap.reader.make_reader``, no project code needed):
+
+* every message is UTF-8 JSON; its channel's schema (encoding ``jsonschema``) documents the
+  required fields with their units (further fields, e.g. ``ctrl_*`` and ``sub_*`` on
+  ``rths/loop``, are allowed and described in the README's log contract); ``Message.sequence`` is
+  the producer's step counter (mod 2**32); ``log_time`` and ``publish_time`` are simulated time [ns]
+  unless the producer passed another ``publish_time``;
+* ``rths/loop`` (:data:`LOOP_SCHEMA`) carries one record per loop step; ``rths/events``
+  (:data:`EVENTS_SCHEMA`) carries run events, including ``gap`` events the recorder writes itself
+  when a sequence number is skipped and an ``error`` event when the run ends by an exception;
+* non-finite floats are written as ``null`` (JSON has no NaN) and counted;
+* run metadata are MCAP metadata records (name → string map) written first; a record named
+  ``rths.recording`` with the per-topic counts is written last.
+
+:class:`rths.wire.transport.LogBridge` feeds the :class:`rths.wire.codec.LogRecord` s that another
+process publishes on ``rths/<run>/log/**`` into :meth:`Recorder.put_record`; they are decoded on the
+writer thread too.  This module does not import zenoh.
+"""
+
+from __future__ import annotations
+
+import json
+import operator
+import os
+import queue
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any, Literal
+
+from rths import __version__
+from rths.core.errors import (
+    DataError,
+    ParameterError,
+    check_positive,
+    check_positive_int,
+)
+from rths.log.mcap_writer import (
+    EVENTS_TOPIC,
+    STOP,
+    RecordingSummary,
+    TopicStats,
+    WriterThread,
+)
+
+__all__ = [
+    "EVENTS_SCHEMA",
+    "EVENTS_TOPIC",
+    "LOOP_SCHEMA",
+    "LOOP_TOPIC",
+    "Recorder",
+    "RecordingSummary",
+    "TopicStats",
+    "object_schema",
+]
+
+LOOP_TOPIC = "rths/loop"
+_Compression = Literal["zstd", "lz4", "none"]
+
+
+def object_schema(
+    title: str,
+    fields: Mapping[str, str],
+    *,
+    required: Sequence[str] | None = None,
+    description: str = "",
+) -> dict[str, Any]:
+    """A JSON schema for a flat object of numbers, one description (with unit) per field.
+
+    Parameters
+    ----------
+    title
+        Schema name, e.g. ``"rths.timing"``.
+    fields
+        ``{field: "description [unit]"}``; every field is a number (or ``null`` for non-finite).
+    required
+        Fields that must be present (default: all of them).
+    description
+        What one message is.
+    """
+    if not fields:
+        raise ParameterError(f"schema {title!r} needs at least one field; got {dict(fields)!r}")
+    req = list(fields) if required is None else list(required)
+    unknown = [name for name in req if name not in fields]
+    if unknown:
+        raise ParameterError(f"required fields of schema {title!r} are not fields: {unknown!r}")
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "title": title,
+        "description": description,
+        "type": "object",
+        "properties": {
+            name: {"type": ["number", "null"], "description": text} for name, text in fields.items()
+        },
+        "required": req,
+    }
+
+
+#: Schema of ``rths/loop``: one message per loop step at the interface, specimen scale.
+LOOP_SCHEMA: dict[str, Any] = object_schema(
+    "rths.loop",
+    {
+        "t": "simulated time at the end of the step, t_(k+1) = (k+1) dt [s]",
+        "target": "target displacement of the specimen end from the numerical substructure [m]",
+        "command": "actuator command held over the step, after compensation [m]",
+        "measured": "measured displacement of the specimen end [m]",
+        "force": "measured restoring force of the specimen [N]",
+    },
+    description="One RTHS loop step at the interface (specimen scale); Message.sequence = k.",
+)
+
+#: Schema of ``rths/events``.
+EVENTS_SCHEMA: dict[str, Any] = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "title": "rths.events",
+    "description": "Run events: start, stop, overrun, gap (a skipped sequence number), error.",
+    "type": "object",
+    "properties": {
+        "kind": {"type": "string", "description": "event kind, e.g. 'gap', 'overrun', 'error'"},
+        "message": {"type": "string", "description": "human-readable description"},
+    },
+    "required": ["kind", "message"],
+}
+
+
+class Recorder:
+    """Write an MCAP log from a background thread; the loop only enqueues.
+
+    Parameters
+    ----------
+    path
+        Output file (created or overwritten; its directory must exist).
+    topics
+        ``{topic: JSON schema}`` registered up front (default: ``rths/loop``).  ``rths/events``
+        is always registered.  More can be added with :meth:`add_topic`.
+    metadata
+        Run metadata, ``{record name: {key: value}}``, all strings (scenario text, package
+        version, units, scale factors, ...).  The package version is added to a record
+        ``rths`` unless given.
+    compression
+        Chunk compression: ``"zstd"`` (default), ``"lz4"`` or ``"none"``.
+    chunk_size
+        Uncompressed bytes per chunk [B].
+    flush_interval
+        Wall time [s] after which the writer finishes the current chunk and flushes the file,
+        bounding what a crashed process loses.
+
+    Examples
+    --------
+    >>> with Recorder("run.mcap", metadata={"scenario": {"text": toml}}) as rec:  # doctest: +SKIP
+    ...     for k in range(n):
+    ...         rec.put(LOOP_TOPIC, k, t_ns, {"t": t, "target": r, ...})
+    >>> rec.summary.complete  # doctest: +SKIP
+    True
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        topics: Mapping[str, Mapping[str, Any]] | None = None,
+        metadata: Mapping[str, Mapping[str, str]] | None = None,
+        compression: _Compression = "zstd",
+        chunk_size: int = 1 << 20,
+        flush_interval: float = 1.0,
+    ) -> None:
+        self.path = Path(path)
+        if compression not in ("zstd", "lz4", "none"):
+            raise ParameterError(
+                f"compression must be 'zstd', 'lz4' or 'none'; got {compression!r}"
+            )
+        self._compression = compression
+        self._chunk_size = check_positive_int(chunk_size, "chunk_size")
+        self._flush_interval = check_positive(flush_interval, "flush_interval")
+        self._metadata = _check_metadata(metadata or {})
+        self._metadata.setdefault("rths", {"version": __version__})
+        self._schemas: dict[str, bytes] = {}
+        self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
+        self._last_time_ns = 0
+        self._writer: WriterThread | None = None
+        self.summary: RecordingSummary | None = None
+        self.add_topic(EVENTS_TOPIC, EVENTS_SCHEMA)
+        for topic, schema in (topics if topics is not None else {LOOP_TOPIC: LOOP_SCHEMA}).items():
+            self.add_topic(topic, schema)
+
+    # ------------------------------------------------------------------ lifecycle
+
+    def start(self) -> Recorder:
+        """Create the file and start the writer thread (``with`` does this).
+
+        Raises
+        ------
+        DataError
+            If the file cannot be created.
+        """
+        if self._writer is not None:
+            raise DataError(f"recorder for '{self.path}' was already started")
+        try:
+            stream = open(self.path, "wb")
+        except OSError as exc:
+            raise DataError(f"cannot create MCAP log '{self.path}': {exc}") from None
+        self._writer = WriterThread(
+            stream,
+            self._queue,
+            self._metadata,
+            self._compression,
+            self._chunk_size,
+            self._flush_interval,
+        )
+        self._writer.start()
+        return self
+
+    def close(self) -> RecordingSummary:
+        """Finish the file (footer, summary) and return what was written.
+
+        Blocks until the writer thread has written everything queued.  Idempotent.
+
+        Raises
+        ------
+        DataError
+            If the writer thread failed (the file is finished as far as possible).
+        """
+        if self.summary is not None:
+            return self.summary
+        writer = self._writer
+        if writer is None:
+            raise DataError(f"recorder for '{self.path}' was never started")
+        self._queue.put(STOP)
+        writer.join()
+        self.summary = RecordingSummary(
+            self.path, writer.stats(), writer.events, writer.max_backlog
+        )
+        if writer.error is not None:
+            raise DataError(
+                f"recording to '{self.path}' failed: {writer.error!r}"
+            ) from writer.error
+        return self.summary
+
+    def __enter__(self) -> Recorder:
+        return self.start()
+
+    def __exit__(self, exc_type: object, exc: BaseException | None, tb: object) -> None:
+        if exc is not None and self._writer is not None and self._writer.is_alive():
+            self.event(self._last_time_ns, "error", f"run ended by {exc!r}")
+        try:
+            self.close()
+        except DataError as failure:
+            if exc is None:
+                raise
+            exc.add_note(str(failure))  # keep the body's exception; mention the log's
+
+    # ------------------------------------------------------------------ producer side
+
+    def add_topic(self, topic: str, schema: Mapping[str, Any]) -> None:
+        """Register ``topic`` with its JSON ``schema`` (before or during the run).
+
+        Raises
+        ------
+        ParameterError
+            If the topic is empty, the schema not JSON-serialisable, or the topic already
+            registered with a different schema.
+        """
+        if not isinstance(topic, str) or not topic:
+            raise ParameterError(f"topic must be a non-empty string; got {topic!r}")
+        try:
+            data = json.dumps(schema, sort_keys=True).encode()
+        except (TypeError, ValueError) as exc:
+            raise ParameterError(f"schema of topic {topic!r} is not JSON ({exc})") from None
+        known = self._schemas.get(topic)
+        if known == data:
+            return
+        if known is not None:
+            raise ParameterError(f"topic {topic!r} is already registered with another schema")
+        self._schemas[topic] = data
+        self._queue.put(("s", topic, data))
+
+    def put(
+        self,
+        topic: str,
+        seq: int,
+        log_time_ns: int,
+        message: Mapping[str, Any],
+        publish_time_ns: int | None = None,
+    ) -> None:
+        """Queue one message; never blocks and does no I/O.
+
+        Parameters
+        ----------
+        topic
+            A registered topic.
+        seq
+            Step counter of the topic, from 0, +1 per message; gaps are counted.
+        log_time_ns
+            Simulated time [ns] (>= 0).
+        message
+            Mapping of named values in SI units; encoded to JSON on the writer thread, so do
+            not mutate it afterwards.
+        publish_time_ns
+            Defaults to ``log_time_ns``.
+
+        Raises
+        ------
+        ParameterError
+            If the topic is not registered or a time/sequence is not a non-negative integer.
+        DataError
+            If the writer thread has failed (e.g. disk full).
+        """
+        if topic not in self._schemas or topic == EVENTS_TOPIC:
+            known = sorted(set(self._schemas) - {EVENTS_TOPIC})
+            raise ParameterError(
+                f"topic {topic!r} is not registered for put() (events go through event()); "
+                f"known: {known}"
+            )
+        try:
+            seq, log_time_ns = operator.index(seq), operator.index(log_time_ns)
+            publish = log_time_ns if publish_time_ns is None else operator.index(publish_time_ns)
+        except TypeError:
+            raise ParameterError(
+                f"seq and times must be integers; got seq={seq!r}, log_time_ns={log_time_ns!r}, "
+                f"publish_time_ns={publish_time_ns!r}"
+            ) from None
+        if seq < 0 or log_time_ns < 0 or publish < 0:
+            raise ParameterError(
+                f"seq and times must be >= 0; got seq={seq}, log_time_ns={log_time_ns}, "
+                f"publish_time_ns={publish}"
+            )
+        self._check_alive()
+        self._last_time_ns = log_time_ns
+        self._queue.put(("m", topic, seq, log_time_ns, publish, message))
+
+    def add_metadata(self, name: str, data: Mapping[str, str]) -> None:
+        """Queue one more MCAP metadata record (e.g. the run's summary, known only at the end).
+
+        Raises
+        ------
+        ParameterError
+            If ``name`` is empty or ``data`` is not a mapping of strings to strings.
+        """
+        checked = _check_metadata({name: data})
+        self._check_alive()
+        self._queue.put(("md", name, checked[name]))
+
+    def put_record(self, topic: str, payload: bytes) -> None:
+        """Queue an encoded :class:`rths.wire.codec.LogRecord` from another process.
+
+        Parameters
+        ----------
+        topic
+            MCAP topic; an unregistered one gets an open schema (any JSON object).
+        payload
+            :meth:`rths.wire.codec.LogRecord.encode` bytes, decoded on the writer thread; a bad
+            payload is counted as ``rejected`` and logged as an event.
+        """
+        self._check_alive()
+        self._queue.put(("r", topic, payload))
+
+    def event(self, log_time_ns: int, kind: str, message: str, **details: Any) -> None:
+        """Queue an event on ``rths/events``.
+
+        Parameters
+        ----------
+        log_time_ns
+            Simulated time [ns] of the event.
+        kind
+            Short machine-readable kind, e.g. ``"overrun"``, ``"stop"``.
+        message
+            Human-readable description.
+        **details
+            Further JSON-serialisable fields (SI units).
+        """
+        self._check_alive()
+        self._queue.put(("e", int(log_time_ns), {"kind": kind, "message": message, **details}))
+
+    def _check_alive(self) -> None:
+        writer = self._writer
+        if writer is None or writer.error is not None or self.summary is not None:
+            state = "closed" if self.summary is not None else "not started"
+            if writer is not None and writer.error is not None:
+                state = f"failed: {writer.error!r}"
+            raise DataError(f"recorder for '{self.path}' is {state}")
+
+
+def _check_metadata(metadata: Mapping[str, Mapping[str, str]]) -> dict[str, dict[str, str]]:
+    checked: dict[str, dict[str, str]] = {}
+    for name, record in metadata.items():
+        if not isinstance(name, str) or not isinstance(record, Mapping):
+            raise ParameterError(
+                f"metadata must map record names to {{key: value}} dicts; got {name!r}: {record!r}"
+            )
+        for key, value in record.items():
+            if not isinstance(key, str) or not isinstance(value, str):
+                raise ParameterError(
+                    f"metadata[{name!r}] keys and values must be strings; got {key!r}: {value!r}"
+                )
+        checked[name] = dict(record)
+    return checked

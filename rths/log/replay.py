@@ -1,0 +1,108 @@
+"""Replay a recorded run on zenoh at its recorded pace (``rths replay``).
+
+Records are published on the keys a live run uses, as :class:`rths.wire.codec.LogRecord` s: the loop
+record (MCAP topic ``rths/loop``) on ``rths/<run-id>/loop``, the other streams (e.g.
+``rths/specimen``) on ``rths/<run-id>/log/<stream>``; so a monitor written against a live run works
+unchanged on a replay.  Pacing keeps the recorded
+``log_time`` spacing divided by ``speed`` on the monotonic clock.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from pathlib import Path
+
+from rths.core.errors import DataError
+from rths.log.reader import iter_messages, list_topics, read_metadata
+from rths.wire.codec import LogRecord
+from rths.wire.transport import RunKeys, ZenohEndpoints, new_run_id, open_session
+
+__all__ = ["paced", "replay", "replay_records"]
+
+DEFAULT_TOPICS = ("rths/loop", "rths/specimen")
+
+
+def replay_records(path: Path, topics: Sequence[str]) -> list[tuple[str, int, dict]]:
+    """``(topic, log_time_ns, message)`` of ``topics`` in log-time order (a truncated log is read
+    up to its cut)."""
+    records = [(t, log_time, json.loads(data)) for t, log_time, data in iter_messages(path, topics)]
+    records.sort(key=lambda r: r[1])  # stable: streams stay in their own order at equal times
+    return records
+
+
+def paced(
+    records: Iterable[tuple[str, int, dict]],
+    speed: float,
+    now_ns: Callable[[], int] = time.monotonic_ns,
+    sleep: Callable[[float], None] = time.sleep,
+) -> Iterator[tuple[str, int, dict]]:
+    """Yield ``(topic, log_time_ns, message)`` no earlier than its recorded time divided by
+    ``speed`` after the first one (clock and sleep injectable for tests)."""
+    start: int | None = None
+    first = 0
+    for topic, log_time, message in records:
+        if start is None:
+            start, first = now_ns(), log_time
+        pause = start + round((log_time - first) / speed) - now_ns()
+        if pause > 0:
+            sleep(pause * 1e-9)
+        yield topic, log_time, message
+
+
+def replay(
+    path: Path,
+    endpoints: ZenohEndpoints,
+    *,
+    speed: float = 1.0,
+    run_id: str | None = None,
+    topics: Sequence[str] | None = None,
+    wait: float = 0.0,
+) -> int:
+    """Publish the records of ``path``; return how many were published.
+
+    Parameters
+    ----------
+    path
+        MCAP log written by ``rths run``.
+    endpoints
+        zenoh endpoints of this publisher.
+    speed
+        Pace multiplier (> 0).
+    run_id
+        Key prefix ``rths/<run_id>/``; default the recorded run id (or a new one).
+    topics
+        MCAP topics to replay (default ``rths/loop`` and ``rths/specimen`` when present).
+    wait
+        Seconds to wait before publishing (for subscribers to connect).
+    """
+    if not (speed > 0 and wait >= 0):
+        raise DataError(f"replay needs speed > 0 and wait >= 0; got speed={speed!r}, wait={wait!r}")
+    available = list_topics(path)
+    wanted = list(topics) if topics else [t for t in DEFAULT_TOPICS if t in available]
+    missing = [t for t in wanted if t not in available]
+    if missing or not wanted:
+        raise DataError(
+            f"'{path}' has no topic {missing[0] if missing else 'rths/loop'!r}; "
+            f"it has {sorted(available)}"
+        )
+    recorded = read_metadata(path).get("rths", {}).get("run_id")
+    keys = RunKeys(run_id or recorded or new_run_id())
+    count = 0
+    with open_session(endpoints) as session:
+        publishers = {
+            t: session.declare_publisher(
+                keys.loop if t == "rths/loop" else keys.log(t.removeprefix("rths/"))
+            )
+            for t in wanted
+        }
+        seqs = dict.fromkeys(wanted, 0)
+        time.sleep(wait)
+        for topic, log_time, message in paced(replay_records(path, wanted), speed):
+            publishers[topic].put(LogRecord(seqs[topic], log_time, message).encode())
+            seqs[topic] += 1
+            count += 1
+        for pub in publishers.values():
+            pub.undeclare()
+    return count

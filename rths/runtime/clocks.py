@@ -1,0 +1,217 @@
+"""Pacing of the fixed-step loop: free-running (``lockstep``, ``fast``) or wall-clock
+(``realtime``).
+
+The loop asks its pacer to wait for the scheduled start of step ``k`` and tells it when the step's
+work is done.  The real-time pacer keeps a fixed schedule ``t0 + k*dt`` on a monotonic clock (like
+SimPy's ``RealtimeEnvironment``) and never hides a late step: it counts
+
+* **overruns** -- steps whose work finished after the start of the next step was due;
+* **jitter** -- lateness of each step's start behind its schedule (kept for percentiles).
+
+A late step is not skipped: the following steps run back to back until the schedule is caught up,
+so the number of steps and the simulated time are exact.  With ``strict=True`` the pacer raises
+:class:`RealtimeOverrun` after ``max_consecutive_overruns`` consecutive overruns (cf. SimPy's
+"Simulation too slow for real time").
+
+The time source and the sleep function are injectable, so tests drive the pacer with a fake clock.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from rths.core.errors import (
+    RTHSError,
+    check_nonnegative,
+    check_positive,
+    check_positive_int,
+)
+
+__all__ = [
+    "SWITCH_INTERVAL",
+    "FreeRunning",
+    "Pacer",
+    "RealtimeOverrun",
+    "TimingStats",
+    "WallClock",
+]
+
+
+#: GIL switch interval [s] while a loop over zenoh runs (coordinator and specimen process).
+#: CPython's default (5 ms) lets another thread keep the GIL for milliseconds while the loop
+#: thread waits -- which showed up as 5 ms p99 jitter at 1 kHz in real time, and slows every
+#: lockstep round trip; 50 µs bounds it.
+SWITCH_INTERVAL = 50e-6
+
+#: Default busy-wait margin before each deadline [µs] (see :class:`WallClock`).
+DEFAULT_SPIN_US = 150.0
+
+
+class RealtimeOverrun(RTHSError, RuntimeError):
+    """Raised by a strict real-time pacer when the loop cannot keep up."""
+
+
+@dataclass(frozen=True)
+class TimingStats:
+    """Timing figures of a run (all durations in seconds).
+
+    Attributes
+    ----------
+    steps : int
+        Steps executed.
+    overruns : int
+        Steps whose work ended after the next step was due.
+    jitter_p50, jitter_p99, jitter_max : float
+        Percentiles of the lateness of step starts behind the schedule [s] (0 when not paced).
+    busy_mean, busy_max : float
+        Mean and maximum work time per step [s] (from step start to ``done``).
+    """
+
+    steps: int
+    overruns: int
+    jitter_p50: float
+    jitter_p99: float
+    jitter_max: float
+    busy_mean: float
+    busy_max: float
+
+    @property
+    def overrun_fraction(self) -> float:
+        """Overruns per step (0 when no step ran)."""
+        return self.overruns / self.steps if self.steps else 0.0
+
+
+class Pacer:
+    """Base pacer: measures work time per step but never waits (used for ``lockstep``/``fast``).
+
+    Parameters
+    ----------
+    dt : float
+        Loop step [s].
+    n_steps : int
+        Number of steps of the run (sizes the timing arrays; no allocation happens in the loop).
+    now_ns : callable
+        Monotonic time source in integer nanoseconds (default ``time.perf_counter_ns``).
+    """
+
+    paced: bool = False
+
+    def __init__(
+        self, dt: float, n_steps: int, now_ns: Callable[[], int] = time.perf_counter_ns
+    ) -> None:
+        self.dt_ns = round(check_positive(dt, "time step dt") * 1e9)
+        self.n_steps = check_positive_int(n_steps, "number of steps")
+        self._now = now_ns
+        self._lateness = np.zeros(n_steps, dtype=np.int64)
+        self._busy = np.zeros(n_steps, dtype=np.int64)
+        self._step_start = 0
+        self._t0 = 0
+        self._count = 0
+        self.overruns = 0
+
+    def start(self) -> None:
+        """Fix the schedule origin (call just before step 0)."""
+        self._t0 = self._now()
+
+    def wait(self, k: int) -> None:
+        """Block until step ``k`` is due (never blocks here)."""
+        self._step_start = self._now()
+
+    def done(self, k: int) -> None:
+        """Mark the end of step ``k``'s work."""
+        end = self._now()
+        self._busy[k] = end - self._step_start
+        self._count = k + 1
+
+    def stats(self) -> TimingStats:
+        """Timing figures for the steps run so far."""
+        n = self._count
+        late = self._lateness[:n] * 1e-9 if self.paced else np.zeros(max(n, 1))
+        busy = self._busy[:n] * 1e-9 if n else np.zeros(1)
+        return TimingStats(
+            steps=n,
+            overruns=self.overruns,
+            jitter_p50=float(np.percentile(late, 50)) if n else 0.0,
+            jitter_p99=float(np.percentile(late, 99)) if n else 0.0,
+            jitter_max=float(late.max()) if n else 0.0,
+            busy_mean=float(busy.mean()),
+            busy_max=float(busy.max()),
+        )
+
+
+class FreeRunning(Pacer):
+    """Runs steps back to back (``lockstep`` over zenoh, ``fast`` in process)."""
+
+
+class WallClock(Pacer):
+    """Fixed-step wall-clock schedule ``t0 + k*dt`` (the ``realtime`` clock).
+
+    Waiting sleeps until ``spin`` before the deadline and busy-waits the rest, because ``sleep``
+    overshoots by tens of microseconds on Linux while a loop step at 4096 Hz is 244 µs.
+
+    Parameters
+    ----------
+    dt, n_steps, now_ns
+        As for :class:`Pacer`.
+    sleep : callable
+        ``sleep(seconds)``; injectable for tests.
+    spin : float
+        Busy-wait margin before each deadline [s] (default 150 µs).
+    strict : bool
+        Raise :class:`RealtimeOverrun` after ``max_consecutive_overruns`` overruns in a row.
+    max_consecutive_overruns : int
+        See ``strict``.
+    """
+
+    paced = True
+
+    def __init__(
+        self,
+        dt: float,
+        n_steps: int,
+        now_ns: Callable[[], int] = time.perf_counter_ns,
+        sleep: Callable[[float], None] = time.sleep,
+        spin: float | None = None,
+        strict: bool = False,
+        max_consecutive_overruns: int = 100,
+    ) -> None:
+        super().__init__(dt, n_steps, now_ns)
+        self._sleep = sleep
+        if spin is None:  # RTHS_SPIN_US overrides the default (for tuning on a given machine)
+            spin = float(os.environ.get("RTHS_SPIN_US", DEFAULT_SPIN_US)) * 1e-6
+        self._spin_ns = round(check_nonnegative(spin, "spin") * 1e9)
+        self.strict = strict
+        self.max_consecutive_overruns = check_positive_int(
+            max_consecutive_overruns, "max_consecutive_overruns"
+        )
+        self._consecutive = 0
+
+    def wait(self, k: int) -> None:
+        deadline = self._t0 + k * self.dt_ns
+        remaining = deadline - self._now()
+        if remaining > self._spin_ns:
+            self._sleep((remaining - self._spin_ns) * 1e-9)
+        now = self._now()
+        while now < deadline:
+            now = self._now()
+        self._lateness[k] = now - deadline
+        self._step_start = now
+
+    def done(self, k: int) -> None:
+        super().done(k)
+        if self._step_start + self._busy[k] > self._t0 + (k + 1) * self.dt_ns:
+            self.overruns += 1
+            self._consecutive += 1
+            if self.strict and self._consecutive >= self.max_consecutive_overruns:
+                raise RealtimeOverrun(
+                    f"simulation too slow for real time: {self._consecutive} consecutive overruns "
+                    f"at step {k} (dt = {self.dt_ns / 1e3:.1f} µs, last step took "
+                    f"{self._busy[k] / 1e3:.1f} µs)"
+                )
+        else:
+            self._consecutive = 0

@@ -1,0 +1,222 @@
+"""Fixed-layout binary messages of the loop's hot path (command out, measurement back).
+
+Every loop step the coordinator sends one :class:`Command` and the specimen answers with one
+:class:`Measurement`.  They travel as little-endian ``struct`` records of fixed size, so encoding
+and decoding cost a microsecond or so and a truncated or foreign payload is detected by its length
+alone.  Layouts (byte offsets)::
+
+    Command      (24 bytes)  0 seq u64 | 8 t_ns i64 | 16 command f64
+    Measurement  (40 bytes)  0 seq u64 | 8 t_ns i64 | 16 displacement f64 | 24 force f64
+                             | 32 sample_ns i64
+
+``seq`` is the loop step ``k``; ``t_ns`` is the simulated time the step ends at [ns] (``(k + 1) *
+dt``); ``sample_ns`` is the specimen's monotonic clock [ns] when it sampled the measurement, so the
+realtime clock can tell how old the newest sample is.
+
+:class:`LogRecord` is the (slower, self-describing) JSON record another process publishes on
+``rths/<run>/log/<name>`` for the coordinator's recorder, e.g. the specimen's internal state.
+"""
+
+from __future__ import annotations
+
+import json
+import struct
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+from rths.core.errors import DataError, ParameterError
+
+__all__ = ["Command", "LogRecord", "Measurement"]
+
+_COMMAND = struct.Struct("<Qqd")
+_MEASUREMENT = struct.Struct("<Qqddq")
+
+
+def _decode_error(kind: str, data: bytes | bytearray | memoryview, size: int) -> DataError:
+    return DataError(f"{kind} payload must be {size} bytes; got {len(data)} bytes")
+
+
+def _encode_error(kind: str, message: object, exc: struct.error) -> ParameterError:
+    return ParameterError(
+        f"{kind} cannot be encoded ({exc}): seq must be an integer in [0, 2**64), times integers "
+        f"in [-2**63, 2**63), values floats; got {message!r}"
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class Command:
+    """The actuator command of one loop step.
+
+    Attributes
+    ----------
+    seq
+        Loop step index ``k`` (>= 0).
+    t_ns
+        Simulated time of the step [ns].
+    command
+        Actuator displacement command ``u_k`` [m], held over ``[t_k, t_k+1]``.
+    """
+
+    SIZE: ClassVar[int] = _COMMAND.size
+
+    seq: int
+    t_ns: int
+    command: float
+
+    def pack(self) -> bytes:
+        """Encode as the 24-byte little-endian record described in the module docstring.
+
+        Raises
+        ------
+        ParameterError
+            If a field does not fit its slot (negative ``seq``, non-integer time, ...).
+        """
+        try:
+            return _COMMAND.pack(self.seq, self.t_ns, self.command)
+        except struct.error as exc:
+            raise _encode_error("Command", self, exc) from None
+
+    @classmethod
+    def unpack(cls, data: bytes | bytearray | memoryview) -> Command:
+        """Decode a record produced by :meth:`pack`.
+
+        Raises
+        ------
+        DataError
+            If ``data`` is not exactly :attr:`SIZE` bytes long.
+        """
+        if len(data) != _COMMAND.size:
+            raise _decode_error("Command", data, _COMMAND.size)
+        return cls(*_COMMAND.unpack(data))
+
+
+@dataclass(frozen=True, slots=True)
+class Measurement:
+    """What the specimen reports back for one loop step.
+
+    Attributes
+    ----------
+    seq
+        Loop step index of the command this measurement answers (lockstep), or the specimen's
+        own sample counter (realtime).
+    t_ns
+        Simulated time the measurement refers to [ns].
+    displacement
+        Measured displacement of the specimen end [m] (after the converters).
+    force
+        Measured restoring force of the specimen [N] (after the converters).
+    sample_ns
+        Specimen's monotonic clock when it sampled these values [ns].
+    """
+
+    SIZE: ClassVar[int] = _MEASUREMENT.size
+
+    seq: int
+    t_ns: int
+    displacement: float
+    force: float
+    sample_ns: int
+
+    def pack(self) -> bytes:
+        """Encode as the 40-byte little-endian record described in the module docstring.
+
+        Raises
+        ------
+        ParameterError
+            If a field does not fit its slot (negative ``seq``, non-integer time, ...).
+        """
+        try:
+            return _MEASUREMENT.pack(
+                self.seq, self.t_ns, self.displacement, self.force, self.sample_ns
+            )
+        except struct.error as exc:
+            raise _encode_error("Measurement", self, exc) from None
+
+    @classmethod
+    def unpack(cls, data: bytes | bytearray | memoryview) -> Measurement:
+        """Decode a record produced by :meth:`pack`.
+
+        Raises
+        ------
+        DataError
+            If ``data`` is not exactly :attr:`SIZE` bytes long.
+        """
+        if len(data) != _MEASUREMENT.size:
+            raise _decode_error("Measurement", data, _MEASUREMENT.size)
+        return cls(*_MEASUREMENT.unpack(data))
+
+
+_LOG_HEADER = struct.Struct("<QQ")
+
+
+@dataclass(frozen=True, slots=True)
+class LogRecord:
+    """One log record of a side stream: a 16-byte header, then the message as UTF-8 JSON.
+
+    Wire format: ``struct "<QQ"`` (``seq``, ``log_time_ns``) followed by the JSON object of the
+    message.  The recorder writes the JSON bytes into the MCAP log as they are (no parse, no
+    re-encode: cheap enough to record at loop rate next to a real-time loop); a monitor skips 16
+    bytes and parses the rest.
+
+    Attributes
+    ----------
+    seq
+        Counter of the publishing stream (>= 0, +1 per record); the recorder counts gaps in it.
+    log_time_ns
+        Simulated time the record refers to [ns] (>= 0).
+    message
+        JSON-serialisable mapping of named values (SI units).
+    """
+
+    seq: int
+    log_time_ns: int
+    message: Mapping[str, Any]
+
+    HEADER: ClassVar[int] = _LOG_HEADER.size
+
+    def encode(self) -> bytes:
+        """Header and compact JSON of the message."""
+        try:
+            header = _LOG_HEADER.pack(self.seq, self.log_time_ns)
+        except struct.error as exc:
+            raise ParameterError(
+                f"log record seq and log_time_ns must be integers >= 0; got {self.seq!r}, "
+                f"{self.log_time_ns!r} ({exc})"
+            ) from None
+        return header + json.dumps(self.message, separators=(",", ":")).encode()
+
+    @staticmethod
+    def split(data: bytes | bytearray | memoryview) -> tuple[int, int, bytes]:
+        """``(seq, log_time_ns, message JSON bytes)`` without parsing the JSON.
+
+        Raises
+        ------
+        DataError
+            If ``data`` is shorter than the header or the body does not look like a JSON object.
+        """
+        raw = bytes(data)
+        if len(raw) < _LOG_HEADER.size + 2 or raw[_LOG_HEADER.size] != 0x7B or raw[-1] != 0x7D:
+            raise DataError(
+                f"log record must be a 16-byte header and a JSON object; got {raw[:40]!r}"
+            )
+        seq, log_time = _LOG_HEADER.unpack_from(raw)
+        return seq, log_time, raw[_LOG_HEADER.size :]
+
+    @classmethod
+    def decode(cls, data: bytes | bytearray | memoryview) -> LogRecord:
+        """Parse bytes produced by :meth:`encode`.
+
+        Raises
+        ------
+        DataError
+            If ``data`` is not such a record (the message names what is wrong).
+        """
+        seq, log_time, body = cls.split(data)
+        try:
+            message = json.loads(body)
+        except (UnicodeDecodeError, ValueError) as exc:
+            raise DataError(f"log record message is not JSON ({exc}); got {body[:60]!r}") from None
+        if not isinstance(message, dict):
+            raise DataError(f"log record message must be a JSON object; got {message!r:.60}")
+        return cls(seq, log_time, message)

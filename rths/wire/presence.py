@@ -1,0 +1,154 @@
+"""Readiness handshake and stop signal between coordinator and specimen (private; import
+:class:`Presence` from :mod:`rths.wire.transport`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import threading
+import time
+from collections.abc import Sequence
+from typing import Protocol
+
+import zenoh
+
+from rths.core.errors import ParameterError, TransportError, check_positive
+from rths.wire.keys import ROLES, Role
+
+__all__ = ["ROLES", "Presence", "Role"]
+
+
+class _ControlKeys(Protocol):
+    """The keys a :class:`Presence` needs (:class:`rths.wire.transport.RunKeys` provides them)."""
+
+    @property
+    def stop(self) -> str: ...
+
+    def ready(self, role: Role) -> str: ...
+
+
+class Presence:
+    """This process's readiness, its peer's, and the stop signal.
+
+    Declare the links first, then create the :class:`Presence` and call :meth:`wait_for_peer`:
+    it declares this side's liveliness token (``control/ready/<role>``), waits for the peer's,
+    and waits until every given hot publisher is matched by the peer's subscriber, so step 0
+    cannot be lost.  :attr:`stop` is set when the peer publishes a stop request or its token
+    disappears (process ended or crashed); :attr:`stop_reason` says which.
+
+    Parameters
+    ----------
+    session, keys
+        Open session and the run's keys.
+    role
+        ``"coordinator"`` or ``"specimen"``; the peer is the other one.
+    where
+        Endpoint description for error messages (e.g. ``endpoints.describe()``).
+    """
+
+    def __init__(self, session: zenoh.Session, keys: _ControlKeys, role: Role, where: str) -> None:
+        if role not in ROLES:
+            raise ParameterError(f"role must be one of {ROLES}; got {role!r}")
+        self.role: Role = role
+        self.peer: Role = ROLES[1 - ROLES.index(role)]
+        self.where = where
+        self.stop = threading.Event()
+        self.stop_reason = ""
+        self._session = session
+        self._keys = keys
+        self._peer_up = threading.Event()
+        self._token: zenoh.LivelinessToken | None = None
+        liveliness = session.liveliness()
+        self._watch = liveliness.declare_subscriber(
+            keys.ready(self.peer),
+            zenoh.handlers.Callback(self._on_liveliness, indirect=False),
+            history=True,
+        )
+        self._stop_sub = session.declare_subscriber(
+            keys.stop,
+            zenoh.handlers.Callback(self._on_stop, indirect=False),
+            allowed_origin=zenoh.Locality.REMOTE,
+        )
+
+    def _on_liveliness(self, sample: zenoh.Sample) -> None:
+        if sample.kind == zenoh.SampleKind.PUT:
+            self._peer_up.set()
+        elif self._peer_up.is_set():
+            self._peer_up.clear()
+            self._set_stop(f"{self.peer} process went away")
+
+    def _on_stop(self, sample: zenoh.Sample) -> None:
+        try:
+            reason = str(json.loads(sample.payload.to_bytes()).get("reason", "stop requested"))
+        except (ValueError, AttributeError):
+            reason = "stop requested"
+        self._set_stop(f"{self.peer} requested stop: {reason}")
+
+    def _set_stop(self, reason: str) -> None:
+        if not self.stop.is_set():
+            self.stop_reason = reason
+            self.stop.set()
+
+    @property
+    def peer_alive(self) -> bool:
+        """Whether the peer's readiness token is currently present."""
+        return self._peer_up.is_set()
+
+    def announce(self) -> None:
+        """Declare this side's readiness token (idempotent; :meth:`wait_for_peer` calls it)."""
+        if self._token is None:
+            self._token = self._session.liveliness().declare_token(self._keys.ready(self.role))
+
+    def wait_for_peer(
+        self, timeout: float = 10.0, publishers: Sequence[zenoh.Publisher] = ()
+    ) -> None:
+        """Announce readiness and block until the peer is up and matches ``publishers``.
+
+        Parameters
+        ----------
+        timeout
+            Longest wait [s] for the peer's token and for every subscriber match.
+        publishers
+            This side's hot publishers; each must be matched by a subscriber of the peer
+            before the first message is sent on it.
+
+        Raises
+        ------
+        TransportError
+            ``"specimen process did not come up within 10 s on listen tcp/..."`` or, if it came
+            up but never subscribed, which key is unmatched.
+        """
+        check_positive(timeout, "handshake timeout")
+        self.announce()
+        deadline = time.monotonic() + timeout
+        if not self._peer_up.wait(timeout):
+            raise TransportError(
+                f"{self.peer} process did not come up within {timeout:g} s on {self.where}"
+            )
+        for pub in publishers:
+            while not pub.matching_status.matching:  # type: ignore[attr-defined]
+                if time.monotonic() > deadline:
+                    raise TransportError(
+                        f"{self.peer} process is up but did not subscribe to '{pub.key_expr}' "
+                        f"within {timeout:g} s on {self.where}"
+                    )
+                time.sleep(0.005)
+
+    def request_stop(self, reason: str = "done") -> None:
+        """Ask the peer to stop (it sees ``"<role> requested stop: <reason>"``)."""
+        self._session.put(self._keys.stop, json.dumps({"reason": reason, "pid": os.getpid()}))
+
+    def close(self) -> None:
+        """Withdraw the token and undeclare the subscribers."""
+        if self._token is not None:
+            self._token.undeclare()
+            self._token = None
+        self._watch.undeclare()
+        self._stop_sub.undeclare()
+
+    def __enter__(self) -> Presence:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

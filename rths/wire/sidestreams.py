@@ -1,0 +1,202 @@
+"""Side streams of a run (private; import from :mod:`rths.wire.transport`): JSON log records another
+process publishes (:class:`LogPublisher`, :class:`BackgroundPublisher`) and the coordinator's
+:class:`LogBridge` that feeds them into the MCAP recorder.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, Protocol
+
+import zenoh
+
+from rths.core.errors import DataError
+from rths.wire.codec import LogRecord
+from rths.wire.keys import RunKeys
+
+__all__ = ["BackgroundPublisher", "LogBridge", "LogPublisher", "RecordSink"]
+
+
+class LogPublisher:
+    """Publish :class:`rths.wire.codec.LogRecord` s on ``rths/<run>/log/<name>`` for the recorder.
+
+    Parameters
+    ----------
+    session, keys
+        Open session and the run's keys.
+    name
+        Stream name, e.g. ``"specimen"`` (recorded as MCAP topic ``rths/specimen``).
+
+    For slower, self-describing side streams of another process (e.g. the specimen's internal
+    state); the coordinator's :class:`rths.log.recorder.LogBridge` records them as MCAP topic
+    ``rths/<name>``.  Reliable with congestion control BLOCK: a record is never dropped by the
+    transport, and the recorder counts gaps in ``seq`` anyway.
+    """
+
+    def __init__(self, session: zenoh.Session, keys: RunKeys, name: str) -> None:
+        self.key = keys.log(name)
+        self.seq = 0  #: seq of the next record
+        self._publisher = session.declare_publisher(
+            self.key,
+            congestion_control=zenoh.CongestionControl.BLOCK,
+            reliability=zenoh.Reliability.RELIABLE,
+        )
+
+    def put(self, log_time_ns: int, message: Mapping[str, Any]) -> None:
+        """Publish one record; ``seq`` counts up from 0.
+
+        Parameters
+        ----------
+        log_time_ns
+            Simulated time [ns] the record refers to.
+        message
+            JSON-serialisable mapping of named values in SI units.
+        """
+        self._publisher.put(LogRecord(self.seq, log_time_ns, message).encode())
+        self.seq += 1
+
+    def close(self) -> None:
+        """Undeclare the publisher."""
+        self._publisher.undeclare()
+
+    def __enter__(self) -> LogPublisher:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class BackgroundPublisher:
+    """Publish log records from a background thread, so the caller only enqueues (~1 µs).
+
+    JSON encoding and the zenoh put (which can block for ~100 µs under congestion control
+    BLOCK) happen off the caller's thread -- the real-time loop or the specimen's step.
+
+    Parameters
+    ----------
+    session
+        Open zenoh session.
+    key
+        Key expression to publish on.
+    reliable
+        True: reliable with congestion control BLOCK (the recorder sees every record; the
+        queue absorbs congestion).  False: best effort, dropped under congestion (live copies
+        for monitors).
+    """
+
+    def __init__(self, session: zenoh.Session, key: str, *, reliable: bool = True) -> None:
+        import queue
+        import threading
+
+        self.key = key
+        self.seq = 0  #: seq of the next record
+        congestion = zenoh.CongestionControl.BLOCK if reliable else zenoh.CongestionControl.DROP
+        self._publisher = session.declare_publisher(
+            key,
+            congestion_control=congestion,
+            reliability=zenoh.Reliability.RELIABLE if reliable else zenoh.Reliability.BEST_EFFORT,
+        )
+        self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
+        self._thread = threading.Thread(target=self._run, name=f"publish {key}", daemon=True)
+        self._thread.start()
+
+    def put(self, log_time_ns: int, message: Mapping[str, Any]) -> None:
+        """Queue one record (``seq`` counts up from 0); ``message`` must not change afterwards."""
+        self._queue.put((self.seq, log_time_ns, message))
+        self.seq += 1
+
+    def _run(self) -> None:
+        """Drain the queue every 5 ms (polling: the producer's put never wakes this thread)."""
+        import queue
+        import time
+
+        get, put = self._queue.get_nowait, self._publisher.put
+        while True:
+            time.sleep(0.005)
+            while True:
+                try:
+                    item = get()
+                except queue.Empty:
+                    break
+                if item is None:
+                    return
+                put(LogRecord(*item).encode())
+
+    def close(self) -> None:
+        """Publish what is queued, then undeclare the publisher."""
+        self._queue.put(None)
+        self._thread.join()
+        self._publisher.undeclare()
+
+    def __enter__(self) -> BackgroundPublisher:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class RecordSink(Protocol):
+    """What :class:`LogBridge` feeds: :class:`rths.log.recorder.Recorder` satisfies it."""
+
+    def put_record(self, topic: str, payload: bytes) -> None:
+        """Queue an encoded :class:`rths.wire.codec.LogRecord` for ``topic`` without blocking."""
+
+
+class LogBridge:
+    """Record the JSON log streams other processes publish on ``rths/<run>/log/**``.
+
+    A thread drains a zenoh FIFO channel every 5 ms into ``Recorder.put_record`` (an enqueue);
+    the record for key ``rths/<run>/log/<name>`` lands on MCAP topic ``rths/<name>``.
+
+    Parameters
+    ----------
+    session
+        Open zenoh session (the coordinator's).
+    keys
+        The run's :class:`rths.wire.transport.RunKeys`.
+    recorder
+        A started :class:`rths.log.recorder.Recorder` (anything with its ``put_record``).
+    """
+
+    def __init__(self, session: zenoh.Session, keys: RunKeys, recorder: RecordSink) -> None:
+        import threading
+
+        self._keys = keys
+        self._recorder = recorder
+        self.received = 0  #: payloads received
+        self.dropped = 0  #: payloads the recorder refused (closed or failed) -- lost, but counted
+        # A FIFO channel filled by zenoh's threads without the GIL, drained every 5 ms by one
+        # thread: no Python callback per record competes with a real-time loop for the GIL.
+        self._subscriber = session.declare_subscriber(
+            keys.log_all, zenoh.handlers.FifoChannel(1 << 16)
+        )
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="log bridge", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.wait(0.005):
+            self._drain()
+        self._drain()
+
+    def _drain(self) -> None:
+        try_recv = self._subscriber.try_recv
+        while (sample := try_recv()) is not None:
+            self.received += 1
+            topic = self._keys.topic_of(str(sample.key_expr))
+            try:
+                self._recorder.put_record(topic, sample.payload.to_bytes())
+            except DataError:  # the recorder is closed or failed; it reports the failure itself
+                self.dropped += 1
+
+    def close(self) -> None:
+        """Record what has arrived, then undeclare the subscriber."""
+        self._stop.set()
+        self._thread.join()
+        self._subscriber.undeclare()
+
+    def __enter__(self) -> LogBridge:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
