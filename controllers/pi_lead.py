@@ -26,14 +26,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import control
 import numpy as np
 from numpy.typing import ArrayLike
 
 from controllers.base import Compensator
-from plants.base import Kinematics
-from rths.errors import ParameterError, check_nonnegative, check_positive
+from rths.core.kinematics import Kinematics
+from rths.core.errors import ParameterError, check_nonnegative, check_positive
+from rths.core.registry import COMPENSATORS
 
 __all__ = [
     "LEAD_DEN",
@@ -42,6 +44,7 @@ __all__ = [
     "SATURATION",
     "FirstOrderSection",
     "PILeadCompensator",
+    "PILeadOptions",
     "round_half_away",
     "tustin_section",
 ]
@@ -111,6 +114,38 @@ def tustin_section(num: ArrayLike, den: ArrayLike, dt: float) -> FirstOrderSecti
     return FirstOrderSection(float(bz[0]), float(bz[1]), float(az[1]))
 
 
+@dataclass(frozen=True)
+class PILeadOptions:
+    """Options of the ``pi_lead`` compensator kind (defaults: the benchmark's controller).
+
+    Parameters
+    ----------
+    proportional
+        PI proportional gain ``k_p`` [-] (2).
+    integral
+        PI integral gain ``k_i`` [1/s] (95).
+    quantization
+        Converter interval [m] (``2^-18``); 0 disables quantisation.
+    saturation
+        Converter limit [m] (3.8).
+    lookahead
+        Feed the phase lead the target for the end of the step (not the benchmark's wiring).
+    """
+
+    proportional: float = 2.0
+    integral: float = 95.0
+    quantization: float = QUANTIZATION
+    saturation: float = SATURATION
+    lookahead: bool = False
+
+    def __post_init__(self) -> None:
+        check_nonnegative(self.proportional, "PI proportional gain")
+        check_nonnegative(self.integral, "PI integral gain")
+        check_nonnegative(self.quantization, "converter quantization")
+        check_positive(self.saturation, "converter saturation")
+
+
+@COMPENSATORS.register("pi_lead", PILeadOptions)
 class PILeadCompensator(Compensator):
     """The benchmark's sample controller (module docstring): phase lead on the reference, PI on
     the tracking error, converters on every signal.
@@ -130,8 +165,6 @@ class PILeadCompensator(Compensator):
     lookahead
         Feed ``G_T`` the target for the end of the step instead of the benchmark's current one.
     """
-
-    kind = "pi_lead"
 
     def __init__(
         self,
@@ -162,7 +195,14 @@ class PILeadCompensator(Compensator):
         self.tracking: FirstOrderSection = tustin_section([kp, ki], [1.0, 0.0], self.dt)
         self.reset()
 
-    def reset(self) -> None:
+    @classmethod
+    def from_options(cls, options: PILeadOptions, *, dt: float, **_: Any) -> PILeadCompensator:
+        """The ``pi_lead`` kind (it needs no nominal model)."""
+        return cls(dt, proportional=options.proportional, integral=options.integral,
+                   quantization=options.quantization, saturation=options.saturation,
+                   lookahead=options.lookahead)  # fmt: skip
+
+    def _reset_impl(self) -> None:
         """Back to rest: both sections' memories and the previous target are zero."""
         self._lead_in = self._lead_out = 0.0
         self._pi_in = self._pi_out = 0.0

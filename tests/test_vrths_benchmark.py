@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from plants.frame import CASES, ChirpMotion, reference_response
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 from rths.experiments.vrths.draws import NOMINAL, PlantDraw, draw_plants
 from rths.experiments.vrths.rig import (
     benchmark_compensator,
@@ -18,7 +18,7 @@ from rths.experiments.vrths.rig import (
     run_trial,
     score,
 )
-from rths.experiments.vrths.scoring import evaluate
+from rths.metrics.vrths import evaluate
 from rths.experiments.vrths.simulink import (
     DISPLACEMENT_NOISE,
     FORCE_NOISE,

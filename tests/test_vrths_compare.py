@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from rths.errors import ParameterError
+from rths.core.errors import ParameterError
 from rths.experiments.vrths.compare import run_comparison
 from rths.experiments.vrths.tables import nominal_table, plot_j2, render, worst_j2_table
 

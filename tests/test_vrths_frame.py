@@ -27,7 +27,7 @@ from plants.frame import (
 )
 from plants.frame._discrete import discretise_structure, state_matrices
 from plants.linear_specimen import LinearSpecimen
-from rths.errors import ConfigError, DataError, ParameterError
+from rths.core.errors import ConfigError, DataError, ParameterError
 
 DT = 1.0 / 4096.0
 SPECIMEN = LinearSpecimen.from_damping_ratio(29.13, 1.19e6, 0.0097)

@@ -16,8 +16,8 @@ from controllers.pi_lead import (
     round_half_away,
     tustin_section,
 )
-from plants.base import Kinematics
-from rths.errors import ParameterError
+from rths.core.kinematics import Kinematics
+from rths.core.errors import ParameterError
 
 DT = 1.0 / 4096.0
 

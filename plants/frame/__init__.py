@@ -5,7 +5,7 @@ A 3-storey steel frame condensed to one lateral DOF per floor, in four partition
 copy of the companion package and a chirp (:mod:`plants.frame.ground_motion`); the numerical
 substructure left when the first floor's spring-mass-dashpot is tested physically, and the
 unpartitioned reference response (:mod:`plants.frame.substructure`).  Imports only ``plants`` and
-``rths.errors``.
+``rths.core.errors``.
 """
 
 from plants.frame.cases import (

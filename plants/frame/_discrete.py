@@ -30,7 +30,7 @@ import numpy as np
 import scipy.linalg as sla
 from numpy.typing import NDArray
 
-from rths.errors import ParameterError, check_positive
+from rths.core.errors import ParameterError, check_positive
 
 __all__ = ["DiscreteStructure", "discretise_structure", "state_matrices"]
 

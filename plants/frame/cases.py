@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from rths.errors import ParameterError, check_in_range, check_positive
+from rths.core.errors import ParameterError, check_in_range, check_positive
 
 __all__ = [
     "CASES",

@@ -17,7 +17,7 @@ record's last time stamp, or the chirp's target time.
 The records are data of the benchmark's companion package and are *not* shipped with this
 project.  They are read from the user's copy, whose folder is given by the environment variable
 :data:`PACKAGE_ENV` (or an explicit path); without it :func:`load_record` raises a one-line
-:class:`~rths.errors.ConfigError` saying where to get the package and that the chirp runs
+:class:`~rths.core.errors.ConfigError` saying where to get the package and that the chirp runs
 without it.
 """
 
@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rths.errors import ConfigError, DataError, ParameterError, check_positive, format_choices
+from rths.core.errors import ConfigError, DataError, ParameterError, check_positive, format_choices
 
 __all__ = [
     "DEFAULT_INTENSITY",

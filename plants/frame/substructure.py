@@ -29,19 +29,22 @@ is exact for that held force and a ground acceleration linear over the step
 
 from __future__ import annotations
 
-from typing import ClassVar
+from dataclasses import dataclass
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from plants.base import Kinematics, Substructure
+from plants.base import Substructure
 from plants.frame._discrete import discretise_structure, state_matrices
-from plants.frame.cases import BenchmarkCase
-from plants.frame.ground_motion import DEFAULT_INTENSITY, GroundMotion
+from plants.frame.cases import CASES, BenchmarkCase
+from plants.frame.ground_motion import DEFAULT_INTENSITY, GroundMotion, ground_motion
 from plants.linear_specimen import LinearSpecimen
-from rths.errors import ParameterError, check_nonnegative, check_positive
+from rths.core.errors import ParameterError, check_nonnegative, check_positive
+from rths.core.kinematics import Kinematics
+from rths.core.registry import SUBSTRUCTURES
 
-__all__ = ["FrameSubstructure", "numerical_matrices", "reference_response"]
+__all__ = ["FrameOptions", "FrameSubstructure", "numerical_matrices", "reference_response"]
 
 FloatArray = NDArray[np.float64]
 
@@ -73,6 +76,75 @@ def numerical_matrices(
     return mn, cn, kn
 
 
+@dataclass(frozen=True)
+class FrameOptions:
+    """Options of the ``vrths_frame`` substructure kind (the vRTHS benchmark's frame).
+
+    Parameters
+    ----------
+    case
+        Partitioning case 1-4 (``Building cases/Case_N.mat``).
+    ground_motion
+        ``"el_centro"``, ``"kobe"``, ``"morgan"`` (records read from the benchmark package) or
+        ``"chirp"`` (runs without it).  Set ``[run] duration`` to the record's ``tend``: 41.18,
+        50.94, 39.97 s, 90 s for the chirp; the last value is held after the end.
+    intensity
+        ``eq_intensity`` gain on the ground acceleration [-], >= 0 (F1: 0.4).
+    force_delay
+        Whole steps between the force measurement and the step it acts on: 1 is the
+        benchmark's *Unit Delay*, 0 applies it over the next step.
+    package
+        Folder of the benchmark's companion package (default: ``$RTHS_VRTHS_PACKAGE``).
+    chirp_start
+        Chirp frequency at t = 0 [Hz] (F1: 0.1).
+    chirp_end
+        Chirp frequency at ``chirp_duration`` [Hz] (F1: 40).
+    chirp_duration
+        Chirp target time [s] (F1: 90).
+    specimen_mass
+        Mass [kg] of the first-floor specimen removed from the frame (29.13).
+    specimen_stiffness
+        Its stiffness [N/m] (1.19e6).
+    specimen_damping_ratio
+        Its damping ratio [-] (0.0097): ``c = 2 zeta sqrt(k m)``.
+    """
+
+    case: Literal[1, 2, 3, 4] = 1
+    ground_motion: Literal["el_centro", "kobe", "morgan", "chirp"] = "el_centro"
+    intensity: float = DEFAULT_INTENSITY
+    force_delay: Literal[0, 1] = 1
+    package: str | None = None
+    chirp_start: float = 0.1
+    chirp_end: float = 40.0
+    chirp_duration: float = 90.0
+    specimen_mass: float = 29.13
+    specimen_stiffness: float = 1.19e6
+    specimen_damping_ratio: float = 0.0097
+
+    def __post_init__(self) -> None:
+        check_nonnegative(self.intensity, "ground motion intensity")
+        check_positive(self.chirp_duration, "chirp_duration")
+        check_nonnegative(self.chirp_start, "chirp_start")
+        check_nonnegative(self.chirp_end, "chirp_end")
+        check_positive(self.specimen_mass, "specimen_mass")
+        check_positive(self.specimen_stiffness, "specimen_stiffness")
+        check_nonnegative(self.specimen_damping_ratio, "specimen_damping_ratio")
+
+    def ground(self) -> GroundMotion:
+        """The ground motion these options name (reads the record from the package)."""
+        if self.ground_motion == "chirp":
+            return ground_motion("chirp", f_start=self.chirp_start, f_end=self.chirp_end,
+                                 duration=self.chirp_duration)  # fmt: skip
+        return ground_motion(self.ground_motion, self.package)
+
+    def specimen(self) -> LinearSpecimen:
+        """The specimen the frame is partitioned with."""
+        return LinearSpecimen.from_damping_ratio(
+            self.specimen_mass, self.specimen_stiffness, self.specimen_damping_ratio
+        )
+
+
+@SUBSTRUCTURES.register("vrths_frame", FrameOptions)
 class FrameSubstructure(Substructure):
     """Numerical substructure of the vRTHS benchmark under base acceleration (module docstring).
 
@@ -98,10 +170,15 @@ class FrameSubstructure(Substructure):
     Notes
     -----
     :meth:`outputs` gives the floor displacements ``x1``, ``x2``, ``x3`` [m] at the end of the step
-    and the ground acceleration ``ag`` [m/s^2] (what J4-J9 compare with the reference).
-    """
+    and the ground acceleration ``ag`` [m/s^2] (what J4-J9 compare with the reference), and
+    :meth:`reference_response` the unpartitioned frame's floors: the runner scores a run with
+    the benchmark's J1-J9 when its substructure has one.
 
-    kind: ClassVar[str] = "vrths_frame"
+    The frame carries no nominal device (``[model]`` only serves the compensators' nominal
+    plant): like the benchmark, the loop feeds back the whole measured force.  A scenario's
+    Monte Carlo draws the lab's specimen but keeps the partition of the options; F1 rebuilds
+    the numerical substructure with each drawn stiffness (``rths compare`` does).
+    """
 
     def __init__(
         self,
@@ -137,21 +214,26 @@ class FrameSubstructure(Substructure):
         g[6, 8] = acc[:6] @ g[:6, 8] + acc[7]
         self._step_matrix = g
         self._ag = ground.sampled(self.dt, self.n_steps + 2, self.intensity)
+        self._input = np.zeros(9)
         self.reset()
 
-    def reset(self) -> None:
-        """Back to rest at ``t = 0`` with no force pending."""
+    @classmethod
+    def from_options(cls, options: FrameOptions, *, dt: float, **_: Any) -> FrameSubstructure:
+        """The ``vrths_frame`` kind."""
+        return cls(CASES[options.case], options.specimen(), options.ground(), dt,
+                   intensity=options.intensity, force_delay=options.force_delay)  # fmt: skip
+
+    @staticmethod
+    def nominal_device(model: object) -> None:
+        """None: the frame carries no device, whatever ``[model]`` says (class docstring)."""
+        return None
+
+    def _reset_impl(self) -> None:
+        """Back to rest with no force pending."""
         self._z = np.zeros(6)
-        self._input = np.zeros(9)
-        self._k = 0
         self._held = 0.0  # force acting over the current step
         self._pending = 0.0  # force measured last, acting from the next step (delay 1)
         self._interface = Kinematics(0.0, 0.0, 0.0)
-
-    @property
-    def time(self) -> float:
-        """Current simulated time [s]."""
-        return self._k * self.dt
 
     @property
     def interface(self) -> Kinematics:
@@ -169,7 +251,7 @@ class FrameSubstructure(Substructure):
 
     def _advance(self, force: float) -> tuple[FloatArray, float, Kinematics]:
         held = self._pending if self.force_delay else force
-        k = self._k
+        k = self.steps
         w = self._input
         w[:6] = self._z
         w[6], w[7], w[8] = self._ground(k), self._ground(k + 1), held
@@ -180,7 +262,6 @@ class FrameSubstructure(Substructure):
     def _step_impl(self, restoring_force: float) -> Kinematics:
         z, held, kin = self._advance(restoring_force)
         self._z, self._held, self._pending = z, held, restoring_force
-        self._k += 1
         self._interface = kin
         return kin
 
@@ -191,7 +272,13 @@ class FrameSubstructure(Substructure):
     def outputs(self) -> dict[str, float]:
         """Floor displacements ``x1``-``x3`` [m] and ground acceleration ``ag`` [m/s^2]."""
         z = self._z
-        return {"x1": float(z[0]), "x2": float(z[1]), "x3": float(z[2]), "ag": self._ground(self._k)}
+        ag = self._ground(self.steps)
+        return {"x1": float(z[0]), "x2": float(z[1]), "x3": float(z[2]), "ag": ag}
+
+    def reference_response(self, n: int) -> FloatArray:
+        """Floor displacements [m] of the unpartitioned frame at ``t_k = k dt``, ``k < n``
+        (:func:`reference_response`), shape ``(n, 3)``."""
+        return reference_response(self.case, self.ground, self.dt, n, self.intensity)
 
 
 def reference_response(

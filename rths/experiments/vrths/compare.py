@@ -3,7 +3,7 @@
 For each compensator kind, case and plant (the nominal one and ``perturbed`` draws of F1's
 uncertain parameters, :mod:`~rths.experiments.vrths.draws`) one trial runs through the project's
 loop (:func:`~rths.experiments.vrths.rig.run_trial`) and is scored with F4's J1-J9
-(:mod:`~rths.experiments.vrths.scoring`).  Beside them, per trial: the peak hydraulic force
+(:mod:`~rths.metrics.vrths`).  Beside them, per trial: the peak hydraulic force
 against the 8.9 kN capacity, whether an interlock stopped the run, and the noise-free tracking
 error ``J2 (noise-free)`` -- F4's J2 with the lab's true specimen displacement instead of the
 measured one (F4's J2 has a floor of ``std(noise)/std(target)``: the LVDT noise alone, 16 um,
@@ -27,10 +27,10 @@ import numpy as np
 
 from plants.frame.cases import CASES
 from plants.frame.ground_motion import DEFAULT_INTENSITY, GroundMotion, ground_motion
-from rths.errors import ParameterError, RTHSError, format_choices
+from rths.core.errors import ParameterError, RTHSError, format_choices
 from rths.experiments.vrths.draws import PlantDraw, draw_plants
 from rths.experiments.vrths.rig import benchmark_compensator, reference_for, run_trial, score
-from rths.experiments.vrths.scoring import ACTUATOR_CAPACITY, CRITERIA
+from rths.metrics.vrths import ACTUATOR_CAPACITY, CRITERIA
 
 __all__ = [
     "COMPENSATORS",

@@ -17,7 +17,7 @@ import numpy as np
 
 from plants.actuator import BENCHMARK, BenchmarkParameters
 from plants.linear_specimen import BenchmarkSpecimenParameters, LinearSpecimen
-from rths.errors import ParameterError, check_finite, check_positive
+from rths.core.errors import ParameterError, check_finite, check_positive
 
 __all__ = ["NOMINAL", "PlantDraw", "draw_plants"]
 

@@ -1,7 +1,7 @@
 """The vRTHS benchmark assembled from the project's own parts and run through its loop.
 
 One trial = one partitioning case, one ground motion, one plant (nominal or drawn) and one
-compensator, run on the ``fast`` clock (in-process lab, :class:`rths.loop.Loop`):
+compensator, run on the ``fast`` clock (in-process lab, :class:`rths.runtime.loop.Loop`):
 
 * numerical substructure: :class:`plants.frame.FrameSubstructure` (with the benchmark's
   *Unit Delay* on the force);
@@ -28,17 +28,17 @@ from numpy.typing import NDArray
 
 from controllers.base import Compensator
 from controllers.factory import make_compensator
-from controllers.pi_lead import PILeadCompensator
 from plants.actuator import BENCHMARK, ServoHydraulicActuator
 from plants.frame.cases import BenchmarkCase
 from plants.frame.ground_motion import DEFAULT_INTENSITY, GroundMotion
 from plants.frame.substructure import FrameSubstructure, reference_response
 from plants.lab import Converter, EmulatedLab, LabConverters
-from rths.errors import check_positive
+from rths.core.errors import check_positive
 from rths.experiments.vrths.draws import NOMINAL, PlantDraw
-from rths.experiments.vrths.scoring import BenchmarkScores, evaluate
+from rths.metrics.vrths import BenchmarkScores, evaluate
 from rths.experiments.vrths.simulink import DISPLACEMENT_NOISE_POWER, FORCE_NOISE_POWER
-from rths.loop import InProcessLink, LinkSample, Loop, Scaling
+from rths.core.scaling import Scaling
+from rths.runtime.loop import InProcessLink, LinkSample, Loop
 
 __all__ = [
     "DT",
@@ -100,10 +100,8 @@ def nominal_plant(dt: float = DT) -> control.TransferFunction:
 
 
 def benchmark_compensator(kind: str, dt: float = DT, **options: object) -> Compensator:
-    """``pi_lead`` (options of :class:`controllers.pi_lead.PILeadCompensator`) or a
-    :mod:`controllers.factory` kind designed on :func:`nominal_plant`."""
-    if kind == PILeadCompensator.kind:
-        return PILeadCompensator(dt, **options)  # type: ignore[arg-type]
+    """A :mod:`controllers.factory` kind (``pi_lead``, ``ff_lqg``, ...) designed on
+    :func:`nominal_plant`."""
     return make_compensator(kind, dt, nominal_plant(dt), **options)
 
 
@@ -170,7 +168,7 @@ def run_trial(
     noise: bool = True,
     stroke: float = STROKE,
 ) -> Trial:
-    """Run one trial through :class:`rths.loop.Loop` on the ``fast`` clock.
+    """Run one trial through :class:`rths.runtime.loop.Loop` on the ``fast`` clock.
 
     Parameters
     ----------

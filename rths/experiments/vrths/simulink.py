@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 from plants.frame.cases import BenchmarkCase
 from plants.frame.ground_motion import DEFAULT_INTENSITY, GroundMotion
 from plants.frame.substructure import numerical_matrices
-from rths.errors import ParameterError, check_positive
+from rths.core.errors import ParameterError, check_positive
 from rths.experiments.vrths.draws import NOMINAL, PlantDraw
 
 __all__ = [

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from rths.experiments.vrths.compare import Comparison
-from rths.experiments.vrths.scoring import ACTUATOR_CAPACITY, CRITERIA
+from rths.metrics.vrths import ACTUATOR_CAPACITY, CRITERIA
 
 __all__ = ["nominal_table", "perturbed_table", "plot_j2", "render", "worst_j2_table"]
 

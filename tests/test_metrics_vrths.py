@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rths.errors import DataError, ParameterError
-from rths.experiments.vrths.scoring import (
+from rths.core.errors import DataError, ParameterError
+from rths.metrics.vrths import (
     ACTUATOR_CAPACITY,
     CRITERIA,
     evaluate,

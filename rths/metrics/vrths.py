@@ -33,7 +33,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rths.errors import DataError, check_positive
+from rths.core.errors import DataError, check_positive
 
 __all__ = [
     "ACTUATOR_CAPACITY",
