@@ -33,8 +33,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from controllers.base import Compensator
-from rths.core.kinematics import Kinematics
 from rths.core.errors import ParameterError, check_nonnegative, check_positive
+from rths.core.kinematics import Kinematics
 from rths.core.registry import COMPENSATORS
 
 __all__ = [
@@ -101,7 +101,12 @@ def tustin_section(num: ArrayLike, den: ArrayLike, dt: float) -> FirstOrderSecti
     dt = check_positive(dt, "time step dt")
     n = np.atleast_1d(np.asarray(num, dtype=float))
     d = np.atleast_1d(np.asarray(den, dtype=float))
-    if d.size != 2 or d[0] == 0.0 or n.size > 2 or not (np.all(np.isfinite(n)) and np.all(np.isfinite(d))):
+    if (
+        d.size != 2
+        or d[0] == 0.0
+        or n.size > 2
+        or not (np.all(np.isfinite(n)) and np.all(np.isfinite(d)))
+    ):
         raise ParameterError(
             f"a first-order section needs den of degree 1 and num of degree <= 1; got "
             f"num={n.tolist()!r}, den={d.tolist()!r}"
@@ -147,8 +152,9 @@ class PILeadOptions:
 
 @COMPENSATORS.register("pi_lead", PILeadOptions)
 class PILeadCompensator(Compensator):
-    """The benchmark's sample controller (module docstring): phase lead on the reference, PI on
-    the tracking error, converters on every signal.
+    """The vRTHS benchmark's sample controller: PI on the tracking error, phase lead on the target.
+
+    Wired as the benchmark's (module docstring), converters on every signal.
 
     Parameters
     ----------
@@ -182,7 +188,9 @@ class PILeadCompensator(Compensator):
         kp = check_nonnegative(proportional, "PI proportional gain")
         ki = check_nonnegative(integral, "PI integral gain")
         if kp == 0.0 and ki == 0.0:
-            raise ParameterError("PI controller needs a non-zero gain; got proportional=0, integral=0")
+            raise ParameterError(
+                "PI controller needs a non-zero gain; got proportional=0, integral=0"
+            )
         self.quantization: float = check_nonnegative(quantization, "converter quantization")
         sat = float(saturation)
         if not sat > 0.0:  # also rejects NaN; inf allowed

@@ -18,13 +18,13 @@ from rths.experiments.vrths.rig import (
     run_trial,
     score,
 )
-from rths.metrics.vrths import evaluate
 from rths.experiments.vrths.simulink import (
     DISPLACEMENT_NOISE,
     FORCE_NOISE,
     sample_controller,
     simulate_benchmark,
 )
+from rths.metrics.vrths import evaluate
 
 DT = 1.0 / 4096.0
 #: 4 s of a 0.2-8 Hz sweep: the frame's first mode (3.2-3.6 Hz) and the actuator's lag both act.
@@ -80,8 +80,10 @@ def test_noisy_j2_has_the_sensor_noise_floor() -> None:
     ref = reference_response(CASES[1], CHIRP, DT)
     j2 = score(trial, ref).J2
     floor = 100 * DISPLACEMENT_NOISE / np.std(trial.numerical[:, 0], ddof=1)
-    clean = 100 * np.std(trial.true_displacement - trial.numerical[:, 0], ddof=1) / np.std(
-        trial.numerical[:, 0], ddof=1
+    clean = (
+        100
+        * np.std(trial.true_displacement - trial.numerical[:, 0], ddof=1)
+        / np.std(trial.numerical[:, 0], ddof=1)
     )
     assert j2 == pytest.approx(math.hypot(clean, floor), rel=0.05)
 

@@ -20,7 +20,6 @@ from plants.frame import (
     ground_motion,
     load_record,
     modal_damping,
-    natural_frequencies,
     numerical_matrices,
     package_dir,
     reference_response,
@@ -138,8 +137,10 @@ def _perfect_actuator_error(dt: float, force_delay: int) -> float:
     force = 0.0
     for k in range(sub.n_steps):
         kin = sub.step(force)
-        force = SPECIMEN.mass * kin.acceleration + SPECIMEN.damping * kin.velocity + (
-            SPECIMEN.stiffness * kin.displacement
+        force = (
+            SPECIMEN.mass * kin.acceleration
+            + SPECIMEN.damping * kin.velocity
+            + (SPECIMEN.stiffness * kin.displacement)
         )
         x[k + 1] = kin.displacement
     ref = reference_response(case, ground, dt)[:, 0]
@@ -151,7 +152,10 @@ def test_partition_with_a_perfect_actuator_converges_to_the_reference(force_dela
     # The only departure from the monolithic frame is the interface force held over a step
     # (plus the Unit Delay): an O(dt) error, so halving dt halves it (ratio 2 +/- 10 %), and at
     # 4096 Hz it is a few 0.1 % of the response.
-    coarse, fine = _perfect_actuator_error(DT, force_delay), _perfect_actuator_error(DT / 2, force_delay)
+    coarse, fine = (
+        _perfect_actuator_error(DT, force_delay),
+        _perfect_actuator_error(DT / 2, force_delay),
+    )
     assert coarse / fine == pytest.approx(2.0, rel=0.1)
     assert coarse < 0.01 * (1 + 2 * force_delay)
 

@@ -16,8 +16,8 @@ from controllers.pi_lead import (
     round_half_away,
     tustin_section,
 )
-from rths.core.kinematics import Kinematics
 from rths.core.errors import ParameterError
+from rths.core.kinematics import Kinematics
 
 DT = 1.0 / 4096.0
 
@@ -49,7 +49,9 @@ def test_lead_has_unit_dc_gain_and_its_zero_and_pole() -> None:
     assert lead.dc_gain() == pytest.approx(1.0, rel=1e-12)
     # 50.8 (s + 168.6)/(s + 8570) as the paper rounds it
     assert LEAD_NUM[1] / LEAD_NUM[0] == pytest.approx(168.6, abs=0.01)
-    assert LEAD_DEN[1] == pytest.approx(8570, abs=0.5) and LEAD_NUM[0] == pytest.approx(50.8, abs=0.05)
+    assert LEAD_DEN[1] == pytest.approx(8570, abs=0.5) and LEAD_NUM[0] == pytest.approx(
+        50.8, abs=0.05
+    )
     pi = tustin_section([2.0, 95.0], [1.0, 0.0], DT)
     assert pi.a1 == -1.0 and math.isinf(pi.dc_gain())  # integrator
 

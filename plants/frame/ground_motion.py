@@ -52,9 +52,7 @@ FloatArray = NDArray[np.float64]
 #: Environment variable naming the folder of the benchmark's companion package.
 PACKAGE_ENV = "RTHS_VRTHS_PACKAGE"
 #: Where the package is published.
-PACKAGE_SOURCE = (
-    "public GitHub repository MECHS-RCN/BENCHMARKS, archive 'RTHS code RT V23.zip'"
-)
+PACKAGE_SOURCE = "public GitHub repository MECHS-RCN/BENCHMARKS, archive 'RTHS code RT V23.zip'"
 #: ``eq_intensity`` of ``F1_input_file.m``.
 DEFAULT_INTENSITY = 0.4
 #: Record name -> (file in the package, MATLAB variable).
@@ -197,15 +195,16 @@ def package_dir(path: str | os.PathLike[str] | None = None) -> Path:
     given = os.environ.get(PACKAGE_ENV) if path is None else os.fspath(path)
     if not given:
         raise ConfigError(
-            f"the vRTHS benchmark records need the benchmark's companion package ({PACKAGE_SOURCE}): "
-            f"set {PACKAGE_ENV} to its folder; ground_motion = \"chirp\" runs without it"
+            "the vRTHS benchmark records need the benchmark's companion package "
+            f"({PACKAGE_SOURCE}): "
+            f'set {PACKAGE_ENV} to its folder; ground_motion = "chirp" runs without it'
         )
     folder = Path(given).expanduser()
     if not (folder / RECORDS["el_centro"][0]).is_file():
         raise ConfigError(
             f"{PACKAGE_ENV}={str(folder)!r} is not the vRTHS benchmark package (no "
             f"{RECORDS['el_centro'][0]} there; get it from the {PACKAGE_SOURCE}); "
-            f"ground_motion = \"chirp\" runs without it"
+            f'ground_motion = "chirp" runs without it'
         )
     return folder
 
@@ -234,7 +233,9 @@ def load_record(name: str, package: str | os.PathLike[str] | None = None) -> Rec
         raise DataError(f"{path}: cannot read variable {variable!r} ({exc})") from None
     data = np.asarray(data, dtype=float)
     if data.ndim != 2 or data.shape[0] != 2:
-        raise DataError(f"{path}: {variable} must have 2 rows (time, acceleration); got {data.shape}")
+        raise DataError(
+            f"{path}: {variable} must have 2 rows (time, acceleration); got {data.shape}"
+        )
     return RecordedMotion(name, data[0].copy(), data[1].copy())
 
 
@@ -253,7 +254,15 @@ def ground_motion(
         ``f_start``, ``f_end``, ``duration`` of the chirp (only with ``name = "chirp"``).
     """
     if name == "chirp":
-        return ChirpMotion(**chirp)
+        unknown = sorted(set(chirp) - {"f_start", "f_end", "duration"})
+        if unknown:
+            raise ParameterError(f"unknown chirp option(s) {format_choices(unknown)}")
+        d = ChirpMotion()
+        return ChirpMotion(
+            f_start=chirp.get("f_start", d.f_start),
+            f_end=chirp.get("f_end", d.f_end),
+            duration=chirp.get("duration", d.duration),
+        )
     if chirp:
         raise ParameterError(
             f"chirp options {format_choices(sorted(chirp))} given for ground motion {name!r}"

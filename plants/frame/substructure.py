@@ -146,7 +146,9 @@ class FrameOptions:
 
 @SUBSTRUCTURES.register("vrths_frame", FrameOptions)
 class FrameSubstructure(Substructure):
-    """Numerical substructure of the vRTHS benchmark under base acceleration (module docstring).
+    """The vRTHS benchmark frame minus its first-floor specimen, under base acceleration.
+
+    The numerical substructure of the benchmark (module docstring).
 
     The interface is floor 1; the target is its displacement, velocity and acceleration relative
     to the ground.  Each step costs one 6x6 matrix-vector product.

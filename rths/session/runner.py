@@ -40,11 +40,12 @@ from rths.log.recorder import (
     object_schema,
 )
 from rths.metrics import TrackingSummary, summarize
+from rths.metrics.vrths import BenchmarkScores, evaluate
 from rths.runtime.clocks import SWITCH_INTERVAL, FreeRunning, Pacer, WallClock
 from rths.runtime.loop import InProcessLink, LinkSample, Loop, LoopResult
 from rths.wire.keys import check_run_id, new_run_id
 
-__all__ = ["RunOptions", "RunOutcome", "run_scenario"]
+__all__ = ["RunOptions", "RunOutcome", "benchmark_scores", "run_scenario"]
 
 SPECIMEN_TOPIC = "rths/specimen"
 
@@ -126,12 +127,21 @@ class RunOutcome:
     recording: RecordingSummary | None = None
     events: list[str] = field(default_factory=list)
     saturated: dict[str, int] = field(default_factory=dict)
+    benchmark: BenchmarkScores | None = None
 
     def line(self) -> str:
-        """The one-line summary the CLI prints."""
-        m, t = self.metrics, self.result.timing
+        """The one-line summary the CLI prints (the vRTHS benchmark's J1-J9 when the
+        substructure has a reference response, else the project's J1-J3)."""
+        m, t, b = self.metrics, self.result.timing, self.benchmark
         parts = [f"{self.result.steps} steps"]
-        if m is not None:
+        if b is not None:
+            parts.append(
+                f"J1 {b.J1:.1f} ms, "
+                + ", ".join(f"{k} {v:.2f} %" for k, v in list(b.to_dict().items())[1:])
+            )
+            if m is not None:
+                parts.append(f"sync RMSE {100 * m.sync_rmse:.3f} %")
+        elif m is not None:
             parts += [
                 f"J1 {1e3 * m.j1_delay:.3f} ms",
                 f"J2 {100 * m.j2:.3f} %",
@@ -152,18 +162,38 @@ class RunOutcome:
 
 
 class _Collector:
-    """Keeps target, measured and force per step for the summary (preallocated, no I/O)."""
+    """Keeps target, measured, force (and the frame's floors, ``sub_x1..3``, when the
+    substructure logs them) per step for the summary (preallocated, no I/O)."""
 
     def __init__(self, n: int) -> None:
         self.target, self.measured, self.force = np.zeros(n), np.zeros(n), np.zeros(n)
         self.age = np.zeros(n)
+        self.floors = np.zeros((n, 3))
         self.count = 0
 
     def __call__(self, record: dict[str, float]) -> None:
         k = int(record["seq"])
         self.target[k], self.measured[k] = record["target"], record["measured"]
         self.force[k], self.age[k] = record["force"], record["age"]
+        if "sub_x3" in record:
+            self.floors[k] = record["sub_x1"], record["sub_x2"], record["sub_x3"]
         self.count = k + 1
+
+
+def benchmark_scores(
+    reference: Callable[[int], np.ndarray],
+    measured: np.ndarray,
+    floors: np.ndarray,
+    dt: float,
+) -> BenchmarkScores:
+    """The vRTHS benchmark's J1-J9 (``F4_evaluation.m``) of a run's rows ``t_1 .. t_n``.
+
+    F4 scores records from ``t = 0``: the rest state is prepended before scoring against the
+    substructure's ``reference(n + 1)`` (floors of the unpartitioned frame from ``t = 0``).
+    """
+    x_m = np.concatenate([[0.0], measured])
+    numerical = np.vstack([np.zeros((1, 3)), floors])
+    return evaluate(x_m, numerical, reference(x_m.size), dt)
 
 
 class _Progress(threading.Thread):
@@ -335,6 +365,14 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
             )
         except DataError as exc:  # too short or too quiet a record for some metric
             outcome.events.append(f"metrics not computed: {exc}")
+        reference = getattr(substructure, "reference_response", None)
+        if callable(reference):  # the vRTHS benchmark frame: F4's J1-J9
+            try:
+                outcome.benchmark = benchmark_scores(
+                    reference, collector.measured[:k], collector.floors[:k], dt
+                )
+            except DataError as exc:
+                outcome.events.append(f"benchmark criteria not computed: {exc}")
         outcome.saturated = _saturations(scn, collector.measured[:k], collector.force[:k])
         for channel, count in outcome.saturated.items():
             if count:
@@ -377,6 +415,8 @@ def _summary(outcome: RunOutcome) -> dict[str, str]:
     }
     if outcome.metrics is not None:
         out.update({k: repr(v) for k, v in outcome.metrics.to_dict().items()})
+    if outcome.benchmark is not None:
+        out.update({k: repr(v) for k, v in outcome.benchmark.to_dict().items()})
     if outcome.events:
         out["notes"] = "; ".join(outcome.events)
     out.update({f"saturated_{k}": str(v) for k, v in outcome.saturated.items()})

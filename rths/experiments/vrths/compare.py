@@ -249,7 +249,8 @@ def run_comparison(
     bad = [k for k in kinds if k not in known]
     if bad:
         raise ParameterError(
-            f"unknown compensator(s) {format_choices(bad)}; choose from {format_choices(COMPENSATORS)}"
+            f"unknown compensator(s) {format_choices(bad)}; "
+            f"choose from {format_choices(COMPENSATORS)}"
         )
     chirp_items = tuple(sorted((chirp or {}).items()))
     _ground(ground, package, chirp_items)  # fail early (missing package) in this process

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import control
 import numpy as np
@@ -34,10 +35,10 @@ from plants.frame.ground_motion import DEFAULT_INTENSITY, GroundMotion
 from plants.frame.substructure import FrameSubstructure, reference_response
 from plants.lab import Converter, EmulatedLab, LabConverters
 from rths.core.errors import check_positive
-from rths.experiments.vrths.draws import NOMINAL, PlantDraw
-from rths.metrics.vrths import BenchmarkScores, evaluate
-from rths.experiments.vrths.simulink import DISPLACEMENT_NOISE_POWER, FORCE_NOISE_POWER
 from rths.core.scaling import Scaling
+from rths.experiments.vrths.draws import NOMINAL, PlantDraw
+from rths.experiments.vrths.simulink import DISPLACEMENT_NOISE_POWER, FORCE_NOISE_POWER
+from rths.metrics.vrths import BenchmarkScores, evaluate
 from rths.runtime.loop import InProcessLink, LinkSample, Loop
 
 __all__ = [
@@ -99,7 +100,7 @@ def nominal_plant(dt: float = DT) -> control.TransferFunction:
     return control.minreal(actuator.transfer_function(), verbose=False)
 
 
-def benchmark_compensator(kind: str, dt: float = DT, **options: object) -> Compensator:
+def benchmark_compensator(kind: str, dt: float = DT, **options: Any) -> Compensator:
     """A :mod:`controllers.factory` kind (``pi_lead``, ``ff_lqg``, ...) designed on
     :func:`nominal_plant`."""
     return make_compensator(kind, dt, nominal_plant(dt), **options)
@@ -221,7 +222,8 @@ def score(trial: Trial, reference: FloatArray) -> BenchmarkScores:
     return evaluate(trial.measured, trial.numerical, reference[:n], trial.dt)
 
 
-def reference_for(case: BenchmarkCase, ground: GroundMotion, dt: float = DT,
-                  intensity: float = DEFAULT_INTENSITY) -> FloatArray:
+def reference_for(
+    case: BenchmarkCase, ground: GroundMotion, dt: float = DT, intensity: float = DEFAULT_INTENSITY
+) -> FloatArray:
     """:func:`plants.frame.reference_response` over the whole run (``tend``)."""
     return reference_response(case, ground, dt, intensity=intensity)

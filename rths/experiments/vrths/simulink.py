@@ -77,7 +77,8 @@ class SimulinkRun:
     t
         ``t`` [s], shape ``(n,)``.
     numerical
-        ``Num_resp.Data(:, 1:3)``: floor displacements of the numerical substructure [m], ``(n, 3)``.
+        ``Num_resp.Data(:, 1:3)``: floor displacements of the numerical substructure [m],
+        ``(n, 3)``.
     measured
         ``X_m.Data``: measured specimen displacement [m], ``(n,)``.
     actuator_force
@@ -255,7 +256,7 @@ def simulate_benchmark(
         sample_controller(dt), float(quantization), float(saturation), derivative == "exact",
     )  # fmt: skip
     return SimulinkRun(
-        t=np.arange(n) * dt,
+        t=np.asarray(np.arange(n) * dt, dtype=np.float64),
         numerical=numerical,
         measured=measured,
         actuator_force=f_act,

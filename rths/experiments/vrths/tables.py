@@ -49,7 +49,9 @@ def nominal_table(c: Comparison, kind: str) -> str:
         row = [_fmt(scale * float(c.criterion(kind, n, attr, True)[0]), digits) for n in cases]
         lines.append(f"{label:<{width}}" + "".join(f"{v:>10}" for v in row))
     stopped = [c.select(kind, n, True)[0].stopped for n in cases]
-    lines.append(f"{'interlock':<{width}}" + "".join(f"{('yes' if s else 'no'):>10}" for s in stopped))
+    lines.append(
+        f"{'interlock':<{width}}" + "".join(f"{('yes' if s else 'no'):>10}" for s in stopped)
+    )
     return "\n".join(lines)
 
 
