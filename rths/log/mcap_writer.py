@@ -7,6 +7,7 @@ tagged tuples from a :class:`queue.SimpleQueue`:
 * ``("s", topic, schema_json_bytes)`` -- register a topic;
 * ``("m", topic, seq, log_time_ns, publish_time_ns, message)`` -- a message from this process;
 * ``("r", topic, payload)`` -- a :class:`rths.wire.codec.LogRecord` from another process;
+* ``("b", topic, row_block)`` -- a :class:`rths.core.channels.RowBlock`, one message per row;
 * ``("e", log_time_ns, event_dict)`` -- an event (sequence numbers assigned here);
 * :data:`STOP` -- finish the file and end.
 """
@@ -163,6 +164,7 @@ class WriterThread(threading.Thread):
         self._writer = Writer(stream, chunk_size=chunk_size, compression=_COMPRESSION[compression])
         self._flush_interval = flush_interval
         self._topics: dict[str, _Topic] = {}
+        self._templates: dict[tuple[str, tuple[str, ...]], str] = {}
         self._dirty = False
         self._last_flush = time.monotonic()
 
@@ -231,6 +233,8 @@ class WriterThread(threading.Thread):
         if tag == "m":
             _, topic, seq, log_time, publish_time, message = item
             self._write(topic, seq, log_time, publish_time, message)
+        elif tag == "b":
+            self._block(item[1], item[2])
         elif tag == "r":
             self._record(item[1], item[2])
         elif tag == "e":
@@ -294,6 +298,32 @@ class WriterThread(threading.Thread):
                 },
             )
         entry.last_seq = max(last, seq)
+
+    def _block(self, topic: str, block: Any) -> None:
+        """Write the rows of a :class:`rths.core.channels.RowBlock`: one JSON message per row,
+        formatted with a template of the block's channels (``repr`` of each float: exact)."""
+        import numpy as np
+
+        n = block.count
+        if not n:
+            return
+        key = (topic, block.names)
+        template = self._templates.get(key)
+        if template is None:
+            fields = ",".join(f'"{name}":%r' for name in block.names)
+            template = self._templates[key] = '{"seq":%d' + ("," + fields if fields else "") + "}"
+        values = block.values[:n]
+        finite = np.isfinite(values).all(axis=1).tolist()
+        add = self._add
+        for k, t, row, ok in zip(
+            block.seq[:n].tolist(), block.t_ns[:n].tolist(), values.tolist(), finite
+        ):
+            if ok:
+                data = (template % (k, *row)).encode()
+            else:
+                data = _LENIENT.encode(_finite({"seq": k, **dict(zip(block.names, row))})).encode()
+                self._topics[topic].nonfinite += 1
+            add(topic, k, t, t, data)
 
     def _record(self, topic: str, payload: bytes) -> None:
         """Write a record from another process; its JSON is written as received unless it

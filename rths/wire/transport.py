@@ -55,10 +55,12 @@ from rths.wire.links import (
     LockstepServer,
     RealtimeClient,
     RealtimeServer,
+    SyncClient,
 )
 from rths.wire.presence import Presence, Role
 from rths.wire.sidestreams import (
     BackgroundPublisher,
+    BlockPublisher,
     LogBridge,
     LogPublisher,
     RecordSink,
@@ -66,6 +68,7 @@ from rths.wire.sidestreams import (
 
 __all__ = [
     "BackgroundPublisher",
+    "BlockPublisher",
     "Inbox",
     "Latest",
     "LockstepClient",
@@ -79,6 +82,7 @@ __all__ = [
     "RecordSink",
     "Role",
     "RunKeys",
+    "SyncClient",
     "ZenohEndpoints",
     "declare_hot_publisher",
     "free_loopback_port",
