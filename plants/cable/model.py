@@ -84,6 +84,7 @@ from plants.cable.properties import (
     physical_stiffness,
 )
 from plants.device_model import DeviceModel
+from rths.core.channels import Channel
 from rths.core.errors import (
     ParameterError,
     check_finite,
@@ -304,6 +305,26 @@ class Cable(Substructure):
             out["flywheel_displacement"] = float(self._fly[0])
             out["flywheel_velocity"] = float(self._fly[1])
         return out
+
+    def channels(self) -> tuple[Channel, ...]:
+        """The keys of :meth:`outputs`, with units."""
+        out = [Channel("midspan_displacement", "m", "cable displacement at midspan")]
+        if self.device is not None:
+            out.append(Channel("device_force", "N", "restoring force of the nominal device"))
+        if self._series is not None:
+            out.append(Channel("flywheel_displacement", "m", "nominal device's flywheel"))
+            out.append(Channel("flywheel_velocity", "m/s", "nominal device's flywheel"))
+        return tuple(out)
+
+    def record(self, out: NDArray[np.float64]) -> None:
+        """Write :meth:`outputs`' values into ``out`` (no dict)."""
+        i, w = self._midspan
+        out[0] = (1.0 - w) * self._full(i) + w * self._full(i + 1)
+        if self.device is not None:
+            out[1] = self.device_force
+        if self._series is not None:
+            out[2] = self._fly[0]
+            out[3] = self._fly[1]
 
     def _advance(self, force: float, out: _State) -> _State:
         """The state at ``t_{k+1}`` for device force ``force`` [N], written into ``out``."""

@@ -57,15 +57,22 @@ class _LockstepLink:
         return 0
 
 
+#: Time [ns] kept free at the end of a step after a missed measurement: the rest of the step's
+#: work (its row, the pacer) must still end before the next step is due.
+RESERVE_NS = 20_000
+
+
 class _SyncLink:
-    """Synchronous real time: wait for measurement ``k`` until the start of step ``k + 1``."""
+    """Synchronous real time: wait for measurement ``k`` until the start of step ``k + 1``
+    (less :data:`RESERVE_NS`)."""
 
     def __init__(self, client: SyncClient, deadline_ns: Callable[[int], int], presence: Presence):
         self.client, self.deadline_ns, self.presence = client, deadline_ns, presence
 
     def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
         client = self.client
-        m = client.exchange(Command(seq, t_ns, command), self.deadline_ns(seq + 1))
+        deadline = self.deadline_ns(seq + 1) - RESERVE_NS
+        m = client.exchange(Command(seq, t_ns, command), deadline)
         if m is None:  # deadline missed: the newest sample we have (or rest before the first)
             m = client.newest
             if m is None:
