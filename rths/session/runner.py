@@ -201,9 +201,11 @@ class _Progress(threading.Thread):
 class _TruthLink(InProcessLink):
     """The fast clock's link, also recording the lab's rows on ``rths/specimen`` (in blocks)."""
 
-    def __init__(self, lab: Any, guard: CommandGuard, recorder: Recorder, rows: int) -> None:
+    def __init__(
+        self, lab: Any, guard: CommandGuard, recorder: Recorder, rows: int, live: Any = None
+    ) -> None:
         super().__init__(lab, guard)
-        self.recorder = recorder
+        self.recorder, self.live = recorder, live
         self._channels = lab.channels()
         self._rows = rows
         self._block = RowBlock(self._channels, rows)
@@ -224,6 +226,8 @@ class _TruthLink(InProcessLink):
         """Hand the filled rows to the recorder."""
         if self._block.count:
             self.recorder.put_block(SPECIMEN_TOPIC, self._block)
+            if self.live is not None:
+                self.live.put_block(SPECIMEN_TOPIC, self._block)
             self._block = RowBlock(self._channels, self._rows)
 
     def safe_stop(self, reason: str) -> int:
@@ -343,7 +347,7 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
             if clock == "fast":
                 lab = build.lab(scn, seed)
                 guard = CommandGuard(build.guard_limits(scn), dt)
-                loop = make_loop(_TruthLink(lab, guard, rec, 256))
+                loop = make_loop(_TruthLink(lab, guard, rec, 256, live))
                 outcome.result = loop.run(on_progress)
                 if guard.tripped or loop.safe_stop_steps:
                     rec.event(
@@ -415,10 +419,14 @@ def _nothing() -> Iterator[None]:
 
 
 def _live_server(where: str, rec: Recorder) -> Any:
-    """The Foxglove WebSocket server of ``--live HOST:PORT`` (imported only when asked)."""
+    """The Foxglove WebSocket server of ``--live HOST:PORT`` (imported only when asked); its
+    address goes into the log's events."""
     from rths.log.live import LiveServer
 
-    return LiveServer.start(where)
+    server = LiveServer.start(where)
+    host = where.rpartition(":")[0]
+    rec.event(0, "live", f"serving the run to Foxglove on ws://{host}:{server.port}")
+    return server
 
 
 def _saturations(scn: Scenario, measured: np.ndarray, force: np.ndarray) -> dict[str, int]:
