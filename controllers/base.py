@@ -95,11 +95,11 @@ class Compensator(ABC):
         return {}
 
     def channels(self) -> tuple[Channel, ...]:
-        """The logged channels, in the order :meth:`record` writes them (default: the keys of
-        :meth:`state`, no unit declared)."""
+        """The logged channels, in the order :meth:`write_channels` writes them (default: the
+        keys of :meth:`state`, no unit declared)."""
         return tuple(Channel(name, "?", "compensator state") for name in self.state())
 
-    def record(self, out: NDArray[np.float64]) -> None:
+    def write_channels(self, out: NDArray[np.float64]) -> None:
         """Write this step's values of :meth:`channels` into ``out`` (a slice of the loop's
         preallocated row).  Default: from :meth:`state` (slow: a dict per step)."""
         out[:] = tuple(self.state().values())

@@ -238,7 +238,7 @@ class LQGCompensator(Compensator):
         False runs the readable Python reference (same results to round-off, tested).
     """
 
-    #: Declared channels of :meth:`state` / :meth:`record`.
+    #: Declared channels of :meth:`state` / :meth:`write_channels`.
     CHANNELS: tuple[Channel, ...] = (
         Channel("feedforward", "m", "feedforward part of the command"),
         Channel("feedback", "m", "LQG feedback part of the command"),
@@ -356,7 +356,7 @@ class LQGCompensator(Compensator):
         """:data:`CHANNELS` (the keys of :meth:`state`, with units)."""
         return self.CHANNELS
 
-    def record(self, out: FloatArray) -> None:
+    def write_channels(self, out: FloatArray) -> None:
         """Write :meth:`state`'s values into ``out`` (one slice copy when compiled)."""
         if self.use_jit:
             out[:] = self._log

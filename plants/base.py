@@ -159,12 +159,12 @@ class Substructure(ABC):
         return {}
 
     def channels(self) -> tuple[Channel, ...]:
-        """The logged channels, in the order :meth:`record` writes them.  Default: the keys of
-        :meth:`outputs` (no unit declared); a substructure on the real-time path declares its
-        own and overrides :meth:`record`."""
+        """The logged channels, in the order :meth:`write_channels` writes them.  Default: the
+        keys of :meth:`outputs` (no unit declared); a substructure on the real-time path
+        declares its own and overrides :meth:`write_channels`."""
         return tuple(Channel(name, "?", "substructure output") for name in self.outputs())
 
-    def record(self, out: NDArray[np.float64]) -> None:
+    def write_channels(self, out: NDArray[np.float64]) -> None:
         """Write this step's values of :meth:`channels` into ``out`` (a slice of the loop's
         preallocated row).  Default: from :meth:`outputs` (slow: a dict per step)."""
         out[:] = tuple(self.outputs().values())
@@ -267,7 +267,7 @@ class Specimen(ABC):
         """The logged channels (default: the keys of :meth:`state`, no unit declared)."""
         return tuple(Channel(name, "?", "specimen state") for name in self.state())
 
-    def record(self, out: NDArray[np.float64]) -> None:
+    def write_channels(self, out: NDArray[np.float64]) -> None:
         """Write the values of :meth:`channels` into ``out`` (default: from :meth:`state`)."""
         out[:] = tuple(self.state().values())
 
@@ -406,7 +406,7 @@ class Actuator(ABC):
         """Declared channels of :meth:`_state_impl` (default: its keys, no unit declared)."""
         return tuple(Channel(name, "?", "actuator state") for name in self._state_impl())
 
-    def record(self, out: NDArray[np.float64]) -> None:
+    def write_channels(self, out: NDArray[np.float64]) -> None:
         """Write the values of :meth:`channels` into ``out`` (default: from :meth:`state`)."""
         out[:] = tuple(self.state().values())
 

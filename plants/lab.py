@@ -288,14 +288,14 @@ class EmulatedLab:
         return out
 
     def channels(self) -> tuple[Channel, ...]:
-        """Declared channels of :meth:`record`: :data:`LAB_CHANNELS`, then the actuator's as
+        """Declared channels of :meth:`write_channels`: :data:`LAB_CHANNELS`, then the actuator's as
         ``actuator.<name>`` (the keys of :meth:`truth`, in the same order)."""
         act = tuple(
             Channel("actuator." + c.name, c.unit, c.description) for c in self.actuator.channels()
         )
         return LAB_CHANNELS + act
 
-    def record(self, out: NDArray[np.float64]) -> None:
+    def write_channels(self, out: NDArray[np.float64]) -> None:
         """Write this step's values of :meth:`channels` into ``out`` (a preallocated row)."""
         k = self._kinematics
         n = len(LAB_CHANNELS)
@@ -311,4 +311,4 @@ class EmulatedLab:
             self._measured[1],
         )
         if out.size > n:
-            self.actuator.record(out[n:])
+            self.actuator.write_channels(out[n:])

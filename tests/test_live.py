@@ -104,3 +104,13 @@ def test_the_shipped_layout_plots_channels_the_log_has():
         "timing",
     ):
         assert panel in titles
+
+
+def test_readme_log_contract_is_generated_from_the_declarations():
+    from pathlib import Path
+
+    from rths.log.contract import markdown
+
+    readme = (Path(__file__).resolve().parent.parent / "README.md").read_text()
+    begin, end = "<!-- log-contract:begin -->\n", "<!-- log-contract:end -->"
+    assert readme[readme.index(begin) + len(begin) : readme.index(end)] == markdown()

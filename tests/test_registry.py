@@ -76,7 +76,12 @@ def test_every_kind_builds_and_runs(family, kind):
     sub, comp, lab = build.substructure(scn), build.compensator(scn), build.lab(scn)
     records: list[dict[str, float]] = []
     result = Loop(
-        sub, comp, InProcessLink(lab), scn.scaling, scn.run.steps, sink=records.append
+        sub,
+        comp,
+        InProcessLink(lab),
+        scn.scaling,
+        scn.run.steps,
+        sink=lambda b: records.extend(b.records()),
     ).run()
     assert result.stopped is None and result.steps == scn.run.steps == 51
     built = {

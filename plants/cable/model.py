@@ -97,6 +97,7 @@ from rths.core.registry import SUBSTRUCTURES
 _State = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
 
 __all__ = [
+    "CABLE_CHANNELS",
     "Cable",
     "CableProperties",
     "DistributedLoad",
@@ -112,6 +113,15 @@ __all__ = [
     "physical_damper",
     "physical_stiffness",
 ]
+
+
+#: The cable's logged channels (:meth:`Cable.channels` takes the first 1, 2 or 4).
+CABLE_CHANNELS: tuple[Channel, ...] = (
+    Channel("midspan_displacement", "m", "cable displacement at midspan"),
+    Channel("device_force", "N", "restoring force of the nominal device"),
+    Channel("flywheel_displacement", "m", "nominal device's flywheel"),
+    Channel("flywheel_velocity", "m/s", "nominal device's flywheel"),
+)
 
 
 @SUBSTRUCTURES.register("cable", CableOptions)
@@ -307,16 +317,12 @@ class Cable(Substructure):
         return out
 
     def channels(self) -> tuple[Channel, ...]:
-        """The keys of :meth:`outputs`, with units."""
-        out = [Channel("midspan_displacement", "m", "cable displacement at midspan")]
-        if self.device is not None:
-            out.append(Channel("device_force", "N", "restoring force of the nominal device"))
-        if self._series is not None:
-            out.append(Channel("flywheel_displacement", "m", "nominal device's flywheel"))
-            out.append(Channel("flywheel_velocity", "m/s", "nominal device's flywheel"))
-        return tuple(out)
+        """The keys of :meth:`outputs`, with units (:data:`CABLE_CHANNELS`: the device's only
+        with a device, the flywheel's only with a series branch)."""
+        n = 1 + (self.device is not None) + 2 * (self._series is not None)
+        return CABLE_CHANNELS[:n]
 
-    def record(self, out: NDArray[np.float64]) -> None:
+    def write_channels(self, out: NDArray[np.float64]) -> None:
         """Write :meth:`outputs`' values into ``out`` (no dict)."""
         i, w = self._midspan
         out[0] = (1.0 - w) * self._full(i) + w * self._full(i + 1)

@@ -2,7 +2,7 @@
 
 Every component that logs something per step -- the loop, a substructure, a compensator, the
 emulated lab -- declares its channels once (:class:`Channel`: name, unit, meaning) and writes its
-values each step into a slice of a preallocated row of floats (``record(out)``), not into a
+values each step into a slice of a preallocated row of floats (``write_channels(out)``), not into a
 ``dict``.  Rows are collected in a :class:`RowBlock` that goes to the log (and to a live viewer) a
 block at a time, so nothing is encoded on the loop thread; the MCAP topic's JSON schema is
 generated from the same declarations (:func:`json_schema`), so the documented log contract and

@@ -208,6 +208,10 @@ class Pacer:
         """Fix the schedule origin (call just before step 0)."""
         self._t0 = self._now()
 
+    def now_ns(self) -> int:
+        """The pacer's clock [ns]."""
+        return self._now()
+
     def deadline_ns(self, k: int) -> int:
         """Scheduled start of step ``k`` on the pacer's clock [ns] (never, when not paced)."""
         return self._t0 + k * self.dt_ns if self.paced else 2**62

@@ -160,13 +160,21 @@ class InProcessLink:
 class LoopResult:
     """Outcome of :meth:`Loop.run`: steps completed, timing figures, why it stopped early
     (``None`` when it ran to the end), and the deadline misses (measurements not there by the
-    step's deadline; the longest run of them in ``longest_lag`` steps)."""
+    step's deadline; the longest lag in ``longest_lag`` steps) and when the loop ended on the
+    pacer's clock (``ended_ns``)."""
 
     steps: int
     timing: TimingStats
     stopped: str | None = None
     misses: int = 0
     longest_lag: int = 0
+    ended_ns: int = 0  #: the pacer's clock when the last step ended [ns] (fault timing)
+    link_mean: float = 0.0  #: mean time per step in ``link.exchange`` [s] (the round trip)
+
+    @property
+    def work_mean(self) -> float:
+        """Mean work per step [s] outside the link (busy time less the round trip)."""
+        return max(self.timing.busy_mean - self.link_mean, 0.0)
 
 
 Sink = Callable[[RowBlock], None]
@@ -265,7 +273,7 @@ class Loop:
         c0, c1 = self._comp_cols
         s0, s1 = self._sub_cols
         n0 = len(LOOP_CHANNELS)
-        record_comp, record_sub = comp.record, sub.record
+        record_comp, record_sub = comp.write_channels, sub.write_channels
         dt_s = self.dt
         block = RowBlock(channels, rows)
         values, seqs, times = block.values, block.seq, block.t_ns
@@ -274,6 +282,7 @@ class Loop:
         misses = run_of_misses = longest = 0
         # until the first fresh measurement (start-up of the specimen's thread), allow 0.1 s
         fresh, start_lag = False, max(self.max_lag, round(0.1 / dt_s))
+        now, in_link = pacer.now_ns, 0
         stopped: str | None = None
         pacer.start()
         k = 0
@@ -295,7 +304,9 @@ class Loop:
                 )
                 break
             t_ns = round((k + 1) * dt_s * 1e9)  # exact to 1 ns, no accumulated rounding
+            sent = now()
             sample = link.exchange(k, t_ns, command)
+            in_link += now() - sent
             lag = k - sample.specimen_seq
             if lag:
                 misses += 1
@@ -351,6 +362,7 @@ class Loop:
                 progress(k + 1)
         else:
             k = self.n_steps
+        ended = pacer.now_ns()
         if i:
             block.count = i
             self.sink(block)
@@ -360,5 +372,11 @@ class Loop:
         if safe_stop is not None:
             self.safe_stop_steps = safe_stop(stopped or "run complete") or 0
         return LoopResult(
-            steps=k, timing=pacer.stats(), stopped=stopped, misses=misses, longest_lag=longest
+            steps=k,
+            timing=pacer.stats(),
+            stopped=stopped,
+            misses=misses,
+            longest_lag=longest,
+            ended_ns=ended,
+            link_mean=in_link * 1e-9 / max(k, 1),
         )

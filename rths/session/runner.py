@@ -37,7 +37,7 @@ from rths import __version__
 from rths.config import build
 from rths.config.scenario import Scenario
 from rths.core.channels import RowBlock
-from rths.core.errors import ConfigError, DataError, check_positive
+from rths.core.errors import ConfigError, DataError, ParameterError, check_positive
 from rths.log.recorder import (
     LOOP_TOPIC,
     Recorder,
@@ -205,7 +205,7 @@ class _TruthLink(InProcessLink):
         self, lab: Any, guard: CommandGuard, recorder: Recorder, rows: int, live: Any = None
     ) -> None:
         super().__init__(lab, guard)
-        self.recorder, self.live = recorder, live
+        self.recorder, self.live, self.rows_of = recorder, live, lab
         self._channels = lab.channels()
         self._rows = rows
         self._block = RowBlock(self._channels, rows)
@@ -215,7 +215,7 @@ class _TruthLink(InProcessLink):
         sample = super().exchange(seq, t_ns, command)
         b = self._block
         i = b.count
-        self.lab.record(b.values[i])
+        self.rows_of.write_channels(b.values[i])
         b.seq[i], b.t_ns[i] = seq, t_ns
         b.count = i + 1
         if b.count == self._rows:
@@ -397,7 +397,7 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
                 dt,
                 max_delay=min(0.1, 0.25 * k * dt),
             )
-        except DataError as exc:  # too short or too quiet a record for some metric
+        except (DataError, ParameterError) as exc:  # too short or too quiet a record
             outcome.events.append(f"metrics not computed: {exc}")
         outcome.saturated = _saturations(scn, collector.measured[:k], collector.force[:k])
         for channel, count in outcome.saturated.items():
@@ -467,6 +467,7 @@ def _summary(outcome: RunOutcome) -> dict[str, str]:
                 "age_p99_s": repr(outcome.age_p99),
                 "gc_collections_in_loop": str(outcome.gc[0]),
                 "gc_longest_s": repr(outcome.gc[1]),
+                "loop_ended_monotonic_ns": str(outcome.result.ended_ns),
             }
         )
     out.update({f"auth_{k}": str(v) for k, v in outcome.security.items()})

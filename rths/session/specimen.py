@@ -13,16 +13,18 @@ the coordinator asks to stop or goes away, or -- in real time -- when commands s
 controlled ramp on its own clock, asks the coordinator to stop (naming why) and ends.
 
 Every step it also records the lab's row (true kinematics and force, the actuator's and the
-specimen's internal states; :meth:`plants.lab.EmulatedLab.record`) into a preallocated block,
-published a block at a time on the ``specimen`` log stream, which the coordinator records as MCAP
-topic ``rths/specimen``.  Its summary (steps, guard figures, ramp-down, timing, garbage
+specimen's internal states; :meth:`plants.lab.EmulatedLab.write_channels`) into a preallocated
+block, published a block at a time on the ``specimen`` log stream, which the coordinator records
+as MCAP topic ``rths/specimen``.  Its summary (steps, guard figures, ramp-down, timing, garbage
 collections, messages dropped) goes on ``specimen/summary``.  The garbage collector is kept out
 of the serving loop (:class:`rths.runtime.clocks.QuietGC`).
 """
 
 from __future__ import annotations
 
+import json
 import math
+import sys
 import time
 import traceback
 from typing import Any
@@ -57,7 +59,7 @@ WATCHDOG_TICK = 0.002
 def _warm_up(lab: EmulatedLab) -> None:
     """Step once and reset, so compiled kernels are built before the handshake."""
     lab.step(0.0)
-    lab.record(RowBlock(lab.channels(), 1).values[0])
+    lab.write_channels(RowBlock(lab.channels(), 1).values[0])
     lab.reset()
 
 
@@ -74,7 +76,7 @@ class _Rows:
             return
         b = self.block
         i = b.count
-        self.lab.record(b.values[i])
+        self.lab.write_channels(b.values[i])
         b.seq[i], b.t_ns[i] = seq, t_ns
         b.count = i + 1
         if b.count == BLOCK_ROWS:
@@ -146,7 +148,9 @@ def serve(
             raise
         finally:
             server.rows.flush()
-        summary.put(round(lab.time * 1e9), server.summary())
+        figures = server.summary()
+        summary.put(round(lab.time * 1e9), figures)
+        print("specimen summary: " + json.dumps(figures), file=sys.stderr, flush=True)
         return server.served
 
 
@@ -166,6 +170,8 @@ class _Server:
         self.opener: Any = None
         self.refused = 0
         self.late_commands = 0
+        self.tripped_ns = 0  # monotonic clock when the serving loop ended (trip or stop)
+        self.safe_ns = 0  # monotonic clock when the actuator was back at rest
 
     def run(
         self,
@@ -175,8 +181,6 @@ class _Server:
         ready_timeout: float,
         secret: RunSecret | None,
     ) -> None:
-        import sys
-
         with (
             LockstepServer(session, keys, secret, tick=WATCHDOG_TICK) as link,
             Presence(session, keys, "specimen", endpoints.describe(), secret) as presence,
@@ -187,7 +191,9 @@ class _Server:
             with self.quiet:  # before announcing: the full collection it starts with is slow
                 presence.wait_for_peer(ready_timeout, [link.publisher])
                 self._serve(link, presence)
+                self.tripped_ns = time.monotonic_ns()
                 self._ramp_down(link)
+                self.safe_ns = time.monotonic_ns()
             if self.guard.tripped and not presence.stop.is_set():
                 presence.request_stop(f"specimen interlock: {self.guard.tripped}")
             self.refused = presence.refused
@@ -268,6 +274,8 @@ class _Server:
             "late_commands": self.late_commands,
             "gc_collections_in_loop": self.quiet.collections,
             "gc_longest_s": self.quiet.longest,
+            "stopped_at_ns": self.tripped_ns,
+            "at_rest_ns": self.safe_ns,
             **self.guard.summary(),
             **{f"saturated_{name}": count for name, count in self.lab.saturation_counts.items()},
         }

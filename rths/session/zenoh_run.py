@@ -66,12 +66,22 @@ class _SyncLink:
     """Synchronous real time: wait for measurement ``k`` until the start of step ``k + 1``
     (less :data:`RESERVE_NS`)."""
 
-    def __init__(self, client: SyncClient, deadline_ns: Callable[[int], int], presence: Presence):
+    def __init__(
+        self,
+        client: SyncClient,
+        deadline_ns: Callable[[int], int],
+        presence: Presence,
+        dt: float,
+    ):
         self.client, self.deadline_ns, self.presence = client, deadline_ns, presence
+        self.half_step = round(dt * 5e8)
 
     def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
         client = self.client
-        deadline = self.deadline_ns(seq + 1) - RESERVE_NS
+        # on schedule: until the next step is due; behind it (already an overrun, counted):
+        # half a step for the answer, so a late loop still uses fresh measurements and
+        # catches up instead of missing every one
+        deadline = max(self.deadline_ns(seq + 1) - RESERVE_NS, time.monotonic_ns() + self.half_step)
         m = client.exchange(Command(seq, t_ns, command), deadline)
         if m is None:  # deadline missed: the newest sample we have (or rest before the first)
             m = client.newest
@@ -205,7 +215,9 @@ def run_over_zenoh(
                 _wait_for_specimen(presence, [client.publisher], opts.ready_timeout, process)
                 link: Any
                 if isinstance(client, SyncClient):
-                    link = _SyncLink(client, lambda k: loop.pacer.deadline_ns(k), presence)
+                    link = _SyncLink(
+                        client, lambda k: loop.pacer.deadline_ns(k), presence, scn.run.dt
+                    )
                 else:
                     link = _LockstepLink(client, opts.step_timeout, presence)
                 loop = make_loop(link, live_copy.put_block)

@@ -306,9 +306,12 @@ class SyncClient:
         self._clock = clock
         self._queue: queue.SimpleQueue[bytes] = queue.SimpleQueue()
         put = self._queue.put
+
+        def on_sample(sample: zenoh.Sample) -> None:  # on zenoh's thread: one enqueue
+            put(sample.payload.to_bytes())
+
         self._subscriber = session.declare_subscriber(
-            keys.measurement,
-            zenoh.handlers.Callback(lambda s: put(s.payload.to_bytes()), indirect=False),
+            keys.measurement, zenoh.handlers.Callback(on_sample, indirect=False)
         )
         self.publisher = declare_hot_publisher(session, keys.command)
         self.newest: Measurement | None = None  #: the newest measurement received

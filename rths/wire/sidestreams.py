@@ -164,6 +164,9 @@ class BlockPublisher(BackgroundPublisher):
         """Queue a filled block; it must not change afterwards."""
         self._queue.put(block)
 
+    def __enter__(self) -> BlockPublisher:
+        return self
+
 
 class RecordSink(Protocol):
     """What :class:`LogBridge` feeds: :class:`rths.log.recorder.Recorder` satisfies it."""
