@@ -407,8 +407,21 @@ class Actuator(ABC):
         return tuple(Channel(name, "?", "actuator state") for name in self._state_impl())
 
     def write_channels(self, out: NDArray[np.float64]) -> None:
-        """Write the values of :meth:`channels` into ``out`` (default: from :meth:`state`)."""
-        out[:] = tuple(self.state().values())
+        """Write the values of :meth:`channels` into ``out`` (no dict: the base's two, the
+        subclass's through :meth:`_write_own`, then the specimen's)."""
+        n = getattr(self, "_own_count", None)
+        if n is None:
+            n = self._own_count = 2 + len(self._channels_impl())
+        out[0] = self._command
+        out[1] = 0.0 if self.limiter is None else float(self.limiter.limiting)
+        if n > 2:
+            self._write_own(out[2:n])
+        if out.size > n:
+            self.specimen.write_channels(out[n:])
+
+    def _write_own(self, out: NDArray[np.float64]) -> None:
+        """Write :meth:`_state_impl`'s values into ``out`` (override to avoid the dict)."""
+        out[:] = tuple(self._state_impl().values())
 
 
 def drive(
