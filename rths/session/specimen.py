@@ -192,10 +192,10 @@ class _Server:
                 presence.wait_for_peer(ready_timeout, [link.publisher])
                 self._serve(link, presence)
                 self.tripped_ns = time.monotonic_ns()
+                if self.guard.tripped and not presence.stop.is_set():  # say why, then ramp
+                    presence.request_stop(f"specimen interlock: {self.guard.tripped}")
                 self._ramp_down(link)
                 self.safe_ns = time.monotonic_ns()
-            if self.guard.tripped and not presence.stop.is_set():
-                presence.request_stop(f"specimen interlock: {self.guard.tripped}")
             self.refused = presence.refused
 
     def _serve(self, link: LockstepServer, presence: Presence) -> None:

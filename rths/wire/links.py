@@ -292,6 +292,10 @@ class SyncClient:
         The run's secret (commands sealed, measurements opened); None for plain records.
     clock
         Monotonic clock [ns] the deadlines refer to.
+    poll
+        None (default): the callback and timed wait above.  A period [s]: instead, a FIFO
+        channel filled without the GIL, polled with ``try_recv`` and short sleeps until the
+        deadline (compared in ``tools/bench_zenoh.py``).
     """
 
     def __init__(
@@ -300,19 +304,26 @@ class SyncClient:
         keys: _HotKeys,
         secret: RunSecret | None = None,
         clock: Callable[[], int] = time.monotonic_ns,
+        poll: float | None = None,
     ) -> None:
         self.sealer, _ = _sealed(secret, COMMAND_DOMAIN)
         self.opener, self._decode = _opened(secret, MEASUREMENT_DOMAIN, Measurement.unpack)
         self._clock = clock
         self._queue: queue.SimpleQueue[bytes] = queue.SimpleQueue()
-        put = self._queue.put
+        self._poll = None if poll is None else check_positive(poll, "poll period")
+        if self._poll is not None:
+            self._subscriber = session.declare_subscriber(
+                keys.measurement, zenoh.handlers.FifoChannel(1024)
+            )
+        else:
+            put = self._queue.put
 
-        def on_sample(sample: zenoh.Sample) -> None:  # on zenoh's thread: one enqueue
-            put(sample.payload.to_bytes())
+            def on_sample(sample: zenoh.Sample) -> None:  # on zenoh's thread: one enqueue
+                put(sample.payload.to_bytes())
 
-        self._subscriber = session.declare_subscriber(
-            keys.measurement, zenoh.handlers.Callback(on_sample, indirect=False)
-        )
+            self._subscriber = session.declare_subscriber(
+                keys.measurement, zenoh.handlers.Callback(on_sample, indirect=False)
+            )
         self.publisher = declare_hot_publisher(session, keys.command)
         self.newest: Measurement | None = None  #: the newest measurement received
         self.late = 0  #: measurements that arrived after their step's deadline (dropped)
@@ -332,12 +343,10 @@ class SyncClient:
             The answer, or None if it did not come in time (a deadline miss).
         """
         self.send(command)
-        seq, get, clock, decode = command.seq, self._queue.get, self._clock, self._decode
+        seq, get, clock, decode = command.seq, self._get, self._clock, self._decode
         while True:
-            left = deadline_ns - clock()
-            try:
-                raw = get(timeout=left * 1e-9) if left > 0 else get(block=False)
-            except queue.Empty:
+            raw = get(deadline_ns)
+            if raw is None:
                 return None
             m = decode(raw)
             if m is None:
@@ -354,6 +363,24 @@ class SyncClient:
                     f"measurement seq={m.seq} is ahead of the command seq={seq}: specimen out "
                     "of step"
                 )
+
+    def _get(self, deadline_ns: int) -> bytes | None:
+        clock = self._clock
+        if self._poll is None:
+            left = deadline_ns - clock()
+            try:
+                return self._queue.get(timeout=left * 1e-9) if left > 0 else self._queue.get(False)
+            except queue.Empty:
+                return None
+        try_recv, pause = self._subscriber.try_recv, self._poll
+        while True:
+            sample = try_recv()
+            if sample is not None:
+                return bytes(sample.payload.to_bytes())
+            left = deadline_ns - clock()
+            if left <= 0:
+                return None
+            time.sleep(min(pause, left * 1e-9))
 
     def close(self) -> None:
         """Undeclare the subscriber and the publisher."""
