@@ -343,7 +343,7 @@ class SyncClient:
             The answer, or None if it did not come in time (a deadline miss).
         """
         self.send(command)
-        seq, get, clock, decode = command.seq, self._get, self._clock, self._decode
+        seq, get, decode = command.seq, self._get, self._decode
         while True:
             raw = get(deadline_ns)
             if raw is None:
