@@ -311,6 +311,7 @@ class SyncClient:
         self._clock = clock
         self._queue: queue.SimpleQueue[bytes] = queue.SimpleQueue()
         self._poll = None if poll is None else check_positive(poll, "poll period")
+        self._subscriber: Any
         if self._poll is not None:
             self._subscriber = session.declare_subscriber(
                 keys.measurement, zenoh.handlers.FifoChannel(1024)
