@@ -264,3 +264,54 @@ def test_quiet_gc_keeps_automatic_collections_out_and_counts_idle_ones():
         quiet.idle(10**9)
         assert quiet.collections == 1 and gc.get_count()[0] < 100
     assert gc.isenabled()
+
+
+@pytest.mark.slow
+def test_the_specimen_ramps_down_by_itself_when_commands_stop(tmp_path):
+    """A coordinator that stays connected but stops commanding (frozen, or stuck): the specimen's
+    command watchdog trips, it says why, ramps the actuator to zero (never a jump) and leaves."""
+    import math
+
+    from rths.wire.transport import LockstepClient, Presence, open_session
+
+    text = _rt_scenario(2.0)
+    scn_path = tmp_path / "s.toml"
+    scn_path.write_text(text)
+    secret = RunSecret.new()
+    secret_file = write_secret_file(tmp_path / "run.secret", secret)
+    ep = ZenohEndpoints.loopback()
+    keys = RunKeys(f"silent-{os.getpid()}")
+    with open_session(ep) as session, LockstepClient(session, keys, 30.0, secret) as client:
+        with Presence(session, keys, "coordinator", ep.describe(), secret) as presence:
+            specimen = subprocess.Popen(
+                [
+                    sys.executable,
+                    "-m",
+                    "rths",
+                    "specimen",
+                    str(scn_path),
+                    "--run-id",
+                    keys.run_id,
+                    "--connect",
+                    ep.listen[0],
+                    "--clock",
+                    "realtime",
+                    "--secret-file",
+                    str(secret_file),
+                ],
+                stderr=subprocess.PIPE,
+                text=True,
+            )
+            presence.wait_for_peer(60.0, [client.publisher])
+            for k in range(256):  # half a 2 Hz cycle about 5 mm: it ends 5 mm away from zero
+                u = 0.01 * math.sin(2 * math.pi * 2.0 * k / 1024)
+                client.exchange(Command(k, 0, 0.005 + u))
+            assert presence.stop.wait(60.0)  # ... and now silence: an event, not a sleep
+            assert "command watchdog" in presence.stop_reason
+            _, err = specimen.communicate(timeout=60)
+    assert specimen.returncode == 0, err
+    summary = json.loads(err.splitlines()[-1].removeprefix("specimen summary: "))
+    assert summary["steps"] == 256 and "command watchdog" in summary["stop_reason"]
+    assert summary["ramp_down_steps"] >= math.floor(0.0049 / (0.05 / 1024))  # from ~5 mm
+    assert summary["largest_command_step"] <= MAX_VELOCITY / 1024 * (1 + 1e-9)
+    assert summary["at_rest_ns"] >= summary["stopped_at_ns"] > 0
