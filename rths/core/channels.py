@@ -47,7 +47,15 @@ class Channel:
 
 
 def prefixed(prefix: str, channels: Iterable[Channel]) -> tuple[Channel, ...]:
-    """The channels renamed ``prefix + name`` (e.g. ``ctrl_`` for a compensator's)."""
+    """The channels renamed ``prefix + name`` (e.g. ``ctrl_`` for a compensator's).
+
+    Parameters
+    ----------
+    prefix
+        Prepended to every name.
+    channels
+        The declarations.
+    """
     return tuple(Channel(prefix + c.name, c.unit, c.description) for c in channels)
 
 
@@ -55,7 +63,19 @@ def json_schema(
     title: str, channels: Sequence[Channel], *, description: str = "", seq: bool = False
 ) -> dict[str, Any]:
     """The JSON schema of a message holding ``channels`` (every one a number, or ``null`` for a
-    non-finite value), each described with its unit; ``seq`` adds the integer step counter."""
+    non-finite value), each described with its unit.
+
+    Parameters
+    ----------
+    title
+        Schema title, e.g. ``"rths.loop"``.
+    channels
+        The message's fields.
+    description
+        What one message is.
+    seq
+        Add the integer step counter ``seq``.
+    """
     props: dict[str, Any] = {}
     if seq:
         props["seq"] = {"type": "integer", "description": "loop step k"}

@@ -36,6 +36,11 @@ POLL = 0.02
 def parse_where(where: str) -> tuple[str, int]:
     """``"HOST:PORT"`` → ``(host, port)``.
 
+    Parameters
+    ----------
+    where
+        The address.
+
     Raises
     ------
     ConfigError
@@ -85,6 +90,13 @@ class LiveServer:
     def start(cls, where: str = DEFAULT_LIVE, max_rate: float = 500.0) -> LiveServer:
         """Start serving on ``where`` (``HOST:PORT``; port 0 picks a free one).
 
+        Parameters
+        ----------
+        where
+            ``HOST:PORT`` to listen on.
+        max_rate
+            Largest rows per second logged per topic [Hz].
+
         Raises
         ------
         ConfigError
@@ -103,11 +115,27 @@ class LiveServer:
         return cls(server, context, float(max_rate))
 
     def add_topic(self, topic: str, schema: Mapping[str, Any]) -> None:
-        """Advertise ``topic`` with its JSON schema (the MCAP log's)."""
+        """Advertise ``topic`` with its JSON schema (the MCAP log's).
+
+        Parameters
+        ----------
+        topic
+            Topic name, e.g. ``"rths/loop"``.
+        schema
+            Its JSON schema.
+        """
         self._queue.put(("s", topic, schema))
 
     def put_block(self, topic: str, block: Any) -> None:
-        """Queue a block of rows (the recorder's); returns at once."""
+        """Queue a block of rows (the recorder's); returns at once.
+
+        Parameters
+        ----------
+        topic
+            Topic name.
+        block
+            A filled :class:`rths.core.channels.RowBlock` (not changed afterwards).
+        """
         self._queue.put(("b", topic, block))
 
     def _channel(self, topic: str, block: Any = None) -> Any:

@@ -141,8 +141,14 @@ def block_messages(
 
     Each row is ``{"seq": k, <channel>: value, ...}``, formatted with a template of the block's
     channel names (``repr`` of each float: exact and the shortest), or, when the row holds a
-    non-finite value, through the lenient encoder with ``null`` in its place.  ``templates``
-    caches the template per set of names.
+    non-finite value, through the lenient encoder with ``null`` in its place.
+
+    Parameters
+    ----------
+    block
+        A :class:`rths.core.channels.RowBlock`.
+    templates
+        Cache of templates, keyed by the block's channel names (shared across calls).
 
     Returns
     -------

@@ -120,8 +120,17 @@ LOOP_SCHEMA: dict[str, Any] = object_schema(
 
 
 def block_schema(topic: str, block: RowBlock, description: str = "") -> dict[str, Any]:
-    """The JSON schema of a topic whose messages are the rows of ``block`` (title = the topic
-    with ``/`` as ``.``)."""
+    """The JSON schema of a topic whose messages are the rows of ``block``.
+
+    Parameters
+    ----------
+    topic
+        The MCAP topic (the title is the topic with ``/`` as ``.``).
+    block
+        A block with the topic's channel declarations (its rows are not read).
+    description
+        What one message is (default: one row per step).
+    """
     return json_schema(
         topic.replace("/", "."),
         block.channels,

@@ -75,8 +75,14 @@ _PR_SET_TIMERSLACK = 29
 
 
 def realtime_thread(slack_ns: int = 1000) -> bool:
-    """Lower the calling thread's timer slack to ``slack_ns`` [ns] (Linux ``prctl``), so sleeps
-    and timed waits end within a few µs of their deadline; returns whether it was applied."""
+    """Lower the calling thread's timer slack (Linux ``prctl``), so sleeps and timed waits end
+    within a few µs of their deadline; returns whether it was applied.
+
+    Parameters
+    ----------
+    slack_ns
+        The timer slack [ns] (Linux default: 50 000).
+    """
     if not sys.platform.startswith("linux"):
         return False
     try:
@@ -126,7 +132,13 @@ class QuietGC:
         return self
 
     def idle(self, remaining_ns: int) -> None:
-        """Collect the young generation if it has grown and ``remaining_ns`` allows it."""
+        """Collect the young generation if it has grown and there is room.
+
+        Parameters
+        ----------
+        remaining_ns
+            Time left before the loop's next deadline [ns].
+        """
         if remaining_ns > GC_IDLE_NS and gc.get_count()[0] > GC_YOUNG_THRESHOLD:
             gc.collect(0)
 
@@ -213,11 +225,23 @@ class Pacer:
         return self._now()
 
     def deadline_ns(self, k: int) -> int:
-        """Scheduled start of step ``k`` on the pacer's clock [ns] (never, when not paced)."""
+        """Scheduled start of step ``k`` on the pacer's clock [ns] (never, when not paced).
+
+        Parameters
+        ----------
+        k
+            Step index.
+        """
         return self._t0 + k * self.dt_ns if self.paced else 2**62
 
     def lateness_ns(self, k: int) -> int:
-        """How late step ``k`` started behind its schedule [ns] (0 when not paced)."""
+        """How late step ``k`` started behind its schedule [ns] (0 when not paced).
+
+        Parameters
+        ----------
+        k
+            Step index (already started).
+        """
         return int(self._lateness[k])
 
     def wait(self, k: int) -> None:

@@ -103,12 +103,24 @@ class CommandGuard:
         return u
 
     def trip(self, reason: str) -> None:
-        """Latch the trip (the first reason is kept); from now on :meth:`apply` ramps down."""
+        """Latch the trip (the first reason is kept); from now on :meth:`apply` ramps down.
+
+        Parameters
+        ----------
+        reason
+            Why (reported in the log).
+        """
         if self.tripped is None:
             self.tripped = reason
 
     def apply(self, command: float) -> float:
-        """The command to execute this step for the received ``command`` [m]."""
+        """The command to execute this step.
+
+        Parameters
+        ----------
+        command
+            The command received [m].
+        """
         if self.tripped is not None:
             self.ignored += 1
             return self.ramp()

@@ -132,7 +132,15 @@ class _Lab(Protocol):
 
 class InProcessLink:
     """The ``fast`` clock's link: calls an emulated lab directly in this process, through the
-    same :class:`CommandGuard` the specimen process applies (so fast and lockstep agree)."""
+    same :class:`CommandGuard` the specimen process applies (so fast and lockstep agree).
+
+    Parameters
+    ----------
+    lab
+        The emulated lab (anything with ``step(command) -> (displacement, force)``).
+    guard
+        The specimen side's command guard; None: commands go to the lab unchecked.
+    """
 
     def __init__(self, lab: _Lab, guard: CommandGuard | None = None) -> None:
         self.lab = lab
@@ -145,7 +153,13 @@ class InProcessLink:
         return LinkSample(displacement, force, 0, seq)
 
     def safe_stop(self, reason: str) -> int:
-        """Ramp the lab's actuator to zero through the guard; returns the steps it took."""
+        """Ramp the lab's actuator to zero through the guard; returns the steps it took.
+
+        Parameters
+        ----------
+        reason
+            Why the run stopped (latched in the guard).
+        """
         if self.guard is None:
             return 0
         self.guard.trip(reason)

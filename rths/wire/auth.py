@@ -87,6 +87,11 @@ class RunSecret:
     def from_hex(cls, text: str) -> RunSecret:
         """Parse the hex form (:meth:`hex`).
 
+        Parameters
+        ----------
+        text
+            Hex digits (surrounding white space ignored).
+
         Raises
         ------
         ConfigError
@@ -105,11 +110,23 @@ class RunSecret:
         return self._key.hex()
 
     def sealer(self, domain: str) -> Sealer:
-        """A sealer for messages of ``domain`` (one per sender and domain)."""
+        """A sealer for messages of ``domain`` (one per sender and domain).
+
+        Parameters
+        ----------
+        domain
+            Message kind and direction, e.g. ``"command"``.
+        """
         return Sealer(self._key, domain)
 
     def opener(self, domain: str) -> Opener:
-        """An opener for messages of ``domain`` (one per receiver and domain)."""
+        """An opener for messages of ``domain`` (one per receiver and domain).
+
+        Parameters
+        ----------
+        domain
+            Message kind and direction, e.g. ``"command"``.
+        """
         return Opener(self._key, domain)
 
     def __repr__(self) -> str:  # never print the key
@@ -127,7 +144,13 @@ class Sealer:
         self.counter = 0  #: counter of the last sealed frame
 
     def seal(self, payload: bytes) -> bytes:
-        """The frame carrying ``payload``."""
+        """The frame carrying ``payload``.
+
+        Parameters
+        ----------
+        payload
+            The message bytes.
+        """
         self.counter += 1
         head = _COUNTER.pack(self.counter)
         tag = hmac.digest(self._key, self._domain + head + payload, "sha256")[:TAG_BYTES]
@@ -153,7 +176,13 @@ class Opener:
         self.accepted = self.forged = self.replayed = 0
 
     def open(self, frame: bytes) -> bytes | None:
-        """The payload of an authentic, fresh ``frame``; None (counted) otherwise."""
+        """The payload of an authentic, fresh ``frame``; None (counted) otherwise.
+
+        Parameters
+        ----------
+        frame
+            A frame as received.
+        """
         if len(frame) < OVERHEAD:
             self.forged += 1
             return None
@@ -171,7 +200,13 @@ class Opener:
         return body[_COUNTER.size :]
 
     def decoder(self, decode: Callable[[bytes], T]) -> Callable[[bytes], T | None]:
-        """``decode`` behind this opener: returns None for a dropped frame."""
+        """``decode`` behind this opener: returns None for a dropped frame.
+
+        Parameters
+        ----------
+        decode
+            ``payload bytes -> message``.
+        """
 
         def opened(frame: bytes) -> T | None:
             payload = self.open(frame)
@@ -226,7 +261,15 @@ def read_secret(path: str | os.PathLike[str] | None = None, *, stdin: bool = Fal
 
 
 def write_secret_file(path: str | os.PathLike[str], secret: RunSecret) -> Path:
-    """Write ``secret`` (hex) to a new file readable by its owner only (mode 600)."""
+    """Write ``secret`` (hex) to a new file readable by its owner only (mode 600).
+
+    Parameters
+    ----------
+    path
+        The file (created or truncated).
+    secret
+        The run's secret.
+    """
     p = Path(path)
     fd = os.open(p, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
     with os.fdopen(fd, "w") as f:

@@ -235,7 +235,13 @@ _U32 = struct.Struct("<I")
 
 def pack_block(block: RowBlock) -> bytes:
     """One binary frame for the filled rows of ``block``: magic, the channels (JSON), the row
-    count, then ``seq`` (int64), ``t_ns`` (int64) and the values (float64, row-major)."""
+    count, then ``seq`` (int64), ``t_ns`` (int64) and the values (float64, row-major).
+
+    Parameters
+    ----------
+    block
+        The rows (``block.count`` of them are packed).
+    """
     n = block.count
     head = json.dumps([[c.name, c.unit, c.description] for c in block.channels]).encode()
     return b"".join(
@@ -253,6 +259,11 @@ def pack_block(block: RowBlock) -> bytes:
 
 def unpack_block(data: bytes | bytearray | memoryview) -> RowBlock:
     """Decode a :func:`pack_block` frame.
+
+    Parameters
+    ----------
+    data
+        The frame.
 
     Raises
     ------

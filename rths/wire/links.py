@@ -338,6 +338,13 @@ class SyncClient:
     def exchange(self, command: Command, deadline_ns: int) -> Measurement | None:
         """Send ``command``; wait until ``deadline_ns`` for the measurement with its ``seq``.
 
+        Parameters
+        ----------
+        command
+            The step's command.
+        deadline_ns
+            Until when to wait, on the client's clock [ns].
+
         Returns
         -------
         Measurement or None
