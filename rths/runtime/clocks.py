@@ -52,6 +52,7 @@ __all__ = [
     "RealtimeOverrun",
     "TimingStats",
     "WallClock",
+    "realtime_priority",
     "realtime_thread",
 ]
 
@@ -90,6 +91,46 @@ def realtime_thread(slack_ns: int = 1000) -> bool:
         return int(libc.prctl(_PR_SET_TIMERSLACK, int(slack_ns), 0, 0, 0)) == 0
     except (OSError, AttributeError):
         return False
+
+
+#: Environment variable that asks for the real-time scheduling class (a priority 1-99).
+PRIORITY_ENV = "RTHS_RT_PRIORITY"
+
+
+def realtime_priority(priority: int | None = None) -> int:
+    """Put this process in Linux's real-time scheduling class ``SCHED_FIFO`` (opt-in).
+
+    Threads started afterwards inherit it, so call it before the transport starts its threads.
+    A ``SCHED_FIFO`` thread runs as soon as it is woken, ahead of every ordinary process: on a
+    shared machine the loop's wake-ups no longer wait behind other people's jobs.  The kernel's
+    real-time throttling (``sched_rt_runtime_us``, 95 % by default) keeps the machine usable.
+    Needs ``CAP_SYS_NICE`` (root, or ``ulimit -r``); without it nothing changes.
+
+    Parameters
+    ----------
+    priority
+        1-99; None: the environment variable ``RTHS_RT_PRIORITY`` (unset: do nothing).
+
+    Returns
+    -------
+    int
+        The priority applied, 0 if none.
+    """
+    if priority is None:
+        text = os.environ.get(PRIORITY_ENV, "").strip()
+        if not text:
+            return 0
+        try:
+            priority = int(text)
+        except ValueError:
+            return 0
+    if not 1 <= priority <= 99 or not hasattr(os, "sched_setscheduler"):
+        return 0
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    except (OSError, PermissionError):
+        return 0
+    return priority
 
 
 class QuietGC:

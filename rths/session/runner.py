@@ -51,6 +51,7 @@ from rths.runtime.clocks import (
     Pacer,
     QuietGC,
     WallClock,
+    realtime_priority,
     realtime_thread,
 )
 from rths.runtime.guard import CommandGuard
@@ -130,6 +131,7 @@ class RunOutcome:
     events: list[str] = field(default_factory=list)
     saturated: dict[str, int] = field(default_factory=dict)
     age_p99: float = 0.0
+    priority: int = 0
     gc: tuple[int, float] = (0, 0.0)
     security: dict[str, int] = field(default_factory=dict)
 
@@ -297,12 +299,14 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
     compensator = build.compensator(scn, opts.compensator)
     substructure.predict(0.0)  # compile kernels before the clock starts
     quiet = QuietGC() if clock == "realtime" else None
+    priority = realtime_priority() if clock == "realtime" else 0  # opt-in: RTHS_RT_PRIORITY
     pacer: Pacer = WallClock(dt, n) if clock == "realtime" else FreeRunning(dt, n)
     if quiet is not None:
         pacer.idle = quiet.idle
     collector = _Collector(n)
     progress = _Progress(opts.progress, n) if opts.progress else None
     outcome = RunOutcome(path, run_id, clock, LoopResult(0, pacer.stats()), None)
+    outcome.priority = priority
     with Recorder(path, topics={}, metadata=_metadata(scn, run_id, clock, comp_kind, seed)) as rec:
         rec.event(0, "start", f"run {run_id}: {scn.run.name}, clock {clock}, {n} steps")
         live = _live_server(opts.live, rec) if opts.live else None
@@ -468,6 +472,7 @@ def _summary(outcome: RunOutcome) -> dict[str, str]:
                 "gc_collections_in_loop": str(outcome.gc[0]),
                 "gc_longest_s": repr(outcome.gc[1]),
                 "loop_ended_monotonic_ns": str(outcome.result.ended_ns),
+                "sched_fifo_priority": str(outcome.priority),
             }
         )
     out.update({f"auth_{k}": str(v) for k, v in outcome.security.items()})

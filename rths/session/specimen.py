@@ -34,7 +34,13 @@ from rths.config import build
 from rths.config.scenario import Scenario
 from rths.core.channels import RowBlock
 from rths.core.errors import TransportError
-from rths.runtime.clocks import SWITCH_INTERVAL, QuietGC, WallClock, realtime_thread
+from rths.runtime.clocks import (
+    SWITCH_INTERVAL,
+    QuietGC,
+    WallClock,
+    realtime_priority,
+    realtime_thread,
+)
 from rths.runtime.guard import CommandGuard
 from rths.wire.auth import RunSecret
 from rths.wire.codec import Command, Measurement
@@ -128,6 +134,8 @@ def serve(
     """
     if clock not in ("lockstep", "realtime"):
         raise TransportError(f"the specimen process serves 'lockstep' or 'realtime'; got {clock!r}")
+    if clock == "realtime":
+        realtime_priority()  # opt-in (RTHS_RT_PRIORITY), before zenoh starts its threads
     lab = build.lab(scn, seed)
     _warm_up(lab)
     guard = CommandGuard(build.guard_limits(scn), scn.run.dt)
