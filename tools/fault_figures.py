@@ -18,7 +18,10 @@ count, ramp-down included, against its per-step limit ``max_velocity * dt``), wh
 reads with the plain ``mcap`` reader, whether it has its summary; and for the forged peer the
 messages sent and accepted.  Prints one table; ``--json`` writes the rows.
 
-    python tools/fault_figures.py [--rate 2048] [--duration 4] [--only NAME ...]
+    python tools/fault_figures.py [--rate 2048] [--duration 4] [--max-lag 5] [--only NAME ...]
+
+The fault is injected once the run is under way (a passive zenoh peer has seen half a second of
+commands go by).
 """
 
 from __future__ import annotations
@@ -48,10 +51,36 @@ FAULTS = (
 )
 
 
-def scenario(rate: float, duration: float) -> str:
+def scenario(rate: float, duration: float, max_lag: int) -> str:
     text = SEED.read_text()
     text = re.sub(r"^rate = .*$", f"rate = {rate}", text, flags=re.M)
+    text = text.replace("[loop]\n", f"[loop]\nmax_lag = {max_lag}\n")
     return re.sub(r"^duration = .*$", f"duration = {duration}", text, flags=re.M)
+
+
+def wait_until_running(
+    endpoint: str, run_id: str, commands: int, timeout: float, coordinator: subprocess.Popen
+) -> bool:
+    """Block until ``commands`` commands of the run have crossed zenoh (a passive peer counts
+    them; they are sealed, it cannot read them); False if the coordinator ended first or
+    ``timeout`` [s] passed."""
+    from rths.wire.transport import RunKeys, ZenohEndpoints, session_config
+
+    seen = threading.Event()
+    count = [0]
+
+    def on_command(sample: zenoh.Sample) -> None:
+        count[0] += 1
+        if count[0] >= commands:
+            seen.set()
+
+    with zenoh.open(session_config(ZenohEndpoints(connect=(endpoint,)))) as session:
+        session.declare_subscriber(RunKeys(run_id).command, on_command)
+        deadline = time.monotonic() + timeout
+        while not seen.wait(0.2):
+            if coordinator.poll() is not None or time.monotonic() > deadline:
+                return False
+        return True
 
 
 def read_log(path: Path) -> tuple[bool, dict, dict]:
@@ -116,12 +145,12 @@ def forger(endpoint: str, run_id: str, done: threading.Event, counts: dict) -> N
         counts["sent"] = sent
 
 
-def run_fault(fault: str, rate: float, duration: float, tmp: Path) -> dict:
+def run_fault(fault: str, rate: float, duration: float, max_lag: int, tmp: Path) -> dict:
     from rths.wire.auth import RunSecret, write_secret_file
     from rths.wire.transport import loopback_endpoint
 
     scn = tmp / f"{fault}.toml"
-    scn.write_text(scenario(rate, duration))
+    scn.write_text(scenario(rate, duration, max_lag))
     out = tmp / f"{fault}.mcap"
     secret = write_secret_file(tmp / f"{fault}.secret", RunSecret.new())
     endpoint = loopback_endpoint()
@@ -165,7 +194,7 @@ def run_fault(fault: str, rate: float, duration: float, tmp: Path) -> dict:
         stderr=subprocess.PIPE,
         text=True,
     )
-    time.sleep(1.5 + 0.3 * duration)  # the run is under way (a tool: wall-clock is the point)
+    running = wait_until_running(endpoint, run_id, round(0.5 * rate), 120.0, coord)
     fault_ns = time.monotonic_ns()
     counts: dict = {}
     done = threading.Event()
@@ -200,6 +229,7 @@ def run_fault(fault: str, rate: float, duration: float, tmp: Path) -> dict:
     dt = 1.0 / rate
     row = {
         "fault": fault,
+        "fault_during_run": running,
         "exit": coord.returncode,
         "stopped": summary.get("stopped", "") or "",
         "coordinator_stop_ms": None,
@@ -215,9 +245,11 @@ def run_fault(fault: str, rate: float, duration: float, tmp: Path) -> dict:
             figures.get("gc_collections_in_loop"),
         ),
     }
-    if summary.get("loop_ended_monotonic_ns"):
+    if not running:
+        row["stopped"] = "(fault not injected: the run had already stopped) " + row["stopped"]
+    elif summary.get("loop_ended_monotonic_ns"):
         row["coordinator_stop_ms"] = (int(summary["loop_ended_monotonic_ns"]) - fault_ns) / 1e6
-    if figures.get("at_rest_ns"):
+    if running and figures.get("at_rest_ns"):
         row["at_rest_ms"] = (figures["at_rest_ns"] - fault_ns) / 1e6
     ended = [ln for ln in stderr.splitlines() if "stopped early" in ln]
     row["stderr"] = ended[-1] if ended else stderr.strip().splitlines()[-1:] or ""
@@ -234,6 +266,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rate", type=float, default=2048.0)
     ap.add_argument("--duration", type=float, default=4.0)
+    ap.add_argument(
+        "--max-lag", type=int, default=5, help="[loop] max_lag of the runs (the watchdog) [steps]"
+    )
     ap.add_argument("--only", nargs="*", choices=FAULTS, default=list(FAULTS))
     ap.add_argument("--json", type=Path)
     args = ap.parse_args()
@@ -241,7 +276,7 @@ def main() -> None:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for fault in args.only:
-            rows.append(run_fault(fault, args.rate, args.duration, Path(tmp)))
+            rows.append(run_fault(fault, args.rate, args.duration, args.max_lag, Path(tmp)))
             print(json.dumps(rows[-1]), file=sys.stderr)
     print(
         "| fault | fault → loop stopped [ms] | fault → actuator at rest [ms] | largest command "
