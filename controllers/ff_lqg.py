@@ -47,6 +47,8 @@ class FFLQGCompensator(LQGCompensator):
         The model-based feedforward (required).
     estimator
         ``"steady"`` (hot path) or ``"filterpy"`` (:class:`~controllers.lqg.LQGCompensator`).
+    use_jit
+        Step with the compiled kernel (default) or the Python reference path.
 
     Notes
     -----
@@ -79,7 +81,8 @@ class FFLQGCompensator(LQGCompensator):
         feedforward: FeedforwardCompensator,
         *,
         estimator: str = "steady",
+        use_jit: bool = True,
     ) -> None:
         if feedforward is None:
             raise ParameterError("FF+LQG needs a feedforward compensator; got None")
-        super().__init__(dt, design, feedforward, estimator=estimator)
+        super().__init__(dt, design, feedforward, estimator=estimator, use_jit=use_jit)

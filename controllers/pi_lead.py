@@ -30,14 +30,16 @@ from typing import Any
 
 import control
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from controllers.base import Compensator
+from rths.core.channels import Channel
 from rths.core.errors import ParameterError, check_nonnegative, check_positive
 from rths.core.kinematics import Kinematics
 from rths.core.registry import COMPENSATORS
 
 __all__ = [
+    "CHANNELS",
     "LEAD_DEN",
     "LEAD_NUM",
     "QUANTIZATION",
@@ -57,6 +59,13 @@ LEAD_DEN: tuple[float, float] = (1.0, 8570.397339444286)
 QUANTIZATION: float = 2.0**-18
 #: Saturation of the benchmark's converters (``sat_limit_upper = 3.8``), in metres.
 SATURATION: float = 3.8
+
+#: Declared channels of :meth:`PILeadCompensator.state` / ``write_channels``.
+CHANNELS: tuple[Channel, ...] = (
+    Channel("reference", "m", "phase-lead output y_p after the D/A"),
+    Channel("error", "m", "tracking error y_p - x_m after the A/D"),
+    Channel("command", "m", "PI output after the D/A"),
+)
 
 
 def round_half_away(x: float) -> float:
@@ -248,3 +257,11 @@ class PILeadCompensator(Compensator):
         """``reference`` (phase-lead output ``y_p``), ``error`` (``y_p - x_m`` after the A/D) and
         ``command`` [m]."""
         return {"reference": self._reference, "error": self._error, "command": self._command}
+
+    def channels(self) -> tuple[Channel, ...]:
+        """:data:`CHANNELS` (the keys of :meth:`state`, with units)."""
+        return CHANNELS
+
+    def write_channels(self, out: NDArray[np.float64]) -> None:
+        """Write :meth:`state`'s values into ``out`` (no dict)."""
+        out[0], out[1], out[2] = self._reference, self._error, self._command

@@ -40,13 +40,29 @@ from plants.frame._discrete import discretise_structure, state_matrices
 from plants.frame.cases import CASES, BenchmarkCase
 from plants.frame.ground_motion import DEFAULT_INTENSITY, GroundMotion, ground_motion
 from plants.linear_specimen import LinearSpecimen
+from rths.core.channels import Channel
 from rths.core.errors import ParameterError, check_nonnegative, check_positive
 from rths.core.kinematics import Kinematics
 from rths.core.registry import SUBSTRUCTURES
 
-__all__ = ["FrameOptions", "FrameSubstructure", "numerical_matrices", "reference_response"]
+__all__ = [
+    "FRAME_CHANNELS",
+    "FrameOptions",
+    "FrameSubstructure",
+    "numerical_matrices",
+    "reference_response",
+]
 
 FloatArray = NDArray[np.float64]
+
+#: Declared channels of :meth:`FrameSubstructure.outputs` / ``write_channels`` (the loop logs
+#: them as ``sub_x1`` ... ``sub_ag``; the runner scores J4-J9 from ``sub_x1..3``).
+FRAME_CHANNELS: tuple[Channel, ...] = (
+    Channel("x1", "m", "floor-1 displacement relative to the ground"),
+    Channel("x2", "m", "floor-2 displacement relative to the ground"),
+    Channel("x3", "m", "floor-3 displacement relative to the ground"),
+    Channel("ag", "m/s^2", "ground acceleration (times eq_intensity)"),
+)
 
 
 def numerical_matrices(
@@ -276,6 +292,15 @@ class FrameSubstructure(Substructure):
         z = self._z
         ag = self._ground(self.steps)
         return {"x1": float(z[0]), "x2": float(z[1]), "x3": float(z[2]), "ag": ag}
+
+    def channels(self) -> tuple[Channel, ...]:
+        """:data:`FRAME_CHANNELS` (the keys of :meth:`outputs`, with units)."""
+        return FRAME_CHANNELS
+
+    def write_channels(self, out: FloatArray) -> None:
+        """Write :meth:`outputs`' values into ``out`` (no dict)."""
+        out[:3] = self._z[:3]
+        out[3] = self._ground(self.steps)
 
     def reference_response(self, n: int) -> FloatArray:
         """Floor displacements [m] of the unpartitioned frame at ``t_k = k dt``, ``k < n``

@@ -34,6 +34,7 @@ from plants.frame.cases import BenchmarkCase
 from plants.frame.ground_motion import DEFAULT_INTENSITY, GroundMotion
 from plants.frame.substructure import FrameSubstructure, reference_response
 from plants.lab import Converter, EmulatedLab, LabConverters
+from rths.core.channels import RowBlock
 from rths.core.errors import check_positive
 from rths.core.scaling import Scaling
 from rths.experiments.vrths.draws import NOMINAL, PlantDraw
@@ -196,10 +197,15 @@ def run_trial(
     numerical = np.zeros((n + 1, 3))
     measured, command = np.zeros(n + 1), np.zeros(n + 1)
 
-    def sink(r: dict[str, float]) -> None:
-        k = int(r["seq"]) + 1
-        numerical[k] = r["sub_x1"], r["sub_x2"], r["sub_x3"]
-        measured[k], command[k] = r["measured"], r["command"]
+    def sink(block: RowBlock) -> None:
+        n_rows = block.count
+        if not n_rows:
+            return
+        k = int(block.seq[0]) + 1
+        rows = slice(k, k + n_rows)
+        for j, name in enumerate(("sub_x1", "sub_x2", "sub_x3")):
+            numerical[rows, j] = block.column(name)
+        measured[rows], command[rows] = block.column("measured"), block.column("command")
 
     compensator.reset()
     loop = Loop(sub, compensator, link, Scaling(), n, sink=sink, command_limit=stroke)
