@@ -226,6 +226,7 @@ def test_chirp_sweeps_linearly_to_its_target_frequency() -> None:
 
 def test_missing_package_is_a_one_line_error(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.delenv(PACKAGE_ENV, raising=False)
+    monkeypatch.delenv("RTHS_DATA", raising=False)
     with pytest.raises(ConfigError) as err:
         load_record("el_centro")
     message = str(err.value)
@@ -234,11 +235,23 @@ def test_missing_package_is_a_one_line_error(monkeypatch: pytest.MonkeyPatch) ->
         package_dir("/nonexistent")
 
 
+def test_package_found_under_rths_data(monkeypatch: pytest.MonkeyPatch, tmp_path) -> None:
+    # RTHS_VRTHS_PACKAGE wins; without it, $RTHS_DATA/vrths-benchmark (the project's data folder)
+    (tmp_path / "vrths-benchmark").mkdir()
+    (tmp_path / "vrths-benchmark" / "ElCentroAccelNoScaling.mat").write_bytes(b"")
+    monkeypatch.delenv(PACKAGE_ENV, raising=False)
+    monkeypatch.setenv("RTHS_DATA", str(tmp_path))
+    assert package_dir() == tmp_path / "vrths-benchmark"
+    monkeypatch.setenv(PACKAGE_ENV, "/nonexistent")
+    with pytest.raises(ConfigError, match="'/nonexistent' is not the vRTHS benchmark package"):
+        package_dir()
+
+
 def _package_or_skip() -> str:
     try:
         return str(package_dir())
     except ConfigError:
-        pytest.skip(f"benchmark package not available (set {PACKAGE_ENV})")
+        pytest.skip(f"benchmark package not available (set {PACKAGE_ENV} or RTHS_DATA)")
 
 
 @pytest.mark.parametrize(

@@ -5,6 +5,8 @@ Usage::
     RTHS_VRTHS_PACKAGE=/path/to/benchmark python tools/vrths_oracle.py [--ground el_centro]
         [--perturbed 20] [--seed 123]
 
+(or ``RTHS_DATA`` = the folder holding ``vrths-benchmark/``).
+
 For each case 1-4: F4's J1-J9 of the benchmark's Simulink model with its sample controller,
 reimplemented block for block (:mod:`rths.experiments.vrths.simulink`, noise seed 0), next to
 the same trial through the project's loop (frame + servo-hydraulic actuator + emulated lab +

@@ -39,6 +39,8 @@ __all__ = [
     "PACKAGE_ENV",
     "PACKAGE_SOURCE",
     "RECORDS",
+    "DATA_ENV",
+    "DATA_SUBDIR",
     "ChirpMotion",
     "GroundMotion",
     "RecordedMotion",
@@ -51,6 +53,11 @@ FloatArray = NDArray[np.float64]
 
 #: Environment variable naming the folder of the benchmark's companion package.
 PACKAGE_ENV = "RTHS_VRTHS_PACKAGE"
+#: Environment variable naming the project's data folder (the one holding ``vrths-benchmark/``),
+#: used when :data:`PACKAGE_ENV` is not set.
+DATA_ENV = "RTHS_DATA"
+#: The package's folder name under :data:`DATA_ENV`.
+DATA_SUBDIR = "vrths-benchmark"
 #: Where the package is published.
 PACKAGE_SOURCE = "public GitHub repository MECHS-RCN/BENCHMARKS, archive 'RTHS code RT V23.zip'"
 #: ``eq_intensity`` of ``F1_input_file.m``.
@@ -185,7 +192,8 @@ def package_dir(path: str | os.PathLike[str] | None = None) -> Path:
     Parameters
     ----------
     path
-        Explicit folder; by default the environment variable :data:`PACKAGE_ENV`.
+        Explicit folder; by default the environment variable :data:`PACKAGE_ENV`, else
+        ``$RTHS_DATA/vrths-benchmark`` (:data:`DATA_ENV`, :data:`DATA_SUBDIR`).
 
     Raises
     ------
@@ -193,16 +201,18 @@ def package_dir(path: str | os.PathLike[str] | None = None) -> Path:
         One line: neither given, or not a folder holding the ground-motion files.
     """
     given = os.environ.get(PACKAGE_ENV) if path is None else os.fspath(path)
+    if not given and path is None and os.environ.get(DATA_ENV):
+        given = os.path.join(os.environ[DATA_ENV], DATA_SUBDIR)
     if not given:
         raise ConfigError(
             "the vRTHS benchmark records need the benchmark's companion package "
-            f"({PACKAGE_SOURCE}): "
-            f'set {PACKAGE_ENV} to its folder; ground_motion = "chirp" runs without it'
+            f"({PACKAGE_SOURCE}): set {PACKAGE_ENV} to its folder (or {DATA_ENV} to the folder "
+            f'holding {DATA_SUBDIR}/); ground_motion = "chirp" runs without it'
         )
     folder = Path(given).expanduser()
     if not (folder / RECORDS["el_centro"][0]).is_file():
         raise ConfigError(
-            f"{PACKAGE_ENV}={str(folder)!r} is not the vRTHS benchmark package (no "
+            f"{str(folder)!r} is not the vRTHS benchmark package (no "
             f"{RECORDS['el_centro'][0]} there; get it from the {PACKAGE_SOURCE}); "
             f'ground_motion = "chirp" runs without it'
         )

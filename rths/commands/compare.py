@@ -25,7 +25,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         help="every compensator on the vRTHS benchmark's 4 cases x (nominal + perturbed plants)",
         description="Run every compensator on the vRTHS benchmark (Silva et al. 2020): its four "
         "partitioning cases, the nominal plant and N perturbed ones, scored with its own J1-J9 "
-        "(F4_evaluation.m). Records need the benchmark package (RTHS_VRTHS_PACKAGE or "
+        "(F4_evaluation.m). Records need the benchmark package (RTHS_VRTHS_PACKAGE, RTHS_DATA or "
         "--package); --ground chirp runs without it.",
     )
     p.add_argument(
@@ -45,7 +45,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("--perturbed", type=int, default=20, help="perturbed plants per case (20)")
     p.add_argument("--intensity", type=float, default=0.4, help="eq_intensity (0.4)")
     p.add_argument("--seed", type=int, default=123, help="seed of the draws and the noise (123)")
-    p.add_argument("--package", help="benchmark package folder (default $RTHS_VRTHS_PACKAGE)")
+    p.add_argument(
+        "--package",
+        help="benchmark package (default $RTHS_VRTHS_PACKAGE, else $RTHS_DATA/vrths-benchmark)",
+    )
     p.add_argument("--workers", type=int, help="worker processes (default: CPU count)")
     p.add_argument("--json", type=Path, metavar="OUT", help="write every trial's result as JSON")
     p.add_argument(
