@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import json
+import pickle
 
 import numpy as np
 import pytest
 
 from rths.core.errors import ParameterError
-from rths.experiments.vrths.compare import run_comparison
+from rths.experiments.vrths.compare import run_comparison, run_one, trial_specs
 from rths.experiments.vrths.tables import nominal_table, plot_j2, render, worst_j2_table
 
 CHIRP = {"f_start": 0.5, "f_end": 6.0, "duration": 1.0}
@@ -49,3 +50,14 @@ def test_bad_choices_name_the_value() -> None:
         run_comparison(["pid"], [1], ground="chirp", perturbed=0)
     with pytest.raises(ParameterError, match="got 7"):
         run_comparison(["none"], [7], ground="chirp", perturbed=0)
+
+
+def test_run_one_mapped_over_the_specs_is_the_comparison(comparison) -> None:
+    # what a campaign (dask: client.map(run_one, specs)) does: the same trials, the same scores
+    specs = trial_specs(["pi_lead", "ff_lqg"], [1, 4], ground="chirp", perturbed=1, chirp=CHIRP)
+    assert len(specs) == len(comparison.results)
+    pickled = [pickle.loads(pickle.dumps(s)) for s in specs[-2:]]
+    mapped = list(map(run_one, pickled))
+    for got, want in zip(mapped, comparison.results[-2:], strict=True):
+        assert (got.kind, got.case, got.plant) == (want.kind, want.case, want.plant)
+        assert got.scores == want.scores and got.peak_force == want.peak_force

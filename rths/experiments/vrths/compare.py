@@ -9,8 +9,11 @@ error ``J2 (noise-free)`` -- F4's J2 with the lab's true specimen displacement i
 measured one (F4's J2 has a floor of ``std(noise)/std(target)``: the LVDT noise alone, 16 um,
 is 1.3-2.5 % of the first floor's motion under El Centro at intensity 0.4).
 
-Trials are independent and run in worker processes (:func:`run_comparison`); tables are built
-by :mod:`~rths.experiments.vrths.tables`.
+Trials are independent: :func:`trial_specs` lists them (:class:`TrialSpec`, plain picklable
+data) and :func:`run_one` runs and scores one, so a campaign can map ``run_one`` over
+``trial_specs(...)`` on any executor (``dask.distributed``: ``client.map(run_one, specs)``);
+:func:`run_comparison` does it with worker processes.  Tables are built by
+:mod:`~rths.experiments.vrths.tables`.
 """
 
 from __future__ import annotations
@@ -36,8 +39,10 @@ __all__ = [
     "COMPENSATORS",
     "Comparison",
     "TrialResult",
+    "TrialSpec",
     "run_comparison",
     "run_one",
+    "trial_specs",
 ]
 
 #: Compensator kinds compared, the benchmark's sample controller first.
@@ -101,7 +106,31 @@ def _reference(case: int, ground: GroundMotion, intensity: float) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class _Job:
+class TrialSpec:
+    """One (compensator, case, plant draw) trial of the comparison: everything a worker needs.
+
+    Attributes
+    ----------
+    kind
+        Compensator kind (:data:`COMPENSATORS`).
+    case
+        Partitioning case, 1-4.
+    plant_index
+        0 for the nominal plant, ``i`` for the ``i``-th perturbed draw.
+    plant
+        The plant draw itself (:class:`~rths.experiments.vrths.draws.PlantDraw`).
+    ground
+        Ground-motion name.
+    package
+        Benchmark package folder, or ``None`` for the environment's.
+    chirp
+        Chirp options as sorted ``(name, value)`` pairs (``()`` for a record).
+    intensity
+        ``eq_intensity`` [-].
+    seed
+        Comparison seed; the trial's sensor-noise seed is ``seed + 1000 plant_index + case``.
+    """
+
     kind: str
     case: int
     plant_index: int
@@ -113,8 +142,70 @@ class _Job:
     seed: int
 
 
-def run_one(job: _Job) -> TrialResult:
-    """Run and score one trial (top-level so worker processes can receive it)."""
+def trial_specs(
+    kinds: Sequence[str] = COMPENSATORS,
+    cases: Sequence[int] = (1, 2, 3, 4),
+    *,
+    ground: str = "el_centro",
+    perturbed: int = 20,
+    intensity: float = DEFAULT_INTENSITY,
+    seed: int = 123,
+    package: str | None = None,
+    chirp: dict[str, float] | None = None,
+) -> list[TrialSpec]:
+    """Every (kind, case, plant) trial of a comparison, validated.
+
+    Parameters
+    ----------
+    kinds
+        Compensator kinds (:data:`COMPENSATORS`).
+    cases
+        Case numbers (1-4).
+    ground
+        Ground motion (:data:`plants.frame.GROUND_MOTIONS`).
+    perturbed
+        Perturbed plants per case (the same draws for every kind and case).
+    intensity
+        ``eq_intensity`` [-].
+    seed
+        Seed of the plant draws and of the sensor noise.
+    package
+        Benchmark package folder (default: ``RTHS_VRTHS_PACKAGE``, else ``RTHS_DATA``'s).
+    chirp
+        Chirp options (``f_start``, ``f_end``, ``duration``) when ``ground = "chirp"``.
+
+    Raises
+    ------
+    ParameterError
+        An unknown case or compensator kind.
+    ConfigError
+        The records' package is missing (checked here, before any worker starts).
+    """
+    for c in cases:
+        if c not in CASES:
+            raise ParameterError(f"benchmark case must be one of 1, 2, 3, 4; got {c!r}")
+    known = set(COMPENSATORS)
+    bad = [k for k in kinds if k not in known]
+    if bad:
+        raise ParameterError(
+            f"unknown compensator(s) {format_choices(bad)}; "
+            f"choose from {format_choices(COMPENSATORS)}"
+        )
+    chirp_items = tuple(sorted((chirp or {}).items()))
+    _ground(ground, package, chirp_items)  # fail early (missing package) in this process
+    plants = draw_plants(perturbed, seed)
+    return [TrialSpec(kind, case, i, p, ground, package, chirp_items, intensity, seed)
+            for case in cases for i, p in enumerate(plants) for kind in kinds]  # fmt: skip
+
+
+def run_one(job: TrialSpec) -> TrialResult:
+    """Run and score one trial (top-level and pure, so any executor can map it).
+
+    Parameters
+    ----------
+    job
+        The trial (:func:`trial_specs`).
+    """
     start = time.perf_counter()
     ground = _ground(job.ground, job.package, job.chirp)
     case = CASES[job.case]
@@ -242,21 +333,8 @@ def run_comparison(
     progress
         Called as ``progress(result, done, total)`` after each trial.
     """
-    for c in cases:
-        if c not in CASES:
-            raise ParameterError(f"benchmark case must be one of 1, 2, 3, 4; got {c!r}")
-    known = set(COMPENSATORS)
-    bad = [k for k in kinds if k not in known]
-    if bad:
-        raise ParameterError(
-            f"unknown compensator(s) {format_choices(bad)}; "
-            f"choose from {format_choices(COMPENSATORS)}"
-        )
-    chirp_items = tuple(sorted((chirp or {}).items()))
-    _ground(ground, package, chirp_items)  # fail early (missing package) in this process
-    plants = draw_plants(perturbed, seed)
-    jobs = [_Job(kind, case, i, p, ground, package, chirp_items, intensity, seed)
-            for case in cases for i, p in enumerate(plants) for kind in kinds]  # fmt: skip
+    jobs = trial_specs(kinds, cases, ground=ground, perturbed=perturbed, intensity=intensity,
+                       seed=seed, package=package, chirp=chirp)  # fmt: skip
     n_workers = max(1, min(workers or os.cpu_count() or 1, len(jobs)))
     result = Comparison(ground, intensity, perturbed, workers=n_workers)
     start = time.perf_counter()
