@@ -9,6 +9,13 @@ tagged tuples from a :class:`queue.SimpleQueue`:
 * ``("r", topic, payload)`` -- a :class:`rths.wire.codec.LogRecord` from another process;
 * ``("e", log_time_ns, event_dict)`` -- an event (sequence numbers assigned here);
 * :data:`STOP` -- finish the file and end.
+
+When something endangers the log -- the disk space reserve can no longer be renewed (the disk
+is nearly full) or a write failed -- the thread calls ``on_fault(message)`` once, so the run can
+be stopped while the log is whole.  After a failure it keeps draining the queue until
+:data:`STOP` (producers never block or fail), counts the messages it could not write as ``lost``
+and ends the file readably (:meth:`rths.log.logfile.LogFile.close_salvaged`) with the metadata
+queued meanwhile -- the run's summary among them.
 """
 
 from __future__ import annotations
@@ -16,17 +23,19 @@ from __future__ import annotations
 import json
 import math
 import queue
+import shutil
 import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 from mcap.writer import CompressionType, Writer
 
 from rths import __version__
 from rths.core.errors import DataError
+from rths.log.logfile import LogFile
 from rths.wire.codec import LogRecord
 
 __all__ = ["EVENTS_TOPIC", "STOP", "RecordingSummary", "TopicStats", "WriterThread", "open_schema"]
@@ -80,17 +89,20 @@ class TopicStats:
 
 @dataclass(frozen=True, slots=True)
 class RecordingSummary:
-    """Returned by :meth:`Recorder.close`: per-topic counts, events, largest queue backlog."""
+    """Returned by :meth:`Recorder.close`: per-topic counts, events, largest queue backlog,
+    messages lost after a failed write and what endangered the log (None: nothing)."""
 
     path: Path
     topics: Mapping[str, TopicStats]
     events: int
     max_backlog: int
+    lost: int = 0
+    fault: str | None = None
 
     @property
     def complete(self) -> bool:
         """True if every topic is complete (no sample lost, repeated or rejected)."""
-        return all(s.complete for s in self.topics.values())
+        return self.lost == 0 and all(s.complete for s in self.topics.values())
 
 
 def open_schema(topic: str) -> bytes:
@@ -146,21 +158,30 @@ class WriterThread(threading.Thread):
 
     def __init__(
         self,
-        stream: IO[bytes],
+        stream: LogFile,
         inbox: queue.SimpleQueue[Any],
         metadata: Mapping[str, Mapping[str, str]],
         compression: str,
         chunk_size: int,
         flush_interval: float,
+        on_fault: Callable[[str], None] | None = None,
     ) -> None:
         super().__init__(name="rths-recorder", daemon=True)
         self.error: BaseException | None = None
+        self.fault: str | None = None
+        self.lost = 0
         self.max_backlog = 0
         self.events = 0
+        self._on_fault = on_fault
+        self._late_metadata: dict[str, dict[str, str]] = {}
         self._stream = stream
         self._inbox = inbox
         self._metadata = metadata
-        self._writer = Writer(stream, chunk_size=chunk_size, compression=_COMPRESSION[compression])
+        self._writer = Writer(
+            stream,  # type: ignore[arg-type]  # a binary stream: write, tell, flush
+            chunk_size=chunk_size,
+            compression=_COMPRESSION[compression],
+        )
         self._flush_interval = flush_interval
         self._topics: dict[str, _Topic] = {}
         self._dirty = False
@@ -183,22 +204,63 @@ class WriterThread(threading.Thread):
             self._drain()
         except BaseException as exc:  # kept and re-raised by Recorder on the caller's thread
             self.error = exc
+            self._notify(f"recording to '{self._stream.path}' failed: {exc!r}")
+            self._drain_failed()
         finally:
             self._finish()
 
+    def _notify(self, message: str) -> None:
+        """Tell the run (once) that the log is in danger."""
+        if self.fault is not None:
+            return
+        self.fault = message
+        if self._on_fault is not None:
+            try:
+                self._on_fault(message)
+            except Exception:  # the callback's problem must not cost the log
+                pass
+
+    def _drain_failed(self) -> None:
+        """After a failure: consume the queue until :data:`STOP`, keep metadata, count the rest."""
+        while True:
+            time.sleep(POLL)
+            while True:
+                try:
+                    item = self._inbox.get_nowait()
+                except queue.Empty:
+                    break
+                if item is STOP:
+                    return
+                if item[0] == "md":
+                    self._late_metadata[item[1]] = dict(item[2])
+                elif item[0] in ("m", "r"):
+                    self.lost += 1
+
     def _finish(self) -> None:
-        try:
-            summary = {"complete": "true", "max_backlog": str(self.max_backlog)}
-            for name, stats in self.stats().items():
-                summary.update({f"{name}.{c}": str(getattr(stats, c)) for c in _COUNTS})
-                if not stats.complete:
-                    summary["complete"] = "false"
-            self._writer.add_metadata("rths.recording", summary)
-            self._writer.finish()
-        except BaseException as exc:
-            self.error = self.error or exc
-        finally:
-            self._stream.close()
+        summary = {"complete": "true", "max_backlog": str(self.max_backlog)}
+        for name, stats in self.stats().items():
+            summary.update({f"{name}.{c}": str(getattr(stats, c)) for c in _COUNTS})
+            if not stats.complete:
+                summary["complete"] = "false"
+        if self.error is not None:
+            summary.update(complete="false", failed=repr(self.error), lost=str(self.lost))
+        if self.fault is not None:
+            summary["fault"] = self.fault
+        if self._stream.error is None:
+            try:
+                for name, data in self._late_metadata.items():
+                    self._writer.add_metadata(name, data)
+                self._writer.add_metadata("rths.recording", summary)
+                self._writer.finish()
+            except BaseException as exc:
+                self.error = self.error or exc
+            else:
+                try:
+                    self._stream.close_finished()
+                except OSError as exc:
+                    self.error = self.error or exc
+                return
+        self._stream.close_salvaged({**self._late_metadata, "rths.recording": summary})
 
     def _drain(self) -> None:
         """Poll the queue every :data:`POLL` seconds and write everything waiting.
@@ -219,12 +281,22 @@ class WriterThread(threading.Thread):
                     break
                 if item is STOP:
                     return
-                self._handle(item)
+                try:
+                    self._handle(item)
+                except BaseException:
+                    if item[0] in ("m", "r"):
+                        self.lost += 1  # the message being written when it failed
+                    raise
                 handled += 1
             if self._dirty and time.monotonic() - self._last_flush >= interval:
                 self._writer.flush()
                 self._dirty = False
                 self._last_flush = time.monotonic()
+            if not self._stream.renew():
+                free = shutil.disk_usage(self._stream.path.parent).free
+                self._notify(
+                    f"disk nearly full: {free / 2**20:.1f} MiB free for '{self._stream.path}'"
+                )
 
     def _handle(self, item: tuple[Any, ...]) -> None:
         tag = item[0]
