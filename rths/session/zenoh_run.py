@@ -4,11 +4,19 @@ rths.session.runner).
 Starts the specimen process (or waits for an external one), wires the links, the log bridge and
 the live copy of the loop record, runs the loop and, when the specimen fails or vanishes, ends the
 run with a message that names it and the specimen's last words.
+
+The spawned specimen reads the scenario text from its stdin (no file is left behind on any path)
+and runs in its own session, so a Ctrl-C in the terminal reaches the coordinator only: the
+coordinator stops the loop and then tells the specimen to stop, in that order.  A specimen that
+dies is noticed at once (its liveliness token, or its exit status), and a lockstep wait for its
+measurement is woken rather than left to time out.  At the end the specimen gets
+:data:`GRACE` seconds to exit after the stop request, then SIGTERM, then SIGKILL.
 """
 
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 import threading
@@ -18,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from rths.config.scenario import Scenario
-from rths.core.errors import RTHSError, TransportError
+from rths.core.errors import ConfigError, RTHSError, TransportError
 from rths.log.recorder import LOOP_TOPIC, Recorder
 from rths.runtime.loop import LinkSample, Loop, LoopResult
 from rths.wire.codec import Command
@@ -34,7 +42,14 @@ from rths.wire.transport import (
     open_session,
 )
 
-__all__ = ["run_over_zenoh"]
+__all__ = ["GRACE", "run_over_zenoh"]
+
+#: Seconds a specimen process gets to exit after the stop request before SIGTERM (and as long
+#: again before SIGKILL); after a failure, :data:`FAILED_GRACE`.
+GRACE = 2.0
+FAILED_GRACE = 0.3
+#: How often [s] the watcher checks that a spawned specimen process is still running.
+_WATCH = 0.05
 
 
 class _LockstepLink:
@@ -84,15 +99,12 @@ def _wait_for_specimen(
 def _spawn_specimen(
     scn: Scenario, run_id: str, endpoint: str, clock: str, log: Path, seed: int
 ) -> subprocess.Popen[bytes]:
-    # the exact text the coordinator parsed, so an edit to the file mid-run cannot split them
-    scenario = log.with_suffix(".scenario.toml")
-    scenario.write_text(scn.text, encoding="utf-8")
     args = [
         sys.executable,
         "-m",
         "rths",
         "specimen",
-        str(scenario),
+        "-",  # the exact text the coordinator parsed, on stdin: an edit mid-run cannot split them
         "--run-id",
         run_id,
         "--connect",
@@ -104,7 +116,21 @@ def _spawn_specimen(
     ]
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     with log.open("wb") as stderr:  # the child keeps its own descriptor
-        return subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=stderr, env=env)
+        process = subprocess.Popen(
+            args,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.DEVNULL,
+            stderr=stderr,
+            env=env,
+            start_new_session=True,  # terminal signals reach the coordinator, which stops it
+        )
+    assert process.stdin is not None
+    try:
+        process.stdin.write(scn.text.encode("utf-8"))
+        process.stdin.close()
+    except OSError:  # it died at once: the handshake reports its exit code
+        pass
+    return process
 
 
 def run_over_zenoh(
@@ -142,7 +168,7 @@ def run_over_zenoh(
         with client, Presence(session, keys, "coordinator", endpoints.describe()) as presence:
             if not opts.external_specimen:
                 if not listen:
-                    raise TransportError("starting the specimen here needs a --listen endpoint")
+                    raise ConfigError("starting the specimen here needs a --listen endpoint")
                 process = _spawn_specimen(scn, run_id, listen[0], clock, stderr_log, seed)
             elif opts.on_waiting is not None:
                 where = f"--connect {listen[0]}" if listen else "--listen <endpoint>"
@@ -150,6 +176,7 @@ def run_over_zenoh(
                     f"rths specimen {scn.source} --run-id {run_id} {where} "
                     f"--clock {clock} --seed {seed}"
                 )
+            watcher: _PeerWatch | None = None
             try:
                 _wait_for_specimen(presence, [client.publisher], opts.ready_timeout, process)
                 link = (
@@ -164,19 +191,26 @@ def run_over_zenoh(
                     live.put(t_ns, r)
 
                 loop = make_loop(link, sink)
-                watcher = threading.Thread(
-                    target=_stop_on_peer_loss, args=(presence, loop), daemon=True
-                )
+                abort = getattr(client, "abort", lambda: None)
+                watcher = _PeerWatch(presence, loop, abort, process)
                 watcher.start()
-                result = loop.run(on_progress)
-                presence.request_stop("run complete")
+                try:
+                    result = loop.run(on_progress)
+                finally:
+                    watcher.finish()
+                presence.request_stop(result.stopped or "run complete")
                 return result
             except RTHSError as exc:
+                presence.request_stop(f"coordinator failed: {exc}")
                 last = _last_words(process, stderr_log)
-                why = presence.stop_reason or (
-                    "the specimen process stopped answering (crashed or stuck?)"
-                    if isinstance(exc, TransportError)
-                    else ""
+                why = (
+                    (watcher.reason if watcher else "")
+                    or presence.stop_reason
+                    or (
+                        "the specimen process stopped answering (crashed or stuck?)"
+                        if isinstance(exc, TransportError)
+                        else ""
+                    )
                 )
                 message = (
                     str(exc)
@@ -184,24 +218,76 @@ def run_over_zenoh(
                     + (f"; specimen process said: {last}" if last else "")
                 )
                 rec.event(now_ns(), "error", message)
-                presence.request_stop(f"coordinator failed: {exc}")
                 raise TransportError(message) if isinstance(exc, TransportError) else exc from None
+            except BaseException:  # Ctrl-C before the loop, or a bug: the specimen stops too
+                presence.request_stop("coordinator interrupted")
+                raise
             finally:
-                _reap(process, rec)
+                _reap(process, rec, stderr_log)
 
 
-def _stop_on_peer_loss(presence: Any, loop: Loop) -> None:
-    presence.stop.wait()
-    loop.stop(presence.stop_reason or "specimen stopped")
+class _PeerWatch(threading.Thread):
+    """Stops the loop -- and wakes its wait for a measurement -- as soon as the specimen is gone:
+    its liveliness token withdrawn, a stop request from it, or (spawned here) its exit."""
+
+    def __init__(
+        self,
+        presence: Any,
+        loop: Loop,
+        abort: Callable[[], None],
+        process: subprocess.Popen[bytes] | None,
+    ) -> None:
+        super().__init__(name="rths-peer-watch", daemon=True)
+        self.presence, self.loop, self.abort, self.process = presence, loop, abort, process
+        self.reason = ""
+        self._done = threading.Event()
+
+    def run(self) -> None:
+        while not self.presence.stop.wait(_WATCH):
+            if self._done.is_set():
+                return
+            if self.process is not None and self.process.poll() is not None:
+                self.reason = f"specimen process exited with code {self.process.returncode}"
+                break
+        if self._done.is_set():
+            return
+        self.reason = self.reason or self.presence.stop_reason or "specimen stopped"
+        self.loop.stop(self.reason)
+        try:
+            self.abort()
+        except Exception:  # the link is closing anyway
+            pass
+
+    def finish(self) -> None:
+        """The loop has returned: stand down."""
+        self._done.set()
+        self.join(timeout=1.0)
+
+
+def _stop_process(process: subprocess.Popen[bytes], grace: float) -> int:
+    """Wait ``grace`` seconds for the process to exit, then SIGTERM (and SIGCONT, should it be
+    stopped), as long again, then SIGKILL; return its exit code."""
+    try:
+        return process.wait(timeout=grace)
+    except subprocess.TimeoutExpired:
+        pass
+    for sig in (signal.SIGTERM, signal.SIGCONT):
+        try:
+            process.send_signal(sig)
+        except OSError:
+            pass
+    try:
+        return process.wait(timeout=max(grace, 0.5))
+    except subprocess.TimeoutExpired:
+        process.kill()
+        return process.wait()
 
 
 def _last_words(process: subprocess.Popen[bytes] | None, log: Path) -> str:
+    """The last line the failed specimen process wrote (it is stopped first)."""
     if process is None:
         return ""
-    try:
-        process.wait(timeout=2.0)
-    except subprocess.TimeoutExpired:
-        return ""
+    _stop_process(process, FAILED_GRACE)
     try:
         lines = [ln for ln in log.read_text(errors="replace").splitlines() if ln.strip()]
     except OSError:
@@ -209,17 +295,15 @@ def _last_words(process: subprocess.Popen[bytes] | None, log: Path) -> str:
     return lines[-1][:300] if lines else f"exited with code {process.returncode}"
 
 
-def _reap(process: subprocess.Popen[bytes] | None, rec: Recorder) -> None:
-    """Wait for the spawned specimen (killing it after 10 s), note a failure, remove its copy
-    of the scenario."""
+def _reap(process: subprocess.Popen[bytes] | None, rec: Recorder, log: Path) -> None:
+    """Stop the spawned specimen (:data:`GRACE`), note a failure, drop an empty stderr log."""
     if process is None:
         return
-    try:
-        code = process.wait(timeout=10.0)
-    except subprocess.TimeoutExpired:
-        process.kill()
-        code = process.wait()
+    code = _stop_process(process, GRACE)
     if code not in (0, None):
         rec.event(0, "specimen", f"specimen process exited with code {code}")
-    args: Any = process.args
-    Path(args[4]).unlink(missing_ok=True)  # the copy written by _spawn_specimen
+    try:
+        if log.stat().st_size == 0:
+            log.unlink()
+    except OSError:
+        pass

@@ -104,6 +104,12 @@ class LockstepClient(_Link):
         self.publisher.put(command.pack())
         return self.receive(command.seq, timeout)
 
+    def abort(self) -> None:
+        """Wake a waiting :meth:`receive` at once (it raises :class:`TransportError`) and refuse
+        later ones: the peer is known to be gone.  Thread-safe; the publisher stays until
+        :meth:`close`."""
+        self._receiver.close()
+
 
 class LockstepServer(_Link):
     """Specimen end of the lockstep link: take each command in order, publish its measurement.

@@ -1,0 +1,206 @@
+"""What a run leaves behind: its outcome, its metadata and the summary written at its end
+(private to :mod:`rths.session.runner`).
+
+:func:`finish_record` writes the end of a run into its log -- the ``stopped`` event, the
+saturation events, the ``rths.summary`` metadata and the ``end`` event -- on *every* path that
+can still write: a run that ended, one stopped by a signal, an interlock or a full disk, and one
+ended by an exception (then ``stopped`` names the exception).  It never raises, so it can run in
+a ``finally`` without hiding the error that ended the run.
+"""
+
+from __future__ import annotations
+
+import signal
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from rths import __version__
+from rths.config import build
+from rths.config.scenario import Scenario
+from rths.core.errors import DataError, Interrupted, RTHSError
+from rths.log.recorder import Recorder, RecordingSummary
+from rths.metrics import TrackingSummary, summarize
+from rths.runtime.loop import LoopResult
+
+__all__ = ["Collector", "RunOutcome", "finish_record", "run_metadata"]
+
+
+@dataclass
+class RunOutcome:
+    """What a run produced: the log, the loop result, metrics and the recording's counts."""
+
+    path: Path
+    run_id: str
+    clock: str
+    result: LoopResult
+    metrics: TrackingSummary | None
+    recording: RecordingSummary | None = None
+    events: list[str] = field(default_factory=list)
+    saturated: dict[str, int] = field(default_factory=dict)
+
+    def line(self) -> str:
+        """The one-line summary the CLI prints."""
+        m, t = self.metrics, self.result.timing
+        parts = [f"{self.result.steps} steps"]
+        if m is not None:
+            parts += [
+                f"J1 {1e3 * m.j1_delay:.3f} ms",
+                f"J2 {100 * m.j2:.3f} %",
+                f"J3 {100 * m.j3:.3f} %",
+                f"sync RMSE {100 * m.sync_rmse:.3f} %",
+            ]
+        else:
+            parts.append("metrics n/a")
+        parts.append(f"overruns {t.overruns}/{t.steps}")
+        if self.clock == "realtime":
+            parts.append(f"p99 jitter {1e6 * t.jitter_p99:.0f} us")
+        gaps = sum(s.missing for s in self.recording.topics.values()) if self.recording else 0
+        parts.append(f"gaps {gaps}")
+        clipped = {k: v for k, v in self.saturated.items() if v}
+        if clipped:
+            parts.append("SATURATED " + ", ".join(f"{k} {v}" for k, v in clipped.items()))
+        return ", ".join(parts) + f" -> {self.path}"
+
+
+class Collector:
+    """Keeps target, measured and force per step for the summary (preallocated, no I/O;
+    :data:`rths.session.budget.MEMORY_PER_STEP` bytes per step)."""
+
+    def __init__(self, n: int) -> None:
+        self.target, self.measured, self.force = np.zeros(n), np.zeros(n), np.zeros(n)
+        self.age = np.zeros(n)
+        self.count = 0
+
+    def __call__(self, record: dict[str, float]) -> None:
+        k = int(record["seq"])
+        self.target[k], self.measured[k] = record["target"], record["measured"]
+        self.force[k], self.age[k] = record["force"], record["age"]
+        self.count = k + 1
+
+
+def run_metadata(
+    scn: Scenario, run_id: str, clock: str, comp_kind: str, seed: int
+) -> dict[str, dict[str, str]]:
+    """The metadata records written at the start of a log (scenario, versions, run, scales)."""
+    s = scn.scaling
+    return {
+        "scenario": {"path": scn.source, "text": scn.text, "name": scn.run.name},
+        "rths": {"version": __version__, "run_id": run_id, "python": sys.version.split()[0]},
+        "run": {
+            "clock": clock,
+            "rate_hz": repr(scn.run.rate),
+            "dt_s": repr(scn.run.dt),
+            "steps": str(scn.run.steps),
+            "seed": str(seed),
+            "compensator": comp_kind,
+            "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        },
+        "scaling": {
+            "displacement": repr(s.displacement),
+            "force": repr(s.force),
+            "impedance": repr(s.impedance),
+            "meaning": "specimen displacement = displacement * prototype displacement; "
+            "prototype force = force * specimen force",
+        },
+        "units": {
+            "t": "s",
+            "target": "m",
+            "command": "m",
+            "measured": "m",
+            "force": "N",
+            "correction": "N (prototype scale)",
+            "age": "s",
+            "scale": "target/command/measured/force are at specimen scale",
+        },
+    }
+
+
+def describe(error: BaseException) -> str:
+    """How an exception that ended a run reads in its summary's ``stopped``."""
+    if isinstance(error, Interrupted):
+        return f"interrupted by {error}"
+    if isinstance(error, KeyboardInterrupt):
+        return f"interrupted by {signal.SIGINT.name}"
+    if isinstance(error, RTHSError):
+        return f"error: {error}"
+    return f"error: {error!r}"
+
+
+def finish_record(
+    rec: Recorder,
+    scn: Scenario,
+    outcome: RunOutcome,
+    collector: Collector,
+    error: BaseException | None = None,
+) -> None:
+    """Write the run's end into ``rec`` (module docstring); fills ``outcome``; never raises."""
+    dt = scn.run.dt
+    k = collector.count
+    t_end = round(max(outcome.result.steps, k) * dt * 1e9)
+    stopped = outcome.result.stopped or (describe(error) if error is not None else "")
+    try:
+        if stopped:
+            rec.event(t_end, "stopped", stopped)
+        try:
+            outcome.metrics = summarize(
+                collector.target[:k],
+                collector.measured[:k],
+                collector.force[:k],
+                dt,
+                max_delay=min(0.1, 0.25 * k * dt),
+            )
+        except DataError as exc:  # too short or too quiet a record for some metric
+            outcome.events.append(f"metrics not computed: {exc}")
+        outcome.saturated = _saturations(scn, collector.measured[:k], collector.force[:k])
+        for channel, count in outcome.saturated.items():
+            if count:
+                rec.event(
+                    t_end,
+                    "saturation",
+                    f"{count} {channel} samples at the ADC's full scale: clipped",
+                )
+        summary = _summary(outcome)
+        summary["steps"] = str(max(outcome.result.steps, k))
+        summary["stopped"] = stopped
+        rec.add_metadata("rths.summary", summary)
+        rec.event(t_end, "end", f"{max(outcome.result.steps, k)} steps")
+    except Exception as exc:  # the log's own trouble: say so, but never hide the run's error
+        outcome.events.append(f"summary not written: {exc!r}")
+
+
+def _saturations(scn: Scenario, measured: np.ndarray, force: np.ndarray) -> dict[str, int]:
+    """Samples at an ADC's extreme code (the converter clipped them), per channel."""
+    conv = build.converters(scn)
+    out = {}
+    for name, values, c in (
+        ("displacement", measured, conv.displacement),
+        ("force", force, conv.force),
+    ):
+        top = 2 ** (c.bits - 1)
+        high, low = (top - 1) * c.resolution, -top * c.resolution
+        out[name] = int(
+            np.count_nonzero((values >= high * (1 - 1e-12)) | (values <= low * (1 - 1e-12)))
+        )
+    return out
+
+
+def _summary(outcome: RunOutcome) -> dict[str, str]:
+    t = outcome.result.timing
+    out = {
+        "steps": str(outcome.result.steps),
+        "stopped": outcome.result.stopped or "",
+        "overruns": str(t.overruns),
+        "jitter_p99_s": repr(t.jitter_p99),
+        "busy_mean_s": repr(t.busy_mean),
+        "busy_max_s": repr(t.busy_max),
+    }
+    if outcome.metrics is not None:
+        out.update({k: repr(v) for k, v in outcome.metrics.to_dict().items()})
+    if outcome.events:
+        out["notes"] = "; ".join(outcome.events)
+    out.update({f"saturated_{k}": str(v) for k, v in outcome.saturated.items()})
+    return out
