@@ -268,7 +268,6 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
                     rec,
                     make_loop,
                     on_progress,
-                    path.with_suffix(".specimen.log"),
                     lambda: round(collector.count * dt * 1e9),
                     seed,
                 )

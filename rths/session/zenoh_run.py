@@ -21,8 +21,8 @@ import subprocess
 import sys
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 from rths.config.scenario import Scenario
@@ -48,6 +48,8 @@ __all__ = ["GRACE", "run_over_zenoh"]
 #: again before SIGKILL); after a failure, :data:`FAILED_GRACE`.
 GRACE = 2.0
 FAILED_GRACE = 0.3
+#: Lines of the spawned specimen's stderr kept (the last is quoted when it fails).
+STDERR_LINES = 50
 #: How often [s] the watcher checks that a spawned specimen process is still running.
 _WATCH = 0.05
 
@@ -96,41 +98,53 @@ def _wait_for_specimen(
                 raise
 
 
-def _spawn_specimen(
-    scn: Scenario, run_id: str, endpoint: str, clock: str, log: Path, seed: int
-) -> subprocess.Popen[bytes]:
-    args = [
-        sys.executable,
-        "-m",
-        "rths",
-        "specimen",
-        "-",  # the exact text the coordinator parsed, on stdin: an edit mid-run cannot split them
-        "--run-id",
-        run_id,
-        "--connect",
-        endpoint,
-        "--clock",
-        clock,
-        "--seed",
-        str(seed),
-    ]
-    env = dict(os.environ, PYTHONUNBUFFERED="1")
-    with log.open("wb") as stderr:  # the child keeps its own descriptor
-        process = subprocess.Popen(
+class _SpecimenProcess:
+    """The spawned ``rths specimen``: the process, and the last lines of its stderr, read by a
+    thread into memory -- no file is left behind, even when the coordinator is killed."""
+
+    def __init__(self, scn: Scenario, run_id: str, endpoint: str, clock: str, seed: int) -> None:
+        args = [
+            sys.executable, "-m", "rths", "specimen",
+            "-",  # the text the coordinator parsed, on stdin: an edit mid-run cannot split them
+            "--run-id", run_id, "--connect", endpoint, "--clock", clock, "--seed", str(seed),
+        ]  # fmt: skip
+        self.process = subprocess.Popen(
             args,
             stdin=subprocess.PIPE,
             stdout=subprocess.DEVNULL,
-            stderr=stderr,
-            env=env,
+            stderr=subprocess.PIPE,
+            env=dict(os.environ, PYTHONUNBUFFERED="1"),
             start_new_session=True,  # terminal signals reach the coordinator, which stops it
         )
-    assert process.stdin is not None
-    try:
-        process.stdin.write(scn.text.encode("utf-8"))
-        process.stdin.close()
-    except OSError:  # it died at once: the handshake reports its exit code
-        pass
-    return process
+        self.lines: deque[str] = deque(maxlen=STDERR_LINES)
+        self._reader = threading.Thread(target=self._read, name="rths-specimen-stderr", daemon=True)
+        self._reader.start()
+        assert self.process.stdin is not None
+        try:
+            self.process.stdin.write(scn.text.encode("utf-8"))
+            self.process.stdin.close()
+        except OSError:  # it died at once: the handshake reports its exit code
+            pass
+
+    def _read(self) -> None:
+        assert self.process.stderr is not None
+        with self.process.stderr:
+            for raw in self.process.stderr:
+                line = raw.decode("utf-8", errors="replace").rstrip()
+                if line:
+                    self.lines.append(line)
+
+    def stop(self, grace: float) -> int:
+        """Stop it (:func:`_stop_process`) and collect the rest of its stderr; its exit code."""
+        code = _stop_process(self.process, grace)
+        self._reader.join(timeout=1.0)
+        return code
+
+    def last_words(self) -> str:
+        """Its last stderr line (after :meth:`stop`), or its exit code."""
+        if self.lines:
+            return self.lines[-1][:300]
+        return f"exited with code {self.process.returncode}"
 
 
 def run_over_zenoh(
@@ -141,20 +155,19 @@ def run_over_zenoh(
     rec: Recorder,
     make_loop: Callable[[Any, Callable[[dict[str, float]], None]], Loop],
     on_progress: Callable[[int], None],
-    stderr_log: Path,
     now_ns: Callable[[], int],
     seed: int,
 ) -> LoopResult:
     """Run the loop against a specimen process over zenoh; see the module docstring.
 
     ``opts`` is the run's :class:`rths.session.runner.RunOptions`; ``make_loop(link, sink)`` builds
-    the loop; ``stderr_log`` receives the spawned specimen's stderr; ``now_ns()`` gives the
+    the loop; ``now_ns()`` gives the
     simulated time of the last recorded step for error events; ``seed`` seeds the lab's noise.
     """
     keys = RunKeys(run_id)
     listen = opts.listen or (() if opts.connect else (loopback_endpoint(),))
     endpoints = ZenohEndpoints(listen=tuple(listen), connect=tuple(opts.connect))
-    process = None
+    specimen: _SpecimenProcess | None = None
     with (
         open_session(endpoints) as session,
         LogBridge(session, keys, rec),
@@ -169,7 +182,7 @@ def run_over_zenoh(
             if not opts.external_specimen:
                 if not listen:
                     raise ConfigError("starting the specimen here needs a --listen endpoint")
-                process = _spawn_specimen(scn, run_id, listen[0], clock, stderr_log, seed)
+                specimen = _SpecimenProcess(scn, run_id, listen[0], clock, seed)
             elif opts.on_waiting is not None:
                 where = f"--connect {listen[0]}" if listen else "--listen <endpoint>"
                 opts.on_waiting(
@@ -178,6 +191,7 @@ def run_over_zenoh(
                 )
             watcher: _PeerWatch | None = None
             try:
+                process = specimen.process if specimen else None
                 _wait_for_specimen(presence, [client.publisher], opts.ready_timeout, process)
                 link = (
                     _LockstepLink(client, opts.step_timeout)
@@ -202,7 +216,10 @@ def run_over_zenoh(
                 return result
             except RTHSError as exc:
                 presence.request_stop(f"coordinator failed: {exc}")
-                last = _last_words(process, stderr_log)
+                last = ""
+                if specimen is not None:
+                    specimen.stop(FAILED_GRACE)
+                    last = specimen.last_words()
                 why = (
                     (watcher.reason if watcher else "")
                     or presence.stop_reason
@@ -223,7 +240,7 @@ def run_over_zenoh(
                 presence.request_stop("coordinator interrupted")
                 raise
             finally:
-                _reap(process, rec, stderr_log)
+                _reap(specimen, rec)
 
 
 class _PeerWatch(threading.Thread):
@@ -283,27 +300,12 @@ def _stop_process(process: subprocess.Popen[bytes], grace: float) -> int:
         return process.wait()
 
 
-def _last_words(process: subprocess.Popen[bytes] | None, log: Path) -> str:
-    """The last line the failed specimen process wrote (it is stopped first)."""
-    if process is None:
-        return ""
-    _stop_process(process, FAILED_GRACE)
-    try:
-        lines = [ln for ln in log.read_text(errors="replace").splitlines() if ln.strip()]
-    except OSError:
-        return ""
-    return lines[-1][:300] if lines else f"exited with code {process.returncode}"
-
-
-def _reap(process: subprocess.Popen[bytes] | None, rec: Recorder, log: Path) -> None:
-    """Stop the spawned specimen (:data:`GRACE`), note a failure, drop an empty stderr log."""
-    if process is None:
+def _reap(specimen: _SpecimenProcess | None, rec: Recorder) -> None:
+    """Stop the spawned specimen (:data:`GRACE`); log a failure and what it wrote on stderr."""
+    if specimen is None:
         return
-    code = _stop_process(process, GRACE)
+    code = specimen.stop(GRACE)
     if code not in (0, None):
         rec.event(0, "specimen", f"specimen process exited with code {code}")
-    try:
-        if log.stat().st_size == 0:
-            log.unlink()
-    except OSError:
-        pass
+    if specimen.lines:
+        rec.event(0, "specimen_stderr", "\n".join(specimen.lines))
