@@ -94,7 +94,13 @@ def _one_line(exc: BaseException | Warning | str) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``rths`` console script; returns the process exit code."""
+    """Run one command and return its exit code (see the module docstring); in process.
+
+    Parameters
+    ----------
+    argv
+        The arguments after ``rths`` (default: ``sys.argv[1:]``).
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     name = f"rths {args.command}"

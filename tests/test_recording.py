@@ -192,17 +192,17 @@ def test_writer_failure_stops_nothing_and_ends_the_log_readably(
     ).start()
     rec.put(LOOP_TOPIC, 0, 0, loop_row(0))
     assert told.wait(PATIENCE)
-    rec.put(LOOP_TOPIC, 1, DT_NS, loop_row(1))  # accepted, not written
+    rec.put(LOOP_TOPIC, 1, DT_NS, loop_row(1))  # accepted, not written (nor was message 0)
     rec.add_metadata("rths.summary", {"stopped": "recording failed"})
     with pytest.raises(
-        RecordingFailed, match=r"recording to .*full.mcap' failed: OSError.*1 messages not written"
+        RecordingFailed, match=r"recording to .*full.mcap' failed: OSError.*2 messages not written"
     ):
         rec.close()
     assert len(faults) == 1 and "No space left" in faults[0] and rec.fault == faults[0]
     assert is_complete(tmp_path / "full.mcap")
     meta = read_metadata(tmp_path / "full.mcap")
     assert meta["rths.summary"] == {"stopped": "recording failed"}
-    assert meta["rths.recording"]["complete"] == "false" and meta["rths.recording"]["lost"] == "1"
+    assert meta["rths.recording"]["complete"] == "false" and meta["rths.recording"]["lost"] == "2"
     # While the body is already raising, the writer's failure is attached as a note instead.
     with pytest.raises(KeyError) as info:
         with Recorder(tmp_path / "full2.mcap") as rec:

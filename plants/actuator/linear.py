@@ -185,6 +185,13 @@ def check_transfer_function(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Validated ``(num, den)`` of a command→displacement model, leading zeros trimmed.
 
+    Parameters
+    ----------
+    num, den
+        Coefficients in descending powers of ``s``.
+    what
+        How the model is named in error messages.
+
     Raises
     ------
     ParameterError

@@ -86,7 +86,13 @@ class LogFile:
 
     # ------------------------------------------------------------------ stream protocol
     def write(self, data: bytes | bytearray | memoryview) -> int:
-        """Write all of ``data`` at the end; a failure is kept in :attr:`error` and raised."""
+        """Write all of ``data`` at the end; a failure is kept in :attr:`error` and raised.
+
+        Parameters
+        ----------
+        data
+            Bytes of whole MCAP records (the writer hands over whole records per call).
+        """
         view = memoryview(data)
         try:
             while view:
@@ -153,7 +159,13 @@ class LogFile:
     def close_salvaged(self, metadata: Mapping[str, Mapping[str, str]]) -> None:
         """End the file readably after :attr:`error`: cut it back to the last whole write and
         write ``metadata``, ``DataEnd``, an index-less ``Footer`` and the magic there (without
-        the metadata if even that does not fit).  Never raises."""
+        the metadata if even that does not fit).  Never raises.
+
+        Parameters
+        ----------
+        metadata
+            ``{record name: {key: value}}`` to write before the footer.
+        """
         start = self.good
         try:
             for tail in (_tail(metadata), _tail({})):

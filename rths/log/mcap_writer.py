@@ -153,7 +153,24 @@ class WriterThread(threading.Thread):
 
     After :data:`STOP` it writes the ``rths.recording`` metadata record and finishes the file
     (footer and summary), also if something failed on the way; the first failure is kept in
-    :attr:`error` and the counts in :meth:`counts`.
+    :attr:`error` and the counts in :meth:`stats`.
+
+    Parameters
+    ----------
+    stream
+        The output file (:class:`rths.log.logfile.LogFile`).
+    inbox
+        The queue the producers fill (module docstring).
+    metadata
+        Metadata records written first.
+    compression
+        ``"zstd"``, ``"lz4"`` or ``"none"``.
+    chunk_size
+        Uncompressed bytes per chunk [B].
+    flush_interval
+        Wall time [s] between two flushes of the current chunk.
+    on_fault
+        Called once with a message when the log is in danger (module docstring).
     """
 
     def __init__(

@@ -239,7 +239,15 @@ def iter_messages(
     path: str | os.PathLike[str], topics: Iterable[str]
 ) -> Iterator[tuple[str, int, bytes]]:
     """``(topic, log_time_ns, data)`` of every message on ``topics``, in file order, stopping
-    at a truncation with a warning (see :class:`LogScan`)."""
+    at a truncation with a warning (see :class:`LogScan`).
+
+    Parameters
+    ----------
+    path
+        The log.
+    topics
+        Topic names to keep.
+    """
     wanted, channels = set(topics), {}
     for record in _records(path, warn=True):
         if isinstance(record, Channel):

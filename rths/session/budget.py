@@ -75,9 +75,16 @@ class Budget:
 
 
 def step_cost(*parts: Any) -> float:
-    """Seconds per loop step of ``parts`` (a substructure, a compensator, an emulated lab),
-    measured by stepping each :data:`_STEPS_TIMED` times after one warm-up step, then resetting
-    it."""
+    """Seconds per loop step of ``parts``, measured by stepping each :data:`_STEPS_TIMED` times
+    after one warm-up step, then resetting it.
+
+    Parameters
+    ----------
+    *parts
+        A :class:`plants.base.Substructure` (stepped with no force), a
+        :class:`controllers.base.Compensator` (a target at rest) or an emulated lab (a zero
+        command); None is skipped.
+    """
     total = 0.0
     for part in parts:
         if part is None:

@@ -68,7 +68,13 @@ class RunOutcome:
 
 class Collector:
     """Keeps target, measured and force per step for the summary (preallocated, no I/O;
-    :data:`rths.session.budget.MEMORY_PER_STEP` bytes per step)."""
+    :data:`rths.session.budget.MEMORY_PER_STEP` bytes per step).
+
+    Parameters
+    ----------
+    n
+        Steps of the run.
+    """
 
     def __init__(self, n: int) -> None:
         self.target, self.measured, self.force = np.zeros(n), np.zeros(n), np.zeros(n)
@@ -85,7 +91,21 @@ class Collector:
 def run_metadata(
     scn: Scenario, run_id: str, clock: str, comp_kind: str, seed: int
 ) -> dict[str, dict[str, str]]:
-    """The metadata records written at the start of a log (scenario, versions, run, scales)."""
+    """The metadata records written at the start of a log (scenario, versions, run, scales).
+
+    Parameters
+    ----------
+    scn
+        The scenario (its text is stored whole).
+    run_id
+        The run's id.
+    clock
+        ``fast``, ``lockstep`` or ``realtime``.
+    comp_kind
+        The compensator kind that ran.
+    seed
+        The lab's noise seed.
+    """
     s = scn.scaling
     return {
         "scenario": {"path": scn.source, "text": scn.text, "name": scn.run.name},
@@ -120,7 +140,13 @@ def run_metadata(
 
 
 def describe(error: BaseException) -> str:
-    """How an exception that ended a run reads in its summary's ``stopped``."""
+    """How an exception that ended a run reads in its summary's ``stopped``.
+
+    Parameters
+    ----------
+    error
+        The exception (``Interrupted`` and ``KeyboardInterrupt`` read "interrupted by ...").
+    """
     if isinstance(error, Interrupted):
         return f"interrupted by {error}"
     if isinstance(error, KeyboardInterrupt):
@@ -137,7 +163,21 @@ def finish_record(
     collector: Collector,
     error: BaseException | None = None,
 ) -> None:
-    """Write the run's end into ``rec`` (module docstring); fills ``outcome``; never raises."""
+    """Write the run's end into ``rec`` (module docstring); fills ``outcome``; never raises.
+
+    Parameters
+    ----------
+    rec
+        The run's recorder (still open).
+    scn
+        The scenario (its step, its converters for the saturation counts).
+    outcome
+        Filled with the metrics, the saturation counts and notes.
+    collector
+        What the loop recorded.
+    error
+        The exception that ended the run, if one did.
+    """
     dt = scn.run.dt
     k = collector.count
     t_end = round(max(outcome.result.steps, k) * dt * 1e9)

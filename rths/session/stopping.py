@@ -55,7 +55,13 @@ class StopRequest:
         self._lock = threading.Lock()
 
     def attach(self, loop: _Stoppable) -> None:
-        """The loop to stop from now on; a request made earlier stops it at once."""
+        """The loop to stop from now on; a request made earlier stops it at once.
+
+        Parameters
+        ----------
+        loop
+            Anything with ``stop(reason)`` (a :class:`rths.runtime.loop.Loop`).
+        """
         with self._lock:
             self._loop = loop
             pending = self.reason
@@ -68,7 +74,15 @@ class StopRequest:
             self._loop = None
 
     def request(self, reason: str, *, fault: bool = False) -> None:
-        """Ask for a stop (thread-safe): the attached loop stops after its current step."""
+        """Ask for a stop (thread-safe): the attached loop stops after its current step.
+
+        Parameters
+        ----------
+        reason
+            What the run's result and summary will say (``stopped``); the first request wins.
+        fault
+            The request comes from a fault (the log in danger), not from a signal.
+        """
         with self._lock:
             if self.reason:
                 return
@@ -79,7 +93,15 @@ class StopRequest:
 
     def handle(self, signum: int, frame: FrameType | None = None) -> None:
         """Signal handler: a graceful stop if a loop is attached and none is under way, else
-        :class:`Interrupted`."""
+        :class:`Interrupted`.
+
+        Parameters
+        ----------
+        signum
+            The signal received.
+        frame
+            The interrupted frame (unused; the :func:`signal.signal` protocol).
+        """
         name = signal.Signals(signum).name
         with self._lock:
             graceful = self._loop is not None and self.signum is None
