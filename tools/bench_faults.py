@@ -153,7 +153,8 @@ disk, scenario = sys.argv[1:3]
 subprocess.run(["mount", "-t", "tmpfs", "-o", "size=48m", "tmpfs", disk], check=True)
 log = os.path.join(disk, "run.mcap")
 run = subprocess.Popen([sys.executable, "-m", "rths", "run", scenario, "--out", log,
-                        "--no-progress"], stderr=subprocess.PIPE, text=True)
+                        "--no-progress"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                       text=True)
 seen = 0
 while seen < 2000:
     time.sleep(0.05)

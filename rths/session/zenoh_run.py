@@ -229,11 +229,12 @@ def run_over_zenoh(
                         else ""
                     )
                 )
-                message = (
-                    str(exc)
-                    + (f"; {why}" if why else "")
-                    + (f"; specimen process said: {last}" if last else "")
-                )
+                if watcher is not None and watcher.reason and isinstance(exc, TransportError):
+                    # the link was woken because the specimen is gone: that is the news
+                    head = f"lost the specimen at t = {now_ns() * 1e-9:.4f} s: {watcher.reason}"
+                else:
+                    head = str(exc) + (f"; {why}" if why else "")
+                message = head + (f"; specimen process said: {last}" if last else "")
                 rec.event(now_ns(), "error", message)
                 raise TransportError(message) if isinstance(exc, TransportError) else exc from None
             except BaseException:  # Ctrl-C before the loop, or a bug: the specimen stops too
