@@ -56,6 +56,7 @@ def test_a_stop_signal_stops_the_run_cleanly(sig, tmp_path):
     assert float(summary["j2"]) > 0.0  # metrics of what was run
     assert facts.metadata["rths.recording"]["complete"] == "true"
     assert [e["kind"] for e in facts.events][-2:] == ["stopped", "end"]
+    assert not any(e["kind"] == "specimen" for e in facts.events)  # it exited 0, not killed
     assert processes_of(run.run_id) == []  # the coordinator stopped its specimen before exiting
     _no_leftovers(run)
 
