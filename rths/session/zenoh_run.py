@@ -161,8 +161,8 @@ def run_over_zenoh(
     """Run the loop against a specimen process over zenoh; see the module docstring.
 
     ``opts`` is the run's :class:`rths.session.runner.RunOptions`; ``make_loop(link, sink)`` builds
-    the loop; ``now_ns()`` gives the
-    simulated time of the last recorded step for error events; ``seed`` seeds the lab's noise.
+    the loop; ``now_ns()`` gives the simulated time of the last recorded step for error events;
+    ``seed`` seeds the lab's noise.
     """
     keys = RunKeys(run_id)
     listen = opts.listen or (() if opts.connect else (loopback_endpoint(),))
