@@ -16,6 +16,7 @@ from pathlib import Path
 from _scenarios import short
 from mcap.reader import make_reader
 
+from rths.runtime.loop import BLOCK_ROWS
 from rths.wire.transport import RunKeys, ZenohEndpoints, loopback_endpoint, open_session
 
 __all__ = ["LogFacts", "Run", "plain_facts", "processes_of"]
@@ -85,13 +86,15 @@ class Run:
         self.stdout = self.stderr = ""
 
     def wait_running(self, steps: int = 200) -> None:
-        """Block until the loop has published ``steps`` live records (the run is under way)."""
+        """Block until the loop has published ``steps`` live rows (the run is under way); the
+        live copy goes out a block of :data:`rths.runtime.loop.BLOCK_ROWS` rows at a time."""
         seen = threading.Event()
         count = [0]
+        blocks = -(-steps // BLOCK_ROWS)
 
         def on_sample(sample: object) -> None:
             count[0] += 1
-            if count[0] >= steps:
+            if count[0] >= blocks:
                 seen.set()
 
         deadline = time.monotonic() + PATIENCE

@@ -27,6 +27,7 @@ from mcap.reader import make_reader
 from mcap.stream_reader import StreamReader
 
 from rths.config.scenario import parse_scenario
+from rths.log import logfile
 from rths.log.logfile import LogFile
 from rths.log.reader import LOOP_FIELDS, read_topic
 from rths.log.recorder import LOOP_TOPIC, Recorder, RecordingFailed
@@ -102,6 +103,7 @@ def test_a_nearly_full_disk_stops_the_run_with_a_finished_log(tmp_path, monkeypa
     """The reserve cannot be renewed: the recorder asks the run to stop while the reserve still
     holds its end; the log is finished (summary section and all) and says why."""
     monkeypatch.setattr(LogFile, "free_space", lambda self: 0 if self.pos > 200_000 else 1 << 40)
+    monkeypatch.setattr(logfile, "CHECK_EVERY", 0.0)  # a fast run ends within one check period
     path = tmp_path / "nearly_full.mcap"
     scn = parse_scenario(short(5.0), "s.toml")
     outcome = run_scenario(scn, RunOptions(clock="fast", out=path))

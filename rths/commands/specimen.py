@@ -41,6 +41,19 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument(
         "--seed", type=int, help="noise seed (default: the scenario's; 'rths run' passes its own)"
     )
+    secret = p.add_mutually_exclusive_group()
+    secret.add_argument(
+        "--secret-file",
+        type=Path,
+        metavar="FILE",
+        help="the run secret (hex, mode 600) written by 'rths run --external-specimen'; "
+        "default: the environment variable RTHS_RUN_SECRET",
+    )
+    secret.add_argument(
+        "--secret-stdin",
+        action="store_true",
+        help="read the run secret from standard input (how 'rths run' starts this process)",
+    )
     return p
 
 
@@ -55,6 +68,7 @@ def run(args: argparse.Namespace) -> int:
     from rths.config.scenario import load_scenario, parse_scenario
     from rths.core.errors import ConfigError, Interrupted
     from rths.session.specimen import serve
+    from rths.wire.auth import read_secret
     from rths.wire.keys import check_run_id
     from rths.wire.transport import ZenohEndpoints
 
@@ -66,6 +80,8 @@ def run(args: argparse.Namespace) -> int:
     if not args.connect and not args.listen:
         raise ConfigError("give the coordinator's endpoint with --connect (or --listen)")
     check_run_id(args.run_id)
+    # stdin holds the secret's line first, then (scenario '-') the scenario text
+    secret = read_secret(args.secret_file, stdin=args.secret_stdin)
     if str(args.scenario) == "-":
         scn = parse_scenario(sys.stdin.read(), "<scenario on stdin>")
     else:
@@ -73,5 +89,13 @@ def run(args: argparse.Namespace) -> int:
     endpoints = ZenohEndpoints(listen=tuple(args.listen), connect=tuple(args.connect))
     if args.seed is not None and args.seed < 0:
         raise ConfigError(f"--seed must be >= 0; got {args.seed}")
-    serve(scn, args.run_id, endpoints, args.clock, ready_timeout=args.ready_timeout, seed=args.seed)
+    serve(
+        scn,
+        args.run_id,
+        endpoints,
+        args.clock,
+        ready_timeout=args.ready_timeout,
+        seed=args.seed,
+        secret=secret,
+    )
     return 0

@@ -7,6 +7,7 @@ tagged tuples from a :class:`queue.SimpleQueue`:
 * ``("s", topic, schema_json_bytes)`` -- register a topic;
 * ``("m", topic, seq, log_time_ns, publish_time_ns, message)`` -- a message from this process;
 * ``("r", topic, payload)`` -- a :class:`rths.wire.codec.LogRecord` from another process;
+* ``("b", topic, row_block)`` -- a :class:`rths.core.channels.RowBlock`, one message per row;
 * ``("e", log_time_ns, event_dict)`` -- an event (sequence numbers assigned here);
 * :data:`STOP` -- finish the file and end.
 
@@ -38,7 +39,15 @@ from rths.core.errors import DataError
 from rths.log.logfile import LogFile
 from rths.wire.codec import LogRecord
 
-__all__ = ["EVENTS_TOPIC", "STOP", "RecordingSummary", "TopicStats", "WriterThread", "open_schema"]
+__all__ = [
+    "EVENTS_TOPIC",
+    "STOP",
+    "RecordingSummary",
+    "TopicStats",
+    "WriterThread",
+    "block_messages",
+    "open_schema",
+]
 
 STOP = object()
 
@@ -105,6 +114,15 @@ class RecordingSummary:
         return self.lost == 0 and all(s.complete for s in self.topics.values())
 
 
+def _messages(item: tuple[Any, ...]) -> int:
+    """How many messages a queued item carries (events and metadata: none)."""
+    if item[0] in ("m", "r"):
+        return 1
+    if item[0] == "b":
+        return int(item[2].count)
+    return 0
+
+
 def open_schema(topic: str) -> bytes:
     """Schema for a topic first seen from another process: any JSON object."""
     return json.dumps(
@@ -135,6 +153,51 @@ def _finite(obj: Any) -> Any:
 # One encoder each, built once: json.dumps(**options) would build a new one per message.
 _STRICT = json.JSONEncoder(allow_nan=False, separators=(",", ":"), default=_plain)
 _LENIENT = json.JSONEncoder(separators=(",", ":"), default=_plain)
+
+
+def block_messages(
+    block: Any, templates: dict[tuple[str, ...], str] | None = None
+) -> list[tuple[int, int, bytes, bool]]:
+    """The rows of a :class:`rths.core.channels.RowBlock` as JSON messages.
+
+    Each row is ``{"seq": k, <channel>: value, ...}``, formatted with a template of the block's
+    channel names (``repr`` of each float: exact and the shortest), or, when the row holds a
+    non-finite value, through the lenient encoder with ``null`` in its place.
+
+    Parameters
+    ----------
+    block
+        A :class:`rths.core.channels.RowBlock`.
+    templates
+        Cache of templates, keyed by the block's channel names (shared across calls).
+
+    Returns
+    -------
+    list of tuple
+        ``(seq, log_time_ns, json_bytes, finite)`` per filled row.
+    """
+    import numpy as np
+
+    n = block.count
+    if not n:
+        return []
+    cache = {} if templates is None else templates
+    template = cache.get(block.names)
+    if template is None:
+        fields = ",".join(f'"{name}":%r' for name in block.names)
+        template = cache[block.names] = '{"seq":%d' + ("," + fields if fields else "") + "}"
+    values = block.values[:n]
+    finite = np.isfinite(values).all(axis=1).tolist()
+    out = []
+    for k, t, row, ok in zip(
+        block.seq[:n].tolist(), block.t_ns[:n].tolist(), values.tolist(), finite
+    ):
+        if ok:
+            data = (template % (k, *row)).encode()
+        else:
+            data = _LENIENT.encode(_finite({"seq": k, **dict(zip(block.names, row))})).encode()
+        out.append((k, t, data, ok))
+    return out
 
 
 class _Topic:
@@ -191,6 +254,7 @@ class WriterThread(threading.Thread):
         self.events = 0
         self._on_fault = on_fault
         self._late_metadata: dict[str, dict[str, str]] = {}
+        self._rows_done = 0
         self._stream = stream
         self._inbox = inbox
         self._metadata = metadata
@@ -201,6 +265,7 @@ class WriterThread(threading.Thread):
         )
         self._flush_interval = flush_interval
         self._topics: dict[str, _Topic] = {}
+        self._templates: dict[tuple[str, ...], str] = {}
         self._dirty = False
         self._last_flush = time.monotonic()
 
@@ -250,8 +315,8 @@ class WriterThread(threading.Thread):
                     return
                 if item[0] == "md":
                     self._late_metadata[item[1]] = dict(item[2])
-                elif item[0] in ("m", "r"):
-                    self.lost += 1
+                else:
+                    self.lost += _messages(item)
 
     def _finish(self) -> None:
         summary = {"complete": "true", "max_backlog": str(self.max_backlog)}
@@ -301,25 +366,32 @@ class WriterThread(threading.Thread):
                 try:
                     self._handle(item)
                 except BaseException:
-                    if item[0] in ("m", "r"):
-                        self.lost += 1  # the message being written when it failed
+                    self.lost += _messages(item) - self._rows_done  # those not written
                     raise
                 handled += 1
+                # after every item, not only when the queue is empty: a producer that keeps it
+                # full (the fast clock) must still be stopped while the reserve holds
+                self._renew()
             if self._dirty and time.monotonic() - self._last_flush >= interval:
                 self._writer.flush()
                 self._dirty = False
                 self._last_flush = time.monotonic()
-            if not self._stream.renew():
-                free = shutil.disk_usage(self._stream.path.parent).free
-                self._notify(
-                    f"disk nearly full: {free / 2**20:.1f} MiB free for '{self._stream.path}'"
-                )
+            self._renew()
+
+    def _renew(self) -> None:
+        """Keep the disk-space reserve ahead of the data; ask for a stop when it cannot be."""
+        if not self._stream.renew() and self.fault is None:
+            free = shutil.disk_usage(self._stream.path.parent).free
+            self._notify(f"disk nearly full: {free / 2**20:.1f} MiB free for '{self._stream.path}'")
 
     def _handle(self, item: tuple[Any, ...]) -> None:
+        self._rows_done = 0  # rows of a block written so far (for the lost count on failure)
         tag = item[0]
         if tag == "m":
             _, topic, seq, log_time, publish_time, message = item
             self._write(topic, seq, log_time, publish_time, message)
+        elif tag == "b":
+            self._block(item[1], item[2])
         elif tag == "r":
             self._record(item[1], item[2])
         elif tag == "e":
@@ -383,6 +455,16 @@ class WriterThread(threading.Thread):
                 },
             )
         entry.last_seq = max(last, seq)
+
+    def _block(self, topic: str, block: Any) -> None:
+        """Write the rows of a :class:`rths.core.channels.RowBlock` (:func:`block_messages`)."""
+        entry = self._topics[topic]
+        self._rows_done = 0
+        for k, t, data, finite in block_messages(block, self._templates):
+            if not finite:
+                entry.nonfinite += 1
+            self._add(topic, k, t, t, data)
+            self._rows_done += 1
 
     def _record(self, topic: str, payload: bytes) -> None:
         """Write a record from another process; its JSON is written as received unless it

@@ -21,7 +21,8 @@ import numpy as np
 from rths import __version__
 from rths.config import build
 from rths.config.scenario import Scenario
-from rths.core.errors import DataError, Interrupted, RTHSError
+from rths.core.channels import RowBlock
+from rths.core.errors import DataError, Interrupted, ParameterError, RTHSError
 from rths.log.recorder import Recorder, RecordingSummary
 from rths.metrics import TrackingSummary, summarize
 from rths.runtime.loop import LoopResult
@@ -41,6 +42,10 @@ class RunOutcome:
     recording: RecordingSummary | None = None
     events: list[str] = field(default_factory=list)
     saturated: dict[str, int] = field(default_factory=dict)
+    age_p99: float = 0.0
+    priority: int = 0
+    gc: tuple[int, float] = (0, 0.0)
+    security: dict[str, int] = field(default_factory=dict)
 
     def line(self) -> str:
         """The one-line summary the CLI prints."""
@@ -57,7 +62,12 @@ class RunOutcome:
             parts.append("metrics n/a")
         parts.append(f"overruns {t.overruns}/{t.steps}")
         if self.clock == "realtime":
+            parts.append(f"misses {self.result.misses}/{t.steps}")
             parts.append(f"p99 jitter {1e6 * t.jitter_p99:.0f} us")
+            parts.append(f"p99 age {1e6 * self.age_p99:.0f} us")
+        if self.security:
+            dropped = self.security.get("forged", 0) + self.security.get("replayed", 0)
+            parts.append(f"forged/replayed dropped {dropped}")
         gaps = sum(s.missing for s in self.recording.topics.values()) if self.recording else 0
         parts.append(f"gaps {gaps}")
         clipped = {k: v for k, v in self.saturated.items() if v}
@@ -67,7 +77,8 @@ class RunOutcome:
 
 
 class Collector:
-    """Keeps target, measured and force per step for the summary (preallocated, no I/O;
+    """Keeps target, measured, force and age per step for the summary (preallocated; a block's
+    columns are copied when the block is handed over, not per step;
     :data:`rths.session.budget.MEMORY_PER_STEP` bytes per step).
 
     Parameters
@@ -81,11 +92,14 @@ class Collector:
         self.age = np.zeros(n)
         self.count = 0
 
-    def __call__(self, record: dict[str, float]) -> None:
-        k = int(record["seq"])
-        self.target[k], self.measured[k] = record["target"], record["measured"]
-        self.force[k], self.age[k] = record["force"], record["age"]
-        self.count = k + 1
+    def __call__(self, block: RowBlock) -> None:
+        n = block.count
+        if not n:
+            return
+        k0 = int(block.seq[0])
+        for name in ("target", "measured", "force", "age"):
+            getattr(self, name)[k0 : k0 + n] = block.column(name)
+        self.count = k0 + n
 
 
 def run_metadata(
@@ -134,6 +148,8 @@ def run_metadata(
             "force": "N",
             "correction": "N (prototype scale)",
             "age": "s",
+            "lag": "steps",
+            "late": "s",
             "scale": "target/command/measured/force are at specimen scale",
         },
     }
@@ -185,6 +201,8 @@ def finish_record(
     try:
         if stopped:
             rec.event(t_end, "stopped", stopped)
+        if k:
+            outcome.age_p99 = float(np.percentile(collector.age[:k], 99))
         try:
             outcome.metrics = summarize(
                 collector.target[:k],
@@ -193,7 +211,7 @@ def finish_record(
                 dt,
                 max_delay=min(0.1, 0.25 * k * dt),
             )
-        except DataError as exc:  # too short or too quiet a record for some metric
+        except (DataError, ParameterError) as exc:  # too short or too quiet a record
             outcome.events.append(f"metrics not computed: {exc}")
         outcome.saturated = _saturations(scn, collector.measured[:k], collector.force[:k])
         for channel, count in outcome.saturated.items():
@@ -240,6 +258,21 @@ def _summary(outcome: RunOutcome) -> dict[str, str]:
     }
     if outcome.metrics is not None:
         out.update({k: repr(v) for k, v in outcome.metrics.to_dict().items()})
+    if outcome.clock == "realtime":
+        out.update(
+            {
+                "deadline_misses": str(outcome.result.misses),
+                "longest_lag_steps": str(outcome.result.longest_lag),
+                "jitter_p50_s": repr(t.jitter_p50),
+                "jitter_max_s": repr(t.jitter_max),
+                "age_p99_s": repr(outcome.age_p99),
+                "gc_collections_in_loop": str(outcome.gc[0]),
+                "gc_longest_s": repr(outcome.gc[1]),
+                "loop_ended_monotonic_ns": str(outcome.result.ended_ns),
+                "sched_fifo_priority": str(outcome.priority),
+            }
+        )
+    out.update({f"auth_{k}": str(v) for k, v in outcome.security.items()})
     if outcome.events:
         out["notes"] = "; ".join(outcome.events)
     out.update({f"saturated_{k}": str(v) for k, v in outcome.saturated.items()})

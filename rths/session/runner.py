@@ -3,13 +3,17 @@
 ``fast``      everything in this process; the loop writes the MCAP log through the recorder's
               queue.
 ``lockstep``  and ``realtime``: the specimen is a separate process (``rths specimen``) started here
-              (or elsewhere, ``external_specimen=True``).  Commands and measurements cross zenoh;
-              the specimen's own stream (its truth each step) arrives on ``rths/<run>/log/
-              specimen`` and the recorder, subscribed through a
-              :class:`rths.wire.transport.LogBridge`, writes it into the MCAP log.  The loop's
-              record goes to the recorder's queue (never lost) and a live copy to
-              ``rths/<run>/loop`` for monitors, published from a background thread: the loop thread
-              only enqueues and publishes the command.
+              (or elsewhere, ``external_specimen=True``).  Commands and measurements cross zenoh,
+              sealed with the run's secret (:mod:`rths.wire.auth`), which the specimen process
+              gets on its standard input; the specimen's own rows (its truth each step) arrive
+              in blocks on ``rths/<run>/log/specimen`` and the recorder, subscribed through a
+              :class:`rths.wire.transport.LogBridge`, writes them into the MCAP log.  The loop's
+              rows go to the recorder's queue a block at a time (never lost): the loop thread
+              only fills preallocated rows and publishes the command.
+
+Real-time runs keep the garbage collector out of the loop (:class:`rths.runtime.clocks.QuietGC`)
+and lower the loop thread's timer slack; collections, deadline misses and the measurement's age
+are counted and written to the summary.
 
 A crashed or vanished specimen ends the run with a :class:`rths.core.errors.TransportError`; the log
 is finished, carries an ``error`` event with the specimen's last words (its stderr), and the summary
@@ -25,47 +29,43 @@ from __future__ import annotations
 
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from rths.config import build
 from rths.config.scenario import Scenario
+from rths.core.channels import RowBlock
 from rths.core.errors import ConfigError, check_positive
-from rths.log.recorder import LOOP_SCHEMA, LOOP_TOPIC, Recorder, object_schema
-from rths.runtime.clocks import SWITCH_INTERVAL, FreeRunning, Pacer, WallClock
+from rths.log.live import parse_where
+from rths.log.recorder import LOOP_TOPIC, Recorder, block_schema
+from rths.runtime.clocks import (
+    SWITCH_INTERVAL,
+    FreeRunning,
+    Pacer,
+    QuietGC,
+    WallClock,
+    realtime_priority,
+    realtime_thread,
+)
+from rths.runtime.guard import CommandGuard
 from rths.runtime.loop import InProcessLink, LinkSample, Loop, LoopResult
 from rths.session.budget import check_budget, step_cost
 from rths.session.outcome import Collector, RunOutcome, finish_record, run_metadata
 from rths.session.stopping import StopRequest
+from rths.wire.auth import read_secret
 from rths.wire.keys import check_run_id, new_run_id
 
 __all__ = ["RunOptions", "RunOutcome", "StopRequest", "run_scenario"]
 
 SPECIMEN_TOPIC = "rths/specimen"
 
-#: Extra delay [loop steps] the realtime link adds, which the compensator is told about: the
-#: free-running specimen picks a command up at its next tick (~1 step) and the loop uses the
-#: newest measurement, ~1 step old on average (the logged ``age``).
-REALTIME_LINK_DELAY_STEPS = 2.0
-
-#: Schema of ``rths/specimen``: the emulated lab's truth each step (plus the actuator's and the
-#: specimen's internal states as ``actuator.<name>`` / ``actuator.specimen.<name>``, SI).
-SPECIMEN_SCHEMA = object_schema(
-    "rths.specimen",
-    {
-        "t": "simulated time at the end of the step [s]",
-        "command": "command received [m]",
-        "command_dac": "command after the DAC [m]",
-        "displacement": "true displacement of the specimen end [m]",
-        "velocity": "true velocity of the specimen end [m/s]",
-        "acceleration": "true acceleration of the specimen end [m/s^2]",
-        "force": "true restoring force of the specimen [N]",
-        "measured_displacement": "displacement after the ADC (noise, quantisation) [m]",
-        "measured_force": "force after the ADC (noise, quantisation) [N]",
-    },
-    description="One step of the emulated lab, specimen scale.",
+SPEC_DOC = "One step of the emulated lab, specimen scale (its actuator's state as actuator.*)."
+LOOP_DOC = (
+    "One RTHS loop step at the interface (specimen scale); Message.sequence = seq = k; "
+    "ctrl_*: the compensator's channels, sub_*: the substructure's."
 )
 
 
@@ -96,6 +96,11 @@ class RunOptions:
         The run id (keys ``rths/<run_id>/``); default ``<name>-<timestamp>-<random>``.
     on_waiting
         Called with the ``rths specimen`` command line when waiting for an external specimen.
+    secret_file
+        File holding the run secret (hex) for an external specimen; default: a fresh secret
+        written to ``<log>.secret`` (mode 600) when the specimen is external.
+    live
+        Serve the run to Foxglove over WebSocket while it runs (``host:port``; None: no).
     stop
         The run's stop request (the CLI routes SIGINT, SIGTERM and SIGHUP to it); default: one
         of its own (the recorder still stops the run through it when the disk fills up).
@@ -113,6 +118,8 @@ class RunOptions:
     seed: int | None = None
     run_id: str | None = None
     on_waiting: Callable[[str], None] | None = None
+    secret_file: Path | None = None
+    live: str | None = None
     stop: StopRequest | None = None
 
 
@@ -134,16 +141,40 @@ class _Progress(threading.Thread):
 
 
 class _TruthLink(InProcessLink):
-    """The fast clock's link, also recording the lab's truth on ``rths/specimen``."""
+    """The fast clock's link, also recording the lab's rows on ``rths/specimen`` (in blocks)."""
 
-    def __init__(self, lab: Any, recorder: Recorder) -> None:
-        super().__init__(lab)
-        self.recorder = recorder
+    def __init__(
+        self, lab: Any, guard: CommandGuard, recorder: Recorder, rows: int, live: Any = None
+    ) -> None:
+        super().__init__(lab, guard)
+        self.recorder, self.live, self.rows_of = recorder, live, lab
+        self._channels = lab.channels()
+        self._rows = rows
+        self._block = RowBlock(self._channels, rows)
+        recorder.add_topic(SPECIMEN_TOPIC, block_schema(SPECIMEN_TOPIC, self._block, SPEC_DOC))
 
     def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
         sample = super().exchange(seq, t_ns, command)
-        self.recorder.put(SPECIMEN_TOPIC, seq, t_ns, self.lab.truth())
+        b = self._block
+        i = b.count
+        self.rows_of.write_channels(b.values[i])
+        b.seq[i], b.t_ns[i] = seq, t_ns
+        b.count = i + 1
+        if b.count == self._rows:
+            self.flush()
         return sample
+
+    def flush(self) -> None:
+        """Hand the filled rows to the recorder."""
+        if self._block.count:
+            self.recorder.put_block(SPECIMEN_TOPIC, self._block)
+            if self.live is not None:
+                self.live.put_block(SPECIMEN_TOPIC, self._block)
+            self._block = RowBlock(self._channels, self._rows)
+
+    def safe_stop(self, reason: str) -> int:
+        self.flush()
+        return super().safe_stop(reason)
 
 
 def _new_run_id(name: str) -> str:
@@ -194,34 +225,53 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
         raise ConfigError(f"seed must be an integer >= 0; got {seed!r}")
     check_positive(opts.ready_timeout, "ready timeout")
     check_positive(opts.step_timeout, "step timeout")
+    if opts.live:
+        parse_where(opts.live)
+    if opts.secret_file is not None:
+        read_secret(opts.secret_file)  # unreadable, shared with others or not a secret: now
     path = opts.out or Path("runs") / f"{run_id}.mcap"
     _check_out(path)
     n, dt = scn.run.steps, scn.run.dt
     substructure = build.substructure(scn)
-    link_delay = REALTIME_LINK_DELAY_STEPS * dt if clock == "realtime" else 0.0
-    compensator = build.compensator(scn, opts.compensator, extra_delay=link_delay)
+    compensator = build.compensator(scn, opts.compensator)
     # built on every clock: what the specimen process would refuse is refused before it starts
     lab = build.lab(scn, seed)
     substructure.predict(0.0)  # compile kernels before the clock starts
     check_budget(scn, clock, step_cost(substructure, compensator, lab), log_dir=path.parent)
     stop = opts.stop or StopRequest()
+    quiet = QuietGC() if clock == "realtime" else None
+    priority = realtime_priority() if clock == "realtime" else 0  # opt-in: RTHS_RT_PRIORITY
     pacer: Pacer = WallClock(dt, n) if clock == "realtime" else FreeRunning(dt, n)
+    if quiet is not None:
+        pacer.idle = quiet.idle
     collector = Collector(n)
     progress = _Progress(opts.progress, n) if opts.progress else None
-    topics = {LOOP_TOPIC: LOOP_SCHEMA, SPECIMEN_TOPIC: SPECIMEN_SCHEMA}
     outcome = RunOutcome(path, run_id, clock, LoopResult(0, pacer.stats()), None)
-    with Recorder(
-        path,
-        topics=topics,
-        metadata=run_metadata(scn, run_id, clock, comp_kind, seed),
-        on_fault=lambda message: stop.request(f"recording: {message}", fault=True),
-    ) as rec:
+    outcome.priority = priority
+    # bound before the log is opened: a port in use is refused with nothing left behind
+    live = _live_server(opts.live) if opts.live else None
+    with (
+        _closing(live),
+        Recorder(
+            path,
+            topics={},
+            metadata=run_metadata(scn, run_id, clock, comp_kind, seed),
+            on_fault=lambda message: stop.request(f"recording: {message}", fault=True),
+        ) as rec,
+    ):
         rec.event(0, "start", f"run {run_id}: {scn.run.name}, clock {clock}, {n} steps")
+        if live is not None:
+            host = opts.live.rpartition(":")[0] if opts.live else ""
+            rec.event(0, "live", f"serving the run to Foxglove on ws://{host}:{live.port}")
 
-        def make_loop(link: Any, sink: Callable[[dict[str, float]], None]) -> Loop:
-            def record(r: dict[str, float]) -> None:
-                collector(r)
-                sink(r)
+        def make_loop(link: Any, extra_sink: Callable[[RowBlock], None] | None = None) -> Loop:
+            def sink(block: RowBlock) -> None:
+                collector(block)
+                rec.put_block(LOOP_TOPIC, block)
+                if live is not None:
+                    live.put_block(LOOP_TOPIC, block)
+                if extra_sink is not None:
+                    extra_sink(block)
 
             loop = Loop(
                 substructure,
@@ -230,10 +280,15 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
                 scn.scaling,
                 n,
                 pacer,
-                record,
+                sink,
                 command_limit=scn.loop.stroke,
                 force_filter=build.correction_filter(scn),
+                max_lag=scn.loop.max_lag,
             )
+            schema = block_schema(LOOP_TOPIC, RowBlock(loop.channels, 0), LOOP_DOC)
+            rec.add_topic(LOOP_TOPIC, schema)
+            if live is not None:
+                live.add_topic(LOOP_TOPIC, schema)
             stop.attach(loop)
             return loop
 
@@ -249,28 +304,37 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
         error: BaseException | None = None
         try:
             if clock == "fast":
-                loop = make_loop(
-                    _TruthLink(lab, rec),
-                    lambda r: rec.put(LOOP_TOPIC, int(r["seq"]), round(r["t"] * 1e9), r),
-                )
+                guard = CommandGuard(build.guard_limits(scn), dt)
+                loop = make_loop(_TruthLink(lab, guard, rec, 256, live))
                 outcome.result = loop.run(on_progress)
+                if guard.tripped or loop.safe_stop_steps:
+                    rec.event(
+                        round(outcome.result.steps * dt * 1e9),
+                        "ramp-down",
+                        f"{loop.safe_stop_steps} steps to zero at "
+                        f"{scn.loop.ramp_velocity:g} m/s ({guard.tripped})",
+                        **guard.summary(),
+                    )
             else:
-                from rths.session.zenoh_run import (
-                    run_over_zenoh,  # zenoh is imported only here
-                )
+                from rths.session.zenoh_run import run_over_zenoh  # zenoh is imported only here
 
                 del lab  # the specimen process builds its own
-                outcome.result = run_over_zenoh(
-                    scn,
-                    opts,
-                    clock,
-                    run_id,
-                    rec,
-                    make_loop,
-                    on_progress,
-                    lambda: round(collector.count * dt * 1e9),
-                    seed,
-                )
+                realtime_thread()
+                with quiet if quiet is not None else _nothing():
+                    outcome.result, outcome.security = run_over_zenoh(
+                        scn,
+                        opts,
+                        clock,
+                        run_id,
+                        rec,
+                        make_loop,
+                        on_progress,
+                        lambda: round(collector.count * dt * 1e9),
+                        seed,
+                        live,
+                    )
+                if quiet is not None:
+                    outcome.gc = (quiet.collections, quiet.longest)
         except BaseException as exc:
             error = exc
             raise
@@ -282,3 +346,25 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
             finish_record(rec, scn, outcome, collector, error)
     outcome.recording = rec.summary
     return outcome
+
+
+@contextmanager
+def _nothing() -> Iterator[None]:
+    yield
+
+
+@contextmanager
+def _closing(live: Any) -> Iterator[None]:
+    """Close the live server (if any) when the block ends, however it ends."""
+    try:
+        yield
+    finally:
+        if live is not None:
+            live.close()
+
+
+def _live_server(where: str) -> Any:
+    """The Foxglove WebSocket server of ``--live HOST:PORT`` (imported only when asked)."""
+    from rths.log.live import LiveServer
+
+    return LiveServer.start(where)
