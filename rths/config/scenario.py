@@ -108,6 +108,12 @@ class LabSpec:
     force_noise: float = 1e-3
 
 
+#: Largest ``[loop] max_velocity`` [m/s]: a guard above it guards nothing.
+MAX_VELOCITY = 10.0
+#: Longest measurement age the watchdog may allow, ``max_lag * dt`` [s].
+MAX_LAG_TIME = 1.0
+
+
 @dataclass(frozen=True)
 class LoopSpec:
     """``[loop]``: low-pass on the force correction [Hz] (0: none), the stroke interlock [m],
@@ -183,6 +189,18 @@ def _parse(doc: Table, text: str) -> Scenario:
     )
     if loop.ramp_velocity > loop.max_velocity:
         raise t.error("ramp_velocity", f"must not exceed max_velocity {loop.max_velocity!r} m/s")
+    if loop.max_velocity > MAX_VELOCITY:
+        raise t.error(
+            "max_velocity",
+            f"must be <= {MAX_VELOCITY:g} m/s (beyond any servo-hydraulic actuator: no guard at "
+            f"all); got {loop.max_velocity!r}",
+        )
+    if loop.max_lag * run.dt > MAX_LAG_TIME:
+        raise t.error(
+            "max_lag",
+            f"{loop.max_lag} steps is {loop.max_lag * run.dt:.3g} s at {run.rate:g} Hz; the "
+            f"watchdog must trip within {MAX_LAG_TIME:g} s",
+        )
     t.finish()
     t = doc.table("monte_carlo", {})
     draws = t.integer("draws", 0, minimum=0)
