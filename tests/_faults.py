@@ -32,6 +32,7 @@ class LogFacts:
     counts: dict[str, int]  #: messages per topic
     metadata: dict[str, dict[str, str]]
     events: list[dict]
+    specimen_summary: dict  #: the specimen process's own summary (``rths/specimen/summary``)
 
 
 def plain_facts(path: Path) -> LogFacts:
@@ -41,13 +42,16 @@ def plain_facts(path: Path) -> LogFacts:
         summary = reader.get_summary()
         counts: dict[str, int] = {}
         events = []
+        specimen: dict = {}
         for _, channel, message in reader.iter_messages(log_time_order=False):
             counts[channel.topic] = counts.get(channel.topic, 0) + 1
             if channel.topic == "rths/events":
                 events.append(json.loads(message.data))
+            elif channel.topic == "rths/specimen/summary":
+                specimen = json.loads(message.data)
     with open(path, "rb") as f:
         metadata = {m.name: dict(m.metadata) for m in make_reader(f).iter_metadata()}
-    return LogFacts(summary is not None, counts, metadata, events)
+    return LogFacts(summary is not None, counts, metadata, events, specimen)
 
 
 def processes_of(run_id: str) -> list[int]:
@@ -70,9 +74,11 @@ class Run:
     """``python -m rths run SCENARIO`` (the seed scenario shortened) in lockstep, listening on a
     known loopback endpoint with a known run id; stderr is captured."""
 
-    def __init__(self, tmp: Path, name: str, duration: float = 60.0, *extra: str) -> None:
+    def __init__(
+        self, tmp: Path, name: str, duration: float = 60.0, *extra: str, text: str | None = None
+    ) -> None:
         self.scenario = tmp / f"{name}.toml"
-        self.scenario.write_text(short(duration))
+        self.scenario.write_text(short(duration) if text is None else text)
         self.log = tmp / f"{name}.mcap"
         self.run_id = f"fault-{name}-{os.getpid()}"
         self.endpoint = loopback_endpoint()

@@ -233,7 +233,7 @@ class _Server:
                 self.late_commands += 1
                 command = newer
             if presence.stop.is_set():
-                return
+                break  # its reason is recorded below
             self._step(command, reply=link)
             last_seq = command.seq
             if guard.tripped:
