@@ -29,8 +29,10 @@ load average is printed before and after.  ``--json`` writes the rows.
                                   [--max-lag 5] [--only NAME ...] [--json FILE]
 
 The fault is injected once the run is under way (a passive zenoh peer has seen half a second of
-commands go by).  The 10 x 60 s real-time runs at 2048 Hz are ``tools/bench_loop.py --rates 2048
---clocks realtime --repeats 10 --duration 60`` (its ``finished k/n`` column).
+commands go by; two seconds for SIGKILL, so the log has been flushed at least once).
+
+The 10 x 60 s real-time runs at 2048 Hz are ``python tools/bench_loop.py --rates 2048 --clocks
+realtime --repeats 10 --duration 60`` (its ``finished k/n`` column).
 """
 
 from __future__ import annotations
@@ -219,7 +221,9 @@ def run_fault(
         [*rths, "specimen", str(scn), "--connect", endpoint, *common],
         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
-    running = wait_until_running(endpoint, run_id, round(0.5 * rate), 120.0, coord)
+    # SIGKILL: after 2 s, so the recorder's periodic flush has put whole chunks on the disk
+    lead = 2.0 if fault == "coordinator-sigkill" else 0.5
+    running = wait_until_running(endpoint, run_id, round(lead * rate), 120.0, coord)
     fault_ns = time.monotonic_ns()
     counts: dict = {}
     done = threading.Event()
@@ -287,12 +291,19 @@ def run_fault(
         row["loop_stop_ms"] = 0.0  # killed: the loop stopped with the signal
     if running and figures.get("at_rest_ns"):
         row["at_rest_ms"] = (figures["at_rest_ns"] - fault_ns) / 1e6
+    if running and not summary.get("stopped") and fault != "coordinator-sigkill":
+        row["loop_stop_ms"] = row["at_rest_ms"] = None  # it ran to its end: no stop to time
     ended = [ln for ln in stderr.splitlines() if ln.strip()]
     row["stderr"] = ended[-1] if ended else ""
     if fault == "forged-peer":
         row["forged_sent"] = counts.get("sent", 0)
-        row["forged_dropped"] = int(summary.get("auth_forged", 0)) + int(
-            summary.get("auth_replayed", 0)
+        # dropped by the coordinator (measurements, stops, log records) and by the specimen
+        # (commands, stops)
+        row["forged_dropped"] = (
+            int(summary.get("auth_forged", 0))
+            + int(summary.get("auth_replayed", 0))
+            + int(figures.get("auth_forged_dropped", 0))
+            + int(figures.get("auth_replayed_dropped", 0))
         )
         # accepted: a forged message the loop or the specimen used -- the run would have
         # stopped (a forged stop, a jump) or its specimen would count it accepted
@@ -331,6 +342,10 @@ def _inner_full_disk(args: argparse.Namespace) -> None:
 
 def _cell(value: float | None, fmt: str = ".0f") -> str:
     return "–" if value is None else format(value, fmt)
+
+
+def _step(mm: float) -> str:
+    return "– (process dead)" if mm != mm else f"{mm:.4f}"
 
 
 def main() -> None:
@@ -385,7 +400,7 @@ def main() -> None:
         readable = ("y" if r["readable"] else "n") + (" (recover)" if r["recovered"] else "")
         print(
             f"| {r['fault']}{extra} | {_cell(r['loop_stop_ms'])} | {_cell(r['at_rest_ms'])} "
-            f"| {_cell(r['exited_ms'])} | {_cell(r['largest_step_mm'], '.4f')} "
+            f"| {_cell(r['exited_ms'])} | {_step(r['largest_step_mm'])} "
             f"({r['step_limit_mm']:.4f}) | {r['exit']} | {readable} | "
             f"{'y' if r['summary'] else 'n'} | {r['stopped'] or 'ran to the end'} |"
         )
