@@ -80,6 +80,8 @@ def run(args: argparse.Namespace) -> int:
     if not args.connect and not args.listen:
         raise ConfigError("give the coordinator's endpoint with --connect (or --listen)")
     check_run_id(args.run_id)
+    if args.seed is not None and args.seed < 0:
+        raise ConfigError(f"--seed must be >= 0; got {args.seed}")
     # stdin holds the secret's line first, then (scenario '-') the scenario text
     secret = read_secret(args.secret_file, stdin=args.secret_stdin)
     if str(args.scenario) == "-":
@@ -87,8 +89,6 @@ def run(args: argparse.Namespace) -> int:
     else:
         scn = load_scenario(args.scenario)
     endpoints = ZenohEndpoints(listen=tuple(args.listen), connect=tuple(args.connect))
-    if args.seed is not None and args.seed < 0:
-        raise ConfigError(f"--seed must be >= 0; got {args.seed}")
     serve(
         scn,
         args.run_id,
