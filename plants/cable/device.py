@@ -45,7 +45,14 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from plants.cable.fe import MassKind, Tridiagonal, assemble, check_mesh, mesh_nodes
+from plants.cable.fe import (
+    MAX_ELEMENTS,
+    MassKind,
+    Tridiagonal,
+    assemble,
+    check_mesh,
+    mesh_nodes,
+)
 from plants.cable.properties import CableProperties, InterfaceDevice, RayleighDamping
 from rths.core.errors import (
     ParameterError,
@@ -248,7 +255,14 @@ def elements_for(
     if series_stiffness is None:
         return n
     h_max = max_element_size(series_stiffness, properties)
-    n = max(n, math.floor(properties.length / h_max))  # no element shorter than L/N fits below
+    needed = properties.length / h_max
+    if needed > MAX_ELEMENTS:
+        raise ParameterError(
+            f"the device's series stiffness {series_stiffness:.6g} N/m needs elements shorter than "
+            f"4 T/k_s = {h_max:.3g} m: {needed:.3g} of them on {properties.length:g} m, more "
+            f"than {MAX_ELEMENTS} (check the model's stiffness and the scaling)"
+        )
+    n = max(n, math.floor(needed))  # no element shorter than L/N fits below
     while True:
         nodes, _ = mesh_nodes(properties.length, x_d, n)
         if np.max(np.diff(nodes)) < h_max:

@@ -102,15 +102,20 @@ class Tridiagonal:
         return np.diag(self.diag) + np.diag(self.off, 1) + np.diag(self.off, -1)
 
 
+#: Most elements a cable mesh may have: far beyond what a string needs (the mesh rule of a stiff
+#: device asks for hundreds), and already a second of wall time per simulated second.
+MAX_ELEMENTS = 100_000
+
+
 def check_mesh(damper_position: float, elements: int) -> tuple[float, int]:
-    """Validated ``(x_d, N)``: damper position in (0, 1) and at least two elements.
+    """Validated ``(x_d, N)``: damper position in (0, 1) and 2 to :data:`MAX_ELEMENTS` elements.
 
     Parameters
     ----------
     damper_position : float
         Normalised damper location ``x_d = xbar_d/L`` [-] (S0 Eq.23), in (0, 1).
     elements : int
-        Number of linear elements ``N``, >= 2.
+        Number of linear elements ``N``, 2 to :data:`MAX_ELEMENTS`.
 
     Raises
     ------
@@ -121,8 +126,10 @@ def check_mesh(damper_position: float, elements: int) -> tuple[float, int]:
     if not 0.0 < x_d < 1.0:
         raise ParameterError(f"damper position x_d must lie in (0, 1); got {damper_position!r}")
     n = check_positive_int(elements, "number of elements")
-    if n < 2:
-        raise ParameterError(f"number of elements must be at least 2; got {elements!r}")
+    if not 2 <= n <= MAX_ELEMENTS:
+        raise ParameterError(
+            f"number of elements must lie in [2, {MAX_ELEMENTS}]; got {elements!r}"
+        )
     return x_d, n
 
 

@@ -69,6 +69,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from numpy.typing import ArrayLike, NDArray
 
+from plants.cable.fe import check_mesh
 from plants.cable.model import (
     CableProperties,
     InterfaceDevice,
@@ -406,6 +407,12 @@ def fe_roots(
         The eigenvalues in the window as roots (``method="fe"``), ascending ``Re beta``.
     """
     n, x, m_e, c_d, k_e = _check_system(mode, x_d, m_e, c_d, k_e)
+    _, elements = check_mesh(x, elements)
+    if not n < elements:
+        raise ParameterError(
+            f"mode {n} needs more FE elements than {elements!r}: a mesh of N elements has "
+            "N - 1 modes (and resolves those well below N)"
+        )
     top = (n + 0.5) * math.pi if max_imag is None else check_positive(max_imag, "max_imag")
     unit = CableProperties(1.0, 1.0, 1.0)
     inertance, damping = physical_damper(unit, m_e, c_d)

@@ -1,21 +1,27 @@
 """The project's exception hierarchy and the small validators every module uses.
 
 Every error a user can cause by bad input derives from :class:`RTHSError`; the CLI turns it into
-a one-line message and exit code 2.  Messages name the input and carry the offending value, e.g.
+a one-line message and exit code 2.  A :class:`RunFault` is not the input's fault but the run's
+(the specimen process lost, the disk full): also one line, exit code 3.  Messages name the input
+and carry the offending value, e.g.
 ``ParameterError("cable tension T must be positive; got -3.0")``.
 """
 
 from __future__ import annotations
 
 import math
+import signal
 from collections.abc import Sequence
 
 __all__ = [
     "ConfigError",
     "DataError",
+    "Interrupted",
     "NumericalError",
     "ParameterError",
     "RTHSError",
+    "RTHSWarning",
+    "RunFault",
     "TransportError",
     "check_finite",
     "check_in_range",
@@ -28,6 +34,11 @@ __all__ = [
 
 class RTHSError(Exception):
     """Base class of every error the framework raises on purpose."""
+
+
+class RTHSWarning(UserWarning):
+    """Something a user should know that does not stop the command (e.g. an unfinished log was
+    read up to its cut); the CLI prints it as one line after the command's output."""
 
 
 class ParameterError(RTHSError, ValueError):
@@ -46,8 +57,28 @@ class NumericalError(RTHSError, RuntimeError):
     """A numerical method failed (a root finder did not converge, a run diverged)."""
 
 
-class TransportError(RTHSError, RuntimeError):
+class RunFault(RTHSError, RuntimeError):
+    """A run could not go on for a reason found while it ran -- the specimen process crashed,
+    hung or vanished, the disk filled up -- rather than in its input (the CLI's exit code 3)."""
+
+
+class TransportError(RunFault):
     """The zenoh link to a peer failed or timed out."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """A stop signal (SIGINT, SIGTERM, SIGHUP) ended a command before it could stop on its own
+    terms; the CLI exits with ``128 + signum``.
+
+    Parameters
+    ----------
+    signum
+        The signal's number, e.g. ``signal.SIGTERM``.
+    """
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
 
 
 def check_finite(value: float, name: str) -> float:
