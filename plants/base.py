@@ -49,15 +49,15 @@ def _check_force(value: float, what: str) -> float:
 
 
 def _check_output(kinematics: Kinematics, force: float | None, who: object, t: float) -> None:
-    """Raise :class:`NumericalError` naming the plant if a result is not finite."""
-    values: tuple[float, ...] = (
-        kinematics.displacement,
-        kinematics.velocity,
-        kinematics.acceleration,
-    )
-    if force is not None:
-        values += (force,)
-    if not all(math.isfinite(x) for x in values):
+    """Raise :class:`NumericalError` naming the plant if a result is not finite (inline tests,
+    no tuple or generator: this runs on every step)."""
+    isfinite = math.isfinite
+    if not (
+        isfinite(kinematics.displacement)
+        and isfinite(kinematics.velocity)
+        and isfinite(kinematics.acceleration)
+        and (force is None or isfinite(force))
+    ):
         raise NumericalError(
             f"{type(who).__name__} produced a non-finite result at t = {t:.6g} s: "
             f"{kinematics!r}" + ("" if force is None else f", force {force!r}")
