@@ -806,7 +806,9 @@ def test_compiled_step_outputs_equal_the_python_formulas_bit_for_bit():
     device = InterfaceDevice(
         300.0, 500.0, series_stiffness=2e6, series_inertance=2650.0, series_damping=900.0
     )
-    cable = Cable(PROPS, 0.02, 2e-3, elements=61, load=DistributedLoad(200.0, mode=3), damper=device)
+    cable = Cable(
+        PROPS, 0.02, 2e-3, elements=61, load=DistributedLoad(200.0, mode=3), damper=device
+    )
     expected = np.zeros(7)
     for k in range(200):
         kin = cable.step(5e3 * math.sin(7.0 * k * 2e-3))
