@@ -51,7 +51,20 @@ class TransportError(RTHSError, RuntimeError):
 
 
 def check_finite(value: float, name: str) -> float:
-    """Return ``float(value)`` or raise :class:`ParameterError` naming ``name``."""
+    """Return ``float(value)`` or raise :class:`ParameterError` naming ``name``.
+
+    Parameters
+    ----------
+    value : float
+        The number to check (anything ``float()`` accepts), in the caller's unit.
+    name : str
+        What the value is, with its symbol, for the message (e.g. ``"cable tension T"``).
+
+    Raises
+    ------
+    ParameterError
+        If ``value`` is not a number or not finite.
+    """
     try:
         x = float(value)
     except (TypeError, ValueError):
@@ -62,7 +75,15 @@ def check_finite(value: float, name: str) -> float:
 
 
 def check_positive(value: float, name: str) -> float:
-    """Return ``float(value)`` if it is finite and > 0, else raise :class:`ParameterError`."""
+    """Return ``float(value)`` if it is finite and > 0, else raise :class:`ParameterError`.
+
+    Parameters
+    ----------
+    value : float
+        The number to check (anything ``float()`` accepts), in the caller's unit.
+    name : str
+        What the value is, with its symbol, for the message (e.g. ``"cable tension T"``).
+    """
     x = check_finite(value, name)
     if x <= 0.0:
         raise ParameterError(f"{name} must be positive; got {value!r}")
@@ -70,7 +91,15 @@ def check_positive(value: float, name: str) -> float:
 
 
 def check_nonnegative(value: float, name: str) -> float:
-    """Return ``float(value)`` if it is finite and >= 0, else raise :class:`ParameterError`."""
+    """Return ``float(value)`` if it is finite and >= 0, else raise :class:`ParameterError`.
+
+    Parameters
+    ----------
+    value : float
+        The number to check (anything ``float()`` accepts), in the caller's unit.
+    name : str
+        What the value is, with its symbol, for the message (e.g. ``"cable tension T"``).
+    """
     x = check_finite(value, name)
     if x < 0.0:
         raise ParameterError(f"{name} must be non-negative; got {value!r}")
@@ -78,14 +107,32 @@ def check_nonnegative(value: float, name: str) -> float:
 
 
 def check_positive_int(value: int, name: str) -> int:
-    """Return ``value`` if it is an integer >= 1, else raise :class:`ParameterError`."""
+    """Return ``value`` if it is an integer >= 1, else raise :class:`ParameterError`.
+
+    Parameters
+    ----------
+    value : int
+        The count to check; a ``bool`` or a float (even ``2.0``) is refused.
+    name : str
+        What the value is, for the message (e.g. ``"number of elements"``).
+    """
     if isinstance(value, bool) or not isinstance(value, int) or value < 1:
         raise ParameterError(f"{name} must be a positive integer; got {value!r}")
     return value
 
 
 def check_in_range(value: float, name: str, lo: float, hi: float) -> float:
-    """Return ``float(value)`` if ``lo <= value <= hi``, else raise :class:`ParameterError`."""
+    """Return ``float(value)`` if ``lo <= value <= hi``, else raise :class:`ParameterError`.
+
+    Parameters
+    ----------
+    value : float
+        The number to check (anything ``float()`` accepts), in the caller's unit.
+    name : str
+        What the value is, with its symbol, for the message (e.g. ``"cable tension T"``).
+    lo, hi : float
+        Inclusive bounds, in the unit of ``value``.
+    """
     x = check_finite(value, name)
     if not lo <= x <= hi:
         raise ParameterError(f"{name} must lie in [{lo}, {hi}]; got {value!r}")
@@ -93,5 +140,11 @@ def check_in_range(value: float, name: str, lo: float, hi: float) -> float:
 
 
 def format_choices(choices: Sequence[str]) -> str:
-    """``['a', 'b']`` -> ``"'a', 'b'"`` for error messages listing valid names."""
+    """``['a', 'b']`` -> ``"'a', 'b'"`` for error messages listing valid names.
+
+    Parameters
+    ----------
+    choices : sequence of str
+        The valid names, in the order to list them.
+    """
     return ", ".join(repr(c) for c in choices)

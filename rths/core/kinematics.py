@@ -13,6 +13,15 @@ class Kinematics(NamedTuple):
 
     Immutable; a named tuple rather than a frozen dataclass because three are built every loop
     step and a named tuple is built several times faster (no per-field ``object.__setattr__``).
+
+    Attributes
+    ----------
+    displacement : float
+        Displacement [m] (at the interface: the target or measured stroke).
+    velocity : float
+        Velocity [m/s].
+    acceleration : float
+        Acceleration [m/s^2].
     """
 
     displacement: float
