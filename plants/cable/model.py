@@ -94,7 +94,6 @@ from rths.core.errors import (
 )
 from rths.core.registry import SUBSTRUCTURES
 
-
 __all__ = [
     "CABLE_CHANNELS",
     "Cable",

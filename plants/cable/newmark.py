@@ -137,10 +137,11 @@ def step_kernel(
 ) -> None:  # pragma: no cover - compiled; covered through the cross-check with step_reference
     """:func:`step_reference` with force ``load_scale*load_shape + point_force*e_index``.
 
-    ``l_diag`` and ``l_sub`` are the factor's diagonal and sub-diagonal.  ``series = (k_s, m_s, c_s, D)`` describes a series branch
-    condensed at ``index`` (its ``k_s (1 - k_s/D)`` must already be in the factor); ``k_s = 0``
-    means none.  ``flywheel`` is its state ``(x, x', x'')`` at ``t_k``.  Writes the new state
-    into ``u1, v1, a1`` and ``flywheel1`` (which must not alias the inputs).
+    ``l_diag`` and ``l_sub`` are the factor's diagonal and sub-diagonal.  ``series = (k_s,
+    m_s, c_s, D)`` describes a series branch condensed at ``index`` (its ``k_s (1 - k_s/D)``
+    must already be in the factor); ``k_s = 0`` means none.  ``flywheel`` is its state ``(x,
+    x', x'')`` at ``t_k``.  Writes the new state into ``u1, v1, a1`` and ``flywheel1`` (which
+    must not alias the inputs).
 
     Two passes over the nodes: (1) the right-hand side ``f + M w + C z`` with ``w = c1 u + c2 v
     + a`` and ``z = c3 u + v`` formed on the fly, fused with the forward substitution ``L y =
