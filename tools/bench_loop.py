@@ -12,10 +12,15 @@ For each scenario (default: the seed scenario) and rate:
                 sync RMSE and its difference to lockstep [percentage points], whether the run
                 ended early (interlock) -- ``finished k/n``;
 
-then the per-step cost of each component (substructure, compensator, emulated lab, and their
-row writes), measured in process.  Every figure is the median over ``--repeats`` runs with the
-worst beside it.  Real-time figures depend on the machine: run it on a quiet one; the 1-minute
-load average before and after is printed with the table.
+and, for every clock, CPU time per step (independent of how loaded the machine is): the loop
+thread's, the coordinator process's (loop, recorder, zenoh threads; build and summary included)
+and the specimen process's (whole life, start-up included); then the per-step cost of each
+component (substructure, compensator, emulated lab, and their row writes), measured in process
+as the loop thread's CPU time (``time.thread_time_ns``, the clock's own cost subtracted).
+Every figure is the median over ``--repeats`` runs with the worst beside it.  CPU time is
+inflated somewhat on a loaded machine too (caches, shared cores), far less than wall time.
+Real-time figures depend on the machine: run it on a quiet one; the 1-minute load average
+before and after is printed with the table.
 
     python tools/bench_loop.py                                  # the whole table (long)
     python tools/bench_loop.py --rates 2048 --clocks realtime --repeats 10 --duration 60
@@ -28,6 +33,7 @@ from __future__ import annotations
 import argparse
 import os
 import re
+import resource
 import statistics
 import sys
 import tempfile
@@ -54,14 +60,20 @@ def scenario(path: Path, rate: float, duration: float):
 
 def run(path: Path, clock: str, rate: float, duration: float, out: Path) -> dict:
     scn = scenario(path, rate, duration)
-    start = time.perf_counter()
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start, cpu = time.perf_counter(), time.process_time()
     outcome = run_scenario(scn, RunOptions(clock=clock, out=out))
-    wall = time.perf_counter() - start
+    wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    child = after.ru_utime + after.ru_stime - children.ru_utime - children.ru_stime
     summary = read_metadata(out)["rths.summary"]
     r, t = outcome.result, outcome.result.timing
     steps = max(r.steps, 1)
     return {
         "speed": r.steps * scn.run.dt / wall,
+        "loop_cpu_us": 1e6 * r.cpu_mean,
+        "process_cpu_us": 1e6 * cpu / steps,
+        "specimen_cpu_us": 1e6 * child / steps if clock != "fast" else float("nan"),
         "overruns_pct": 100 * t.overruns / steps,
         "misses_pct": 100 * r.misses / steps,
         "jitter_p50_us": 1e6 * t.jitter_p50,
@@ -78,14 +90,19 @@ def run(path: Path, clock: str, rate: float, duration: float, out: Path) -> dict
 
 
 def component_costs(path: Path, rate: float, steps: int = 4000) -> dict[str, float]:
-    """Mean cost per step [µs] of each component's step and row write, in process."""
+    """Mean CPU time per step [µs] of each component's step and row write, in process (the
+    loop thread's CPU clock, its own cost per reading subtracted)."""
     scn = scenario(path, rate, 1.0)
     sub, comp, lab = build.substructure(scn), build.compensator(scn), build.lab(scn)
     sub.predict(0.0)
     rows = [RowBlock(x.channels(), 1).values[0] for x in (comp, sub, lab)]
     names = ("substructure", "compensator", "lab", "rows")
     total = dict.fromkeys(names, 0)
-    clock = time.perf_counter_ns
+    clock = time.thread_time_ns
+    t0 = clock()
+    for _ in range(1000):
+        clock()
+    reading = (clock() - t0) / 1001  # one reading of the clock [ns]
     fed, measured = 0.0, 0.0
     lam_u, lam_f = scn.scaling.displacement, scn.scaling.force
     for k in range(steps):
@@ -104,7 +121,7 @@ def component_costs(path: Path, rate: float, steps: int = 4000) -> dict[str, flo
         if k >= 200:  # after warm-up
             for name, dt_ns in zip(names, (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
                 total[name] += dt_ns
-    return {name: v / (steps - 200) / 1e3 for name, v in total.items()}
+    return {name: (v / (steps - 200) - reading) / 1e3 for name, v in total.items()}
 
 
 def fmt(values: list[float], worst: str, digits: int = 1) -> str:
@@ -177,11 +194,30 @@ def main() -> None:
             f"{fmt(col('sync_pct'), 'max', 3)} | {fmt(diff, 'max', 3) if rt and diff else '–'} | "
             f"{sum(col('finished'))}/{len(runs)} |"
         )
+    print(
+        "\n| scenario | clock | rate | loop thread CPU [µs/step] | coordinator process CPU "
+        "[µs/step] | specimen process CPU [µs/step] | CPU-bound speed [sim s / CPU s] |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for name, clock, rate, runs in rows:
+        col = lambda key: [r[key] for r in runs]
+        total = [
+            r["process_cpu_us"] + (0.0 if clock == "fast" else r["specimen_cpu_us"]) for r in runs
+        ]
+        print(
+            f"| {name} | {clock} | {rate:g} | {fmt(col('loop_cpu_us'), 'max')} | "
+            f"{fmt(col('process_cpu_us'), 'max')} | "
+            f"{fmt(col('specimen_cpu_us'), 'max') if clock != 'fast' else '–'} | "
+            f"{fmt([1e6 / rate / t for t in total], 'min', 2)} |"
+        )
     stops = {r["stopped"] for _, _, _, runs in rows for r in runs if r["stopped"]}
     for reason in sorted(stops):
         print(f"\nstopped early: {reason}")
     if not args.no_components:
-        print("\n| scenario | rate | substructure | compensator | lab | row writes [µs/step] |")
+        print(
+            "\n| scenario | rate | substructure | compensator | lab | row writes "
+            "[µs/step, loop thread CPU] |"
+        )
         print("|---|---|---|---|---|---|")
         for path in args.scenario:
             for rate in args.rates:

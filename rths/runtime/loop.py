@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import NamedTuple, Protocol
@@ -185,6 +186,7 @@ class LoopResult:
     longest_lag: int = 0
     ended_ns: int = 0  #: the pacer's clock when the last step ended [ns] (fault timing)
     link_mean: float = 0.0  #: mean time per step in ``link.exchange`` [s] (the round trip)
+    cpu_mean: float = 0.0  #: mean CPU time of the loop thread per step [s] (load-independent)
 
     @property
     def work_mean(self) -> float:
@@ -302,6 +304,7 @@ class Loop:
         fresh, start_lag = False, max(self.max_lag, round(0.1 / dt_s))
         now, in_link = pacer.now_ns, 0
         stopped: str | None = None
+        cpu_start = time.thread_time_ns()
         pacer.start()
         k = 0
         for k in range(self.n_steps):
@@ -385,6 +388,7 @@ class Loop:
         else:
             k = self.n_steps
         ended = pacer.now_ns()
+        cpu = time.thread_time_ns() - cpu_start
         if i:
             values[:i, :n0] = own
             block.count = i
@@ -402,4 +406,5 @@ class Loop:
             longest_lag=longest,
             ended_ns=ended,
             link_mean=in_link * 1e-9 / max(k, 1),
+            cpu_mean=cpu * 1e-9 / max(k, 1),
         )
