@@ -71,7 +71,7 @@ def run(path: Path, clock: str, rate: float, duration: float, out: Path) -> dict
     steps = max(r.steps, 1)
     return {
         "speed": r.steps * scn.run.dt / wall,
-        "loop_cpu_us": 1e6 * r.cpu_mean,
+        "loop_cpu_us": 1e6 * getattr(r, "cpu_mean", float("nan")),  # (older LoopResult: none)
         "process_cpu_us": 1e6 * cpu / steps,
         "specimen_cpu_us": 1e6 * child / steps if clock != "fast" else float("nan"),
         "overruns_pct": 100 * t.overruns / steps,
