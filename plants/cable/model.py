@@ -432,10 +432,6 @@ class Cable(Substructure):
         """Nodal accelerations [m/s^2], shape ``(N-1,)`` (a copy)."""
         return self._a.copy()
 
-    def _full(self, node: int) -> float:
-        """Displacement of mesh node ``node`` including the fixed ends (0)."""
-        return 0.0 if node == 0 or node == len(self._nodes) - 1 else self._u[node - 1]
-
     def displacement_at(self, x: float) -> float:
         """Displacement [m] at the normalised position ``x`` in [0, 1] (linear interpolation)."""
         xi = check_in_range(x, "position x", 0.0, 1.0) * self.properties.length
