@@ -451,3 +451,35 @@ def test_records_from_another_process_are_written_as_received_unless_non_finite(
     assert messages == [b'{"a":1.25,"b":"x"}', b'{"a":null}']  # raw bytes; NaN cleaned
     stats = rec.summary.topics["rths/side"]
     assert (stats.written, stats.nonfinite, stats.rejected) == (2, 1, 1)
+
+
+def test_block_messages_are_the_rows_as_json_exactly():
+    """Each message parsed by the standard library's json equals its row: every float
+    round-trips exactly (shortest form), non-finite values become null, seq and order kept."""
+    import json as stdlib_json
+
+    from rths.core.channels import Channel, RowBlock
+    from rths.log.mcap_writer import block_messages
+
+    names = ("a", "b.c", "d_e")
+    block = RowBlock([Channel(n) for n in names], 8)
+    rng = np.random.default_rng(3)
+    block.values[:7] = rng.standard_normal((7, 3)) * 10.0 ** rng.integers(-300, 300, (7, 3))
+    block.values[1] = (-0.0, 1e-5, 5e-324)
+    block.values[2, 1] = np.nan
+    block.values[3, 2] = -np.inf
+    block.seq[:7] = np.arange(100, 107)
+    block.t_ns[:7] = np.arange(7) * 244_141
+    block.count = 7
+    messages = block_messages(block)
+    assert [m[0] for m in messages] == list(range(100, 107))
+    assert [m[1] for m in messages] == [t * 244_141 for t in range(7)]
+    assert [m[3] for m in messages] == [True, True, False, False, True, True, True]
+    for (k, _t, data, _ok), row in zip(messages, block.values[:7].tolist()):
+        expected = {"seq": k} | {n: (v if np.isfinite(v) else None) for n, v in zip(names, row)}
+        parsed = stdlib_json.loads(data)
+        assert list(parsed) == ["seq", *names]
+        assert parsed == expected
+    empty = RowBlock([], 2)
+    empty.count = 1
+    assert block_messages(empty)[0][2] == b'{"seq":0}'
