@@ -11,7 +11,6 @@ import json
 import math
 import struct
 import threading
-import time
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +36,7 @@ from rths.wire.transport import (
     RunKeys,
     ZenohEndpoints,
     open_session,
+    wait_matched,
 )
 
 PATIENCE = 10.0  # upper bound for asynchronous deliveries; reached only if the code is broken
@@ -370,15 +370,9 @@ def test_crashed_writer_leaves_a_readable_log(tmp_path: Path) -> None:
     rec = Recorder(path, chunk_size=1 << 20, flush_interval=0.01).start()
     for k in range(300):
         rec.put(LOOP_TOPIC, k, k * DT_NS, loop_row(k))
-    deadline = time.monotonic() + PATIENCE
-    seen = 0
-    while seen < 300 and time.monotonic() < deadline:  # wait for the periodic flush
-        time.sleep(0.01)
-        snap.write_bytes(path.read_bytes())  # what is on disk if the process died now
-        try:
-            seen = read_topic(snap, LOOP_TOPIC)["sequence"].size
-        except DataError:  # nothing flushed yet
-            seen = 0
+    assert rec.wait_flushed(PATIENCE)  # the periodic flush, although the chunk is not full
+    snap.write_bytes(path.read_bytes())  # what is on disk if the process died now
+    seen = read_topic(snap, LOOP_TOPIC)["sequence"].size
     rec.close()
     assert seen == 300 and not is_complete(snap)  # all messages, although the chunk was not full
 
@@ -393,21 +387,16 @@ def test_log_bridge_records_another_sessions_stream(tmp_path: Path) -> None:
     with open_session(ep) as co, open_session(ep.peer()) as sp:
         rec = Recorder(path).start()
         with LogBridge(co, keys, rec) as bridge, LogPublisher(sp, keys, "specimen") as pub:
-            deadline = time.monotonic() + PATIENCE
-            while not pub._publisher.matching_status.matching:
-                assert time.monotonic() < deadline
-                time.sleep(0.001)
+            assert wait_matched(pub._publisher, PATIENCE)
             for k in range(100):
                 if k == 40:
                     pub.seq += 1  # a record lost on the way: must show up as a gap
                 pub.put(k * DT_NS, {"x_i": k * 1e-4, "force_spring": -k * 2.0})
             sp.put(keys.log("specimen"), b"not json")
-            while bridge.received < 101 and time.monotonic() < deadline:
-                time.sleep(0.001)
+            assert bridge.wait_for(lambda b: b.received >= 101, PATIENCE)
             rec.close()
             pub.put(0, {"x_i": 0.0})  # after the recorder closed: refused, and counted
-            while bridge.dropped < 1 and time.monotonic() < deadline:
-                time.sleep(0.001)
+            assert bridge.wait_for(lambda b: b.dropped >= 1, PATIENCE)
             assert bridge.dropped == 1
     stats = rec.summary.topics["rths/specimen"]
     assert (stats.written, stats.missing, stats.rejected) == (100, 1, 1)

@@ -9,6 +9,8 @@ tagged tuples from a :class:`queue.SimpleQueue`:
 * ``("r", topic, payload)`` -- a :class:`rths.wire.codec.LogRecord` from another process;
 * ``("b", topic, row_block)`` -- a :class:`rths.core.channels.RowBlock`, one message per row;
 * ``("e", log_time_ns, event_dict)`` -- an event (sequence numbers assigned here);
+* ``("w", threading.Event)`` -- set once everything queued before it is flushed to the file
+  (by the next periodic flush; at once if nothing is pending; at the end of the file);
 * :data:`STOP` -- finish the file and end.
 
 When something endangers the log -- the disk space reserve can no longer be renewed (the disk
@@ -269,6 +271,7 @@ class WriterThread(threading.Thread):
         self._templates: dict[tuple[str, ...], bytes] = {}
         self._dirty = False
         self._last_flush = time.monotonic()
+        self._flush_waiters: list[threading.Event] = []
 
     def stats(self) -> dict[str, TopicStats]:
         """Counts per topic so far (``rths/events`` excluded)."""
@@ -291,6 +294,7 @@ class WriterThread(threading.Thread):
             self._drain_failed()
         finally:
             self._finish()
+            self._wake_flush_waiters()
 
     def _notify(self, message: str) -> None:
         """Tell the run (once) that the log is in danger."""
@@ -316,6 +320,8 @@ class WriterThread(threading.Thread):
                     return
                 if item[0] == "md":
                     self._late_metadata[item[1]] = dict(item[2])
+                elif item[0] == "w":
+                    item[1].set()  # nothing more will reach the disk: do not keep it waiting
                 else:
                     self.lost += _messages(item)
 
@@ -377,7 +383,14 @@ class WriterThread(threading.Thread):
                 self._writer.flush()
                 self._dirty = False
                 self._last_flush = time.monotonic()
+                self._wake_flush_waiters()
             self._renew()
+
+    def _wake_flush_waiters(self) -> None:
+        """Tell :meth:`Recorder.wait_flushed` callers their messages are on disk."""
+        for waiter in self._flush_waiters:
+            waiter.set()
+        self._flush_waiters.clear()
 
     def _renew(self) -> None:
         """Keep the disk-space reserve ahead of the data; ask for a stop when it cannot be."""
@@ -399,6 +412,10 @@ class WriterThread(threading.Thread):
             self._event(item[1], item[2])
         elif tag == "s":
             self._register(item[1], item[2])
+        elif tag == "w":  # a flush waiter: woken by the next periodic flush (or now, if clean)
+            self._flush_waiters.append(item[1])
+            if not self._dirty:
+                self._wake_flush_waiters()
         elif tag == "md":
             self._writer.add_metadata(item[1], dict(item[2]))
 
