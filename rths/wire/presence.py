@@ -41,7 +41,8 @@ def wait_matched(publisher: zenoh.Publisher, timeout: float | None) -> bool:
     )
     try:
         # a match made before the listener existed is not reported to it: check after declaring
-        return publisher.matching_status.matching or matched.wait(timeout)
+        matched_now: bool = publisher.matching_status.matching  # type: ignore[attr-defined]
+        return matched_now or matched.wait(timeout)
     finally:
         listener.undeclare()
 
