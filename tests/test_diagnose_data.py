@@ -9,8 +9,8 @@ import pytest
 
 from plants.actuator import MTS_IDENTIFIED
 from rths.core.errors import ConfigError, DataError, ParameterError
-from rths.diagnose.data import MIN_DURATION, load_record, read_csv, write_csv
-from rths.diagnose.nominal import (
+from rths.diagnose.data.records import MIN_DURATION, load_record, read_csv, write_csv
+from rths.diagnose.data.nominal import (
     ActuatorNominal,
     NominalModel,
     SpecimenNominal,
@@ -182,7 +182,7 @@ def test_nominal_file_errors(tmp_path):
 
 
 def test_structure_channel_explains_why_it_is_missing(tmp_path):
-    from rths.diagnose.data import Record
+    from rths.diagnose.data.records import Record
     from rths.diagnose.structure import structure_gap
 
     t, u, x, f = _columns()

@@ -10,10 +10,10 @@ from scipy import signal
 
 from plants.actuator import MTS_IDENTIFIED, RateLimiter, TransferFunctionActuator
 from plants.linear_specimen import LinearSpecimen
-from rths.diagnose._kernels import series_force_per_mass, series_force_per_mass_py
-from rths.diagnose._signals import actuator_replay, white_noise_rms
+from rths.diagnose.effects.kernels import series_force_per_mass, series_force_per_mass_py
+from rths.diagnose.channels.signals import actuator_replay, white_noise_rms
 from rths.diagnose.channels import actuator_channel, specimen_channel
-from rths.diagnose.data import Record
+from rths.diagnose.data.records import Record
 from rths.diagnose.effects import (
     ActuatorDelay,
     CoulombFriction,
@@ -21,8 +21,8 @@ from rths.diagnose.effects import (
     SpecimenBaseline,
     flywheel_displacement,
 )
-from rths.diagnose.identify import fit_model, noise_floor
-from rths.diagnose.nominal import ActuatorNominal, NominalModel, SpecimenNominal
+from rths.diagnose.search import fit_model, noise_floor
+from rths.diagnose.data.nominal import ActuatorNominal, NominalModel, SpecimenNominal
 
 UNIT = NominalModel(ActuatorNominal((1.0,), (1.0,), 0.0), SpecimenNominal(1000.0, 0.0))
 

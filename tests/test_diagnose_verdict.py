@@ -1,6 +1,6 @@
 """End-to-end diagnosis of emulated-lab records: the right verdict, parameter and shrink.
 
-Each record is made by the project's emulated lab (rths.diagnose.synthetic: MTS-identified TF,
+Each record is made by the project's emulated lab (rths.diagnose.data.synthetic: MTS-identified TF,
 IMD specimen, 16-bit converters with 3.8 um / 1 N noise) with one hidden effect; the nominal
 model is mis-calibrated (inertance -6 %, damping +25 %, actuator gain +3 %), which the baseline
 must absorb.  Short records (2 x 8 s at 1024 Hz) keep this file fast.
@@ -15,7 +15,7 @@ import pytest
 
 from rths.core.errors import ParameterError
 from rths.diagnose import Options, diagnose
-from rths.diagnose.synthetic import LabCase, band_limited_command, lab_record
+from rths.diagnose.data.synthetic import LabCase, band_limited_command, lab_record
 
 DT = 1.0 / 1024.0
 M, C = 1589.0, 2 * 0.15 * 1589.0 * 2 * math.pi * 20.0  # zeta 0.15 at 20 Hz (S0 Eq.18 range)

@@ -2,7 +2,7 @@
 
     python tools/bench_diagnose.py [--repeats 3] [--duration 60] [--rate 2048] [--effect backlash]
 
-One emulated-lab record (``rths.diagnose.synthetic``, the blind suite's lab) with a hidden
+One emulated-lab record (``rths.diagnose.data.synthetic``, the blind suite's lab) with a hidden
 effect is diagnosed as a single file (alternating time split) with ``--drive auto`` and with
 ``--drive measured`` (the slower path: per-model noise floors are re-driven with synthetic
 noise).  Prints the median wall time over the repeats (time.perf_counter).  For one core:
@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 from rths.diagnose import Options, diagnose
-from rths.diagnose.synthetic import LabCase, band_limited_command, lab_record
+from rths.diagnose.data.synthetic import LabCase, band_limited_command, lab_record
 
 EFFECTS = {
     "internal_stiffness": 1589.0 * (2 * math.pi * 13.8) ** 2,
