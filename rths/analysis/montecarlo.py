@@ -19,6 +19,7 @@ from tqdm import tqdm
 
 from rths.config import build
 from rths.config.scenario import Scenario
+from rths.core.channels import RowBlock
 from rths.metrics import normalised_rms_error
 from rths.runtime.loop import InProcessLink, Loop
 
@@ -55,9 +56,12 @@ def run_one(scn: Scenario, kind: str, draw: int, seed: int) -> tuple[float, str 
     n = scn.run.steps
     target, measured = np.zeros(n), np.zeros(n)
 
-    def sink(r: dict[str, float]) -> None:
-        k = int(r["seq"])
-        target[k], measured[k] = r["target"], r["measured"]
+    def sink(block: RowBlock) -> None:
+        k0, m = int(block.seq[0]), block.count
+        target[k0 : k0 + m], measured[k0 : k0 + m] = (
+            block.column("target"),
+            block.column("measured"),
+        )
 
     loop = Loop(
         build.substructure(scn),
