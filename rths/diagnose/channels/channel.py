@@ -173,7 +173,7 @@ class Channel:
 
         Actuator channel: ``s_y^2 + g^2 s_u^2 sum(h_G^2)`` (displacement noise plus command
         noise through the nominal TF).  Specimen channel: ``s_F^2 sum(k_F^2) + s_x^2
-        sum(k_x^2)`` with ``k_F = h`` and ``k_x = h L h``, ``L = m D2 + c D1 + k`` the linear
+        sum(k_x^2)`` with ``k_F = h`` and ``k_x = h L g`` (``g`` the drive's low-pass), ``L = m D2 + c D1 + k`` the linear
         part of the (re-calibrated) specimen ``linear = (m, c, k)``.
         """
         return float(np.sum(self.floor_psd(linear)[1]) * self.psd_df)
@@ -209,7 +209,7 @@ class Channel:
         spec = self.nominal.specimen
         lin = linear or (spec.inertance, spec.damping, spec.stiffness)
         k_f = np.abs(np.fft.rfft(impulse_kernel(sos, dt))) ** 2
-        k_x = np.abs(np.fft.rfft(impulse_kernel(sos, dt, lin))) ** 2
+        k_x = np.abs(np.fft.rfft(impulse_kernel(sos, dt, lin, self.drive_sos))) ** 2
         psd = self.noise["force"] ** 2 * k_f + self.noise["drive"] ** 2 * k_x
         return np.asarray(f, dtype=np.float64), psd * scale
 
@@ -265,7 +265,7 @@ def _noise(records: list[Record], key: str) -> float:
 def _check_rates(records: list[Record]) -> float:
     dt = records[0].dt
     for r in records[1:]:
-        if abs(r.dt - dt) > 1e-6 * dt:
+        if abs(r.dt - dt) > 1e-5 * dt:  # 1e-5: < 0.04 samples of drift over 60 min
             raise DataError(
                 f"all records must share one sampling rate; '{r.name}' has {r.rate:.6g} Hz, "
                 f"'{records[0].name}' {records[0].rate:.6g} Hz"

@@ -117,17 +117,21 @@ def white_noise_rms(x: NDArray[np.float64], dt: float) -> float:
 
 
 def impulse_kernel(
-    sos: NDArray[np.float64], dt: float, linear: tuple[float, float, float] | None = None
+    sos: NDArray[np.float64],
+    dt: float,
+    linear: tuple[float, float, float] | None = None,
+    drive_sos: NDArray[np.float64] | None = None,
 ) -> NDArray[np.float64]:
-    """Impulse response of ``h`` (``linear`` None) or of ``h * L * h``, ``L = m D2 + c D1 + k``.
+    """Impulse response of ``h`` (``linear`` None) or of ``h * L * g``, ``L = m D2 + c D1 + k``.
 
     Used to predict the residual noise floor of the specimen channel: white noise of variance
-    ``s^2`` through a kernel ``k`` has variance ``s^2 sum(k^2)``.
+    ``s^2`` through a kernel ``k`` has variance ``s^2 sum(k^2)``.  ``g`` is the low-pass the
+    drive goes through before it is differentiated (``drive_sos``; default ``h`` itself).
     """
     n = 8192
     delta = np.zeros(n)
     delta[n // 2] = 1.0
-    k = smooth(delta, sos)
+    k = smooth(delta, sos if drive_sos is None or linear is None else drive_sos)
     if linear is None:
         return k
     m, c, stiffness = linear

@@ -118,6 +118,10 @@ def _check_arrays(name: str, time: NDArray, columns: dict[str, NDArray]) -> floa
         raise DataError(f"{name}: needs at least 3 samples; got {time.size}")
     steps = np.diff(time)
     dt = float(np.median(steps))
+    if dt > 0.0 and time.size > 2:  # the mean step: free of the print rounding of each time
+        mean = float((time[-1] - time[0]) / (time.size - 1))
+        if abs(mean - dt) <= SAMPLING_TOLERANCE * dt:
+            dt = mean
     if not dt > 0.0:
         raise DataError(f"{name}: column 'time' must increase; median step is {dt!r} s")
     worst = int(np.argmax(np.abs(steps - dt)))
