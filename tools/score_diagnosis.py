@@ -91,10 +91,31 @@ def _diagnose_case(args: tuple[str, tuple[str, ...] | None]) -> dict:
 
 
 def _run(tasks: list, jobs: int) -> list[dict]:
-    if jobs <= 1:
-        return [_diagnose_case(t) for t in tasks]
-    with ProcessPoolExecutor(jobs) as pool:
-        return list(pool.map(_diagnose_case, tasks))
+    """Diagnose every task, ``jobs`` at a time; progress on stderr."""
+    out: list[dict] = []
+    with ProcessPoolExecutor(jobs) if jobs > 1 else _Serial() as pool:
+        for i, r in enumerate(pool.map(_diagnose_case, tasks), 1):
+            print(
+                f"[{i}/{len(tasks)}] {Path(tasks[i - 1][0]).name}: {r['verdict']} "
+                f"({r['seconds']:.1f} s)",
+                file=sys.stderr,
+                flush=True,
+            )
+            out.append(r)
+    return out
+
+
+class _Serial:
+    """In-process stand-in for a one-worker pool."""
+
+    def __enter__(self) -> _Serial:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+    def map(self, fn, items):  # noqa: ANN001, ANN201 - same as Executor.map
+        return map(fn, items)
 
 
 def _quantiles(x: list[float]) -> dict[str, float]:
