@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from rths.cli import main
-from rths.diagnose.data.records import write_csv
 from rths.diagnose.data.nominal import nominal_toml
+from rths.diagnose.data.records import write_csv
 from rths.diagnose.data.synthetic import CLASSES, LabCase, band_limited_command, lab_record
 
 DT = 1.0 / 512.0

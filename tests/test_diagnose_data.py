@@ -9,7 +9,6 @@ import pytest
 
 from plants.actuator import MTS_IDENTIFIED
 from rths.core.errors import ConfigError, DataError, ParameterError
-from rths.diagnose.data.records import MIN_DURATION, load_record, read_csv, write_csv
 from rths.diagnose.data.nominal import (
     ActuatorNominal,
     NominalModel,
@@ -18,6 +17,7 @@ from rths.diagnose.data.nominal import (
     nominal_toml,
     parse_nominal,
 )
+from rths.diagnose.data.records import MIN_DURATION, load_record, read_csv, write_csv
 
 DT = 1.0 / 256.0
 

@@ -70,9 +70,9 @@ def test_independent_generator_case_is_named_with_its_parameter(tmp_path):
     sys.path.insert(0, str(TOOLS.parent))
     from tools.truthgen.generate import build_case
 
-    # one internal-stiffness case of the independent generator, 1000 Hz, records capped at 6 s
+    # one internal-stiffness case of the independent generator, 1000 Hz, records capped at 3 s
     ss = np.random.SeedSequence(20240611)
-    label = build_case(ss, ("internal_stiffness",), [1000.0], 6.0, tmp_path / "case")
+    label = build_case(ss, ("internal_stiffness",), [1000.0], 3.0, tmp_path / "case")
     files = sorted((tmp_path / "case").glob("rec_*.csv"))
     d = diagnose([load_record(f) for f in files], load_nominal(tmp_path / "case" / "NOMINAL.toml"))
     truth = label["effects"][0]["params"]["stiffness"]
@@ -90,17 +90,20 @@ def test_real_friction_damper_names_friction_and_backlash(tmp_path):
     folder = find_data_dir(os.environ.get("RTHS_DATA"))
     if folder is None:
         pytest.skip("RTHS_DATA with friction-damper/ not available")
-    # 30 lb band tension, 2 Hz, 0.5 in: identify on the first, score the second half of a
-    # 0.5 Hz run (the same tension, another frequency)
-    for name in ("2Hz30lbtension0.5amplitude", "0.5Hz30lbtension0.5amplitude"):
-        write_csv(tmp_path / f"{name}.csv", columns(load_fd(folder, name))[0])
+    # 30 lb band tension, 0.5 in: identify on 8 s (16 cycles) at 2 Hz, hold out 12 s (6 cycles)
+    # at 0.5 Hz (the same tension, another frequency)
+    for name, seconds in (("2Hz30lbtension0.5amplitude", 8), ("0.5Hz30lbtension0.5amplitude", 12)):
+        table = columns(load_fd(folder, name))[0]
+        write_csv(tmp_path / f"{name}.csv", table[1024 : 1024 * (seconds + 1)])
     nominal = tmp_path / "NOMINAL.toml"
     nominal.write_text(
         "[actuator]\nnum = [1.0]\nden = [1.0]\ndelay = 0.0\n"
         "[specimen]\ninertance = 0.0\ndamping = 0.0\nstiffness = 0.0\nfriction = 5000.0\n"
     )
-    records = [load_record(tmp_path / f"{n}.csv") for n in ("2Hz30lbtension0.5amplitude",
-                                                              "0.5Hz30lbtension0.5amplitude")]
+    records = [
+        load_record(tmp_path / f"{n}.csv")
+        for n in ("2Hz30lbtension0.5amplitude", "0.5Hz30lbtension0.5amplitude")
+    ]
     d = diagnose(records, load_nominal(nominal))
     named = {e: p for e, _, p in d.effects}
     assert {"coulomb_friction", "backlash"} <= set(named)

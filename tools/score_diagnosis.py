@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import sys
 import tempfile
@@ -84,7 +83,7 @@ def _diagnose_case(args: tuple[str, tuple[str, ...] | None]) -> dict:
         )
         out = d.to_dict()
         out.pop("candidates", None)
-    except Exception as e:  # noqa: BLE001 - a crash is a scored outcome
+    except Exception as e:
         out = {"verdict": "error", "error": f"{type(e).__name__}: {e}", "effects": []}
     out["seconds"] = time.perf_counter() - t0
     return out
@@ -114,7 +113,7 @@ class _Serial:
     def __exit__(self, *exc: object) -> None:
         return None
 
-    def map(self, fn, items):  # noqa: ANN001, ANN201 - same as Executor.map
+    def map(self, fn, items):
         return map(fn, items)
 
 
@@ -122,7 +121,11 @@ def _quantiles(x: list[float]) -> dict[str, float]:
     if not x:
         return {}
     a = np.asarray(x, dtype=float)
-    return {"n": float(a.size), "q50": float(np.quantile(a, 0.5)), "q90": float(np.quantile(a, 0.9))}
+    return {
+        "n": float(a.size),
+        "q50": float(np.quantile(a, 0.5)),
+        "q90": float(np.quantile(a, 0.9)),
+    }
 
 
 def score_case(label: dict, result: dict) -> dict:
@@ -160,7 +163,7 @@ def summarize(scores: dict[str, dict]) -> dict:
     """Accuracy, confusion, parameter errors, shrink, false rates, time (module docstring)."""
     s = list(scores.values())
     n = len(s)
-    rate = lambda key, sub=s: sum(x[key] for x in sub) / max(len(sub), 1)  # noqa: E731
+    rate = lambda key, sub=s: sum(x[key] for x in sub) / max(len(sub), 1)
     combined = [x for x in s if x["combined"]]
     errs = [v for x in s for v in x["errors"].values()]
     confusion: Counter[tuple[str, str]] = Counter((x["truth"][0], x["verdict"]) for x in s)
@@ -175,7 +178,8 @@ def summarize(scores: dict[str, dict]) -> dict:
         "param_error": _quantiles(errs),
         "param_within_10pct": sum(e <= 0.1 for e in errs) / max(len(errs), 1),
         "shrink": _quantiles([x["shrink"] for x in s if x["shrink"] is not None]),
-        "false_none": sum(x["false_none"] for x in s) / max(sum(x["truth"] != ["none"] for x in s), 1),
+        "false_none": sum(x["false_none"] for x in s)
+        / max(sum(x["truth"] != ["none"] for x in s), 1),
         "false_unexplained": rate("false_unexplained"),
         "seconds": _quantiles([x["seconds"] for x in s]),
         "confusion": {f"{a} -> {b}": c for (a, b), c in sorted(confusion.items())},
@@ -245,7 +249,8 @@ def _groups(manifest: dict) -> dict[float, list[str]]:
 def cmd_friction_damper(args: argparse.Namespace) -> int:
     from friction_damper_data import SKIP_MESSAGE, find_data_dir, list_records, load_record
     from friction_damper_loops import nominal_toml
-    from friction_damper_reading import read_record, summarize as read_summary
+    from friction_damper_reading import read_record
+    from friction_damper_reading import summarize as read_summary
     from friction_damper_to_csv import columns, write_csv
 
     folder = find_data_dir(args.data)
@@ -305,7 +310,7 @@ def cmd_friction_damper(args: argparse.Namespace) -> int:
             "named_both": {"coulomb_friction", "backlash"} <= set(eff),
         }
         rows.append(row)
-        f = lambda v, s: "-" if v is None else f"{v * s:.2f}"  # noqa: E731
+        f = lambda v, s: "-" if v is None else f"{v * s:.2f}"
         print(
             f"{t:7g} {held:34} {r['verdict']:18} {'+'.join(eff) or '-':36} {f(fr, 1e-3):>11} "
             f"{f(lf, 1e-3):>8} {f(gap, 1e3):>7} {f(lg, 1e3):>8} "
@@ -330,8 +335,13 @@ def cmd_mts(args: argparse.Namespace) -> int:
 
     work = Path(tempfile.mkdtemp(prefix="score_mts_"))
     subprocess.run(
-        [sys.executable, str(Path(__file__).parent / "mts_to_csv.py"), str(src), "--out",
-         str(work / "rec_1.csv")],
+        [
+            sys.executable,
+            str(Path(__file__).parent / "mts_to_csv.py"),
+            str(src),
+            "--out",
+            str(work / "rec_1.csv"),
+        ],
         check=True,
         capture_output=True,
     )

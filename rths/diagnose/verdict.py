@@ -142,9 +142,7 @@ def _channel_dict(result: ChannelResult) -> dict[str, object]:
     return {
         "subsystem": c.channel.subsystem,
         "verdict": c.verdict,
-        "effects": [
-            {"name": e, "params": dict(c.final.params.get(e, {}))} for e in c.effects
-        ],
+        "effects": [{"name": e, "params": dict(c.final.params.get(e, {}))} for e in c.effects],
         "closed": c.closed,
         "nominal_nrmse": c.nrmse(_nominal_mse(c)),
         "baseline_nrmse": c.nrmse(c.baseline.held_mse),
@@ -285,9 +283,13 @@ def diagnose(
 def _diagnose(records: list[Record], nominal: NominalModel, options: Options) -> Diagnosis:
     cutoff0 = options.cutoff or DEFAULT_CUTOFF
     held = options.held_out
-    transfer = select(actuator_channel(records, nominal, cutoff0, held), options.effects, options.seed)
+    transfer = select(
+        actuator_channel(records, nominal, cutoff0, held), options.effects, options.seed
+    )
     drive = _replayed_drive(transfer) if options.drive == "auto" else None
-    cutoff = options.cutoff or (REPLAY_CUTOFF / records[0].dt if drive is not None else DEFAULT_CUTOFF)
+    cutoff = options.cutoff or (
+        REPLAY_CUTOFF / records[0].dt if drive is not None else DEFAULT_CUTOFF
+    )
     specimen = select(
         specimen_channel(records, nominal, cutoff, drive, held), options.effects, options.seed
     )
@@ -298,9 +300,7 @@ def _diagnose(records: list[Record], nominal: NominalModel, options: Options) ->
         )
     view = _specimen_view(channels)
     views = ("measured", view.channel.name)
-    significant = [
-        c for c in (transfer, view) if c.decomposition.significant or c.effects
-    ]
+    significant = [c for c in (transfer, view) if c.decomposition.significant or c.effects]
     where = max(significant, key=lambda c: _magnitude(c, channels), default=None)
     split = transfer.channel.segments
     ident = [s.name for s in split if np.any(s.ident)]
@@ -309,9 +309,20 @@ def _diagnose(records: list[Record], nominal: NominalModel, options: Options) ->
     if where is None:
         gap = max(channels.values(), key=lambda c: c.excess / max(c.floor_mse, 1e-300))
         return Diagnosis(
-            "none", "none", (0.0, 0.0), "none", {}, gap.channel.name,
-            gap.nrmse(gap.baseline.held_mse), gap.nrmse(gap.baseline.held_mse), 0.0,
-            channels, ident, held_names, structure, views,
+            "none",
+            "none",
+            (0.0, 0.0),
+            "none",
+            {},
+            gap.channel.name,
+            gap.nrmse(gap.baseline.held_mse),
+            gap.nrmse(gap.baseline.held_mse),
+            0.0,
+            channels,
+            ident,
+            held_names,
+            structure,
+            views,
         )
     verdict = where.verdict
     params = dict(where.final.params.get(verdict, {})) if verdict in EFFECTS else {}
@@ -332,4 +343,3 @@ def _diagnose(records: list[Record], nominal: NominalModel, options: Options) ->
         structure=structure,
         views=views,
     )
-

@@ -173,7 +173,8 @@ class Channel:
 
         Actuator channel: ``s_y^2 + g^2 s_u^2 sum(h_G^2)`` (displacement noise plus command
         noise through the nominal TF).  Specimen channel: ``s_F^2 sum(k_F^2) + s_x^2
-        sum(k_x^2)`` with ``k_F = h`` and ``k_x = h L g`` (``g`` the drive's low-pass), ``L = m D2 + c D1 + k`` the linear
+        sum(k_x^2)`` with ``k_F = h`` and ``k_x = h L g`` (``g`` the drive's low-pass),
+        ``L = m D2 + c D1 + k`` the linear
         part of the (re-calibrated) specimen ``linear = (m, c, k)``.
         """
         return float(np.sum(self.floor_psd(linear)[1]) * self.psd_df)

@@ -85,9 +85,7 @@ def smooth(x: NDArray[np.float64], sos: NDArray[np.float64]) -> NDArray[np.float
     n = x.size
     pad = min(n - 1, 3 * 256)
     if pad > 0:
-        ext = np.concatenate(
-            [2.0 * x[0] - x[pad:0:-1], x, 2.0 * x[-1] - x[-2 : -pad - 2 : -1]]
-        )
+        ext = np.concatenate([2.0 * x[0] - x[pad:0:-1], x, 2.0 * x[-1] - x[-2 : -pad - 2 : -1]])
     else:
         ext = np.asarray(x, dtype=float)
     zi = _zi(sos)

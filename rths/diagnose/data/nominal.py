@@ -19,8 +19,8 @@ are errors)::
 The specimen form is the simplified IMD of S0 Eq.1 plus a parallel spring.  What the file
 declares is the baseline: the diagnosis re-calibrates these parameters (and the actuator's
 gain, pole frequencies, pole damping, offsets and a +/-1 sample alignment) and calls everything
-else an effect -- e.g. ``amplitude_damping`` is an effect unless ``amplitude_c1`` is declared.  Errors are
-:class:`rths.core.errors.ConfigError` naming the file, the table, the key and the value.
+else an effect -- e.g. ``amplitude_damping`` is an effect unless ``amplitude_c1`` is declared.
+Errors are :class:`rths.core.errors.ConfigError` naming the file, the table, the key and the value.
 """
 
 from __future__ import annotations

@@ -142,15 +142,17 @@ class LabCase:
             # c_d = 2 xi sqrt(k0 m) with xi = c1'/(A_mm + c2') (S0 Eq.17-18) is c1/(A + c2) for
             # c1' = c1 / (2e-3 sqrt(k0 m)), c2' = 1e3 c2; k0 only scales c1' (no series spring)
             series = p.stiffness is not None
-            k0 = float(p.stiffness) if series else self.inertance * (2.0 * math.pi * 10.0) ** 2
+            k0 = (
+                float(p.stiffness)  # type: ignore[arg-type]
+                if series
+                else self.inertance * (2.0 * math.pi * 10.0) ** 2
+            )
             law = AmplitudeDamping(
                 c1=value / (2e-3 * math.sqrt(k0 * self.inertance)),
                 c2=1e3 * self.amplitude_c2,
                 small_amplitude_mm=0.0,
             )
-            return replace(
-                p, damping=0.0, damping_law=law, stiffness=k0, internal_stiffness=series
-            )
+            return replace(p, damping=0.0, damping_law=law, stiffness=k0, internal_stiffness=series)
         return p
 
     def nominal(self, inertance: float, damping: float, gain: float) -> NominalModel:

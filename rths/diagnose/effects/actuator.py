@@ -13,8 +13,8 @@ interaction: the nominal TF is the transfer system *with the nominal specimen in
 force the nominal specimen does not explain, ``dF`` (:func:`rths.diagnose.channels.channel.
 force_deviation`), moves the piston through the loop's force compliance, a linear path
 expanded on :data:`CSI_TERMS` Laguerre functions ``Lambda_j`` at the nominal TF's bandwidth
-(strictly proper: the path is as slow as the loop).  It carries no actuator effect (an effect acts on the command) and keeps a
-specimen effect seen through the actuator from posing as one.
+(strictly proper: the path is as slow as the loop).  It carries no actuator effect (an effect
+acts on the command) and keeps a specimen effect seen through the actuator from posing as one.
 
 Effects: ``actuator_delay`` frees ``tau`` beyond one sample (reported ``delay = tau`` [s]
 beyond the nominal); ``rate_limit`` puts a velocity (flow) limiter ``RL`` (Simulink Rate
@@ -34,7 +34,14 @@ from rths.diagnose.channels.channel import Channel, Segment
 from rths.diagnose.channels.signals import discrete_tf, shifted
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
 
-__all__ = ["CALIBRATION_TOLERANCE", "CSI_TERMS", "MAX_DELAY", "SECANT_WINDOW", "ActuatorModel", "scaled_tf"]
+__all__ = [
+    "CALIBRATION_TOLERANCE",
+    "CSI_TERMS",
+    "MAX_DELAY",
+    "SECANT_WINDOW",
+    "ActuatorModel",
+    "scaled_tf",
+]
 
 #: Laguerre terms of the control-structure interaction path (plus a direct term).
 CSI_TERMS: int = 4
@@ -146,7 +153,9 @@ class ActuatorModel(Model):
             hi = MAX_DELAY / channel.dt
             out.append(Param("shift", lo, hi, log=False, grid=int(min(hi - lo, 200)) + 1))
         else:
-            out.append(Param("shift", -1.0, 1.0, log=False, grid=5 if self.limit else 0, start=start))
+            out.append(
+                Param("shift", -1.0, 1.0, log=False, grid=5 if self.limit else 0, start=start)
+            )
         if self.limit:
             peak = self._peak_velocity(channel)
             gain = float(np.clip(self._base.get("gain", 1.0), 0.5, 1.5))

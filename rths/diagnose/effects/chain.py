@@ -102,7 +102,13 @@ class SeriesChain(Model):
             out.append(Param("gap", min(1e-6, 1e-3 * hi), hi, grid=10))
         out += [
             Param("body_damping", 0.0, max(10.0 * c0, 0.2 * w_hi), log=False, start=c0),
-            Param("body_stiffness", -abs(k0) - 1.0, 10.0 * abs(k0) + (0.05 * w_hi) ** 2, log=False, start=k0),
+            Param(
+                "body_stiffness",
+                -abs(k0) - 1.0,
+                10.0 * abs(k0) + (0.05 * w_hi) ** 2,
+                log=False,
+                start=k0,
+            ),
         ]
         if self.on_body:
             # friction level per unit inertance: 0.5-60 % of the peak inertial force per mass

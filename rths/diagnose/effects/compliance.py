@@ -126,7 +126,13 @@ class ComplianceModel(Model):
         w = 2.0 * math.pi * float(channel.cutoff or 10.0)
         out = [
             Param("body_damping", 0.0, max(10.0 * c0, 0.1 * w), log=False, start=max(c0, 0.0)),
-            Param("body_stiffness", -abs(k0) - 1.0, 10.0 * abs(k0) + (0.02 * w) ** 2, log=False, start=k0),
+            Param(
+                "body_stiffness",
+                -abs(k0) - 1.0,
+                10.0 * abs(k0) + (0.02 * w) ** 2,
+                log=False,
+                start=k0,
+            ),
         ]
         if self.element:
             out.append(Param("tau", 1e-6, 5e-3, grid=6, start=1e-4))
@@ -185,7 +191,11 @@ class ComplianceModel(Model):
             k_e = 1.0 / inv_k if inv_k > 0.0 else math.inf
             c_e = float(theta["tau"]) * k_e
             if self.backlash:
-                params["backlash"] = {"gap": 2.0 * float(beta[2]), "stiffness": k_e, "contact_damping": c_e}
+                params["backlash"] = {
+                    "gap": 2.0 * float(beta[2]),
+                    "stiffness": k_e,
+                    "contact_damping": c_e,
+                }
             else:
                 w = math.sqrt(k_e / m) if math.isfinite(k_e) and inv_m > 0 else math.inf
                 params["internal_stiffness"] = {

@@ -191,7 +191,9 @@ def series_chain(
     d = np.asarray(damping, dtype=float)
     damp = np.ascontiguousarray(np.broadcast_to(d, (n,)) if d.ndim == 0 else d)
     kf = friction / presliding if friction > 0.0 else 0.0
-    rate = max(omega, math.sqrt(max(kf, 0.0)), float(np.max(np.abs(damp))), math.sqrt(abs(stiffness)))
+    rate = max(
+        omega, math.sqrt(max(kf, 0.0)), float(np.max(np.abs(damp))), math.sqrt(abs(stiffness))
+    )
     n_sub = int(min(MAX_SUBSTEPS, max(1, math.ceil(rate * dt / _MAX_STEP_PHASE))))
     return _chain(
         np.ascontiguousarray(x, dtype=float),

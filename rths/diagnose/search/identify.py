@@ -161,7 +161,9 @@ class _Problem:
         for s in self.segments:
             rows = np.flatnonzero(s.ident)[::stride]
             self.rows.append(rows)
-        self.y = np.concatenate([s.observed[r] for s, r in zip(self.segments, self.rows, strict=True)])
+        self.y = np.concatenate(
+            [s.observed[r] for s, r in zip(self.segments, self.rows, strict=True)]
+        )
         self.records = sorted({s.index for s in self.segments})
         self.prior = model.prior(channel)
 

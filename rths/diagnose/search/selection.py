@@ -101,7 +101,14 @@ class ChannelResult:
     @property
     def observed_ms(self) -> float:
         """Mean square of the held-out observation."""
-        return float(np.mean(np.concatenate(held_parts(self.channel, [s.observed for s in self.channel.segments])) ** 2))
+        return float(
+            np.mean(
+                np.concatenate(
+                    held_parts(self.channel, [s.observed for s in self.channel.segments])
+                )
+                ** 2
+            )
+        )
 
     def nrmse(self, mse: float) -> float:
         """Held-out NRMSE of a mean squared residual."""
@@ -116,7 +123,9 @@ def held_runs(mask: NDArray[np.bool_]) -> list[slice]:
 
 def held_parts(channel: Channel, arrays: list[NDArray]) -> list[NDArray]:
     """The held-out samples of per-record arrays, one part per contiguous run."""
-    return [a[run] for s, a in zip(channel.segments, arrays, strict=True) for run in held_runs(s.held)]
+    return [
+        a[run] for s, a in zip(channel.segments, arrays, strict=True) for run in held_runs(s.held)
+    ]
 
 
 def _decompose(channel: Channel, fit: Fit, floor_scale: float = 1.0) -> Decomposition:
@@ -150,7 +159,9 @@ def _best(fits: list[Fit]) -> Fit:
     return min(fits, key=lambda f: f.ident_mse)
 
 
-def select(channel: Channel, effects: tuple[str, ...], seed: int = 0, price: float = PRICE) -> ChannelResult:
+def select(
+    channel: Channel, effects: tuple[str, ...], seed: int = 0, price: float = PRICE
+) -> ChannelResult:
     """Identify the baseline and select the channel's effects (module docstring).
 
     Parameters
@@ -206,7 +217,9 @@ def select(channel: Channel, effects: tuple[str, ...], seed: int = 0, price: flo
         if not trials:
             break
         gain, cand = max(trials, key=lambda t: t[0])
-        candidates[candidates.index(cand)] = Candidate(cand.fit, cand.floor, cand.closed, cand.gain, True, True)
+        candidates[candidates.index(cand)] = Candidate(
+            cand.fit, cand.floor, cand.closed, cand.gain, True, True
+        )
         current, current_floor = cand.fit, cand.floor
         chosen = cand.fit.effects
         if not _decompose(channel, current, current_floor / max(n0, 1e-300)).significant:
