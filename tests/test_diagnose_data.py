@@ -116,7 +116,11 @@ def test_mcap_log_is_read_from_rths_loop(tmp_path):
                 {"t": t[k], "target": u[k], "command": u[k], "measured": x[k], "force": f[k]},
             )
     r = load_record(path)
-    assert np.allclose(r.force, f) and np.allclose(r.target, u)  # JSON keeps float64 repr
+    # DAQ convention: row k = the command applied from t_k and the measurements at t_k, i.e. the
+    # previous log row's (the loop logs a command with the state at the end of its hold)
+    assert np.array_equal(r.command, u) and r.time[0] == pytest.approx(t[0] - DT)
+    assert np.allclose(r.force[1:], f[:-1]) and r.force[0] == 0.0  # JSON keeps float64 repr
+    assert np.allclose(r.measured[1:], x[:-1]) and np.allclose(r.target[1:], u[:-1])
     assert r.scenario_text == "not used here"
     assert r.dt == pytest.approx(DT)
 

@@ -14,6 +14,10 @@ Otherwise effects are added one at a time:
    identified *together* with the set (warm-started from the set's and its own single fit)
    and step 2 repeats.
 
+Effects that only act together (friction behind a clearance: neither alone describes the
+device) would stall step 2: when no single effect buys its parameters, every compatible pair
+is identified and priced as one step (its parameters counted together).
+
 The set's share of the channel's reducible gap is ``rho = (J_0 - J_S)/(J_0 - N_0)``.  When the
 set is empty or closes less than :data:`MIN_CLOSED` of a significant gap, the channel's gap is
 ``unexplained``.
@@ -186,34 +190,54 @@ def select(
     singles: dict[str, Fit] = {}
     current, current_floor = base, n0
     chosen: tuple[str, ...] = ()
-    while True:
-        trials: list[tuple[float, Candidate]] = []
-        for e in names:
-            if e in chosen or not compatible((*chosen, e)):
-                continue
-            starts = [dict(current.theta)]
+    tried: set[tuple[str, ...]] = set()
+
+    def trial(add: tuple[str, ...]) -> tuple[float, Candidate] | None:
+        """Identify ``chosen + add`` jointly (warm-started), score it, record the candidate."""
+        starts = [dict(current.theta)]
+        for e in add:
             if e in singles:
                 starts.append({**singles[e].theta, **current.theta})
                 starts.append({**current.theta, **singles[e].theta})
-            models = [
-                m
-                for m in models_for(channel.name, (*chosen, e))
-                if m.applicable(channel, base.baseline)
+        models = [
+            m
+            for m in models_for(channel.name, (*chosen, *add))
+            if m.applicable(channel, base.baseline)
+        ]
+        if not models:
+            return None
+        tried.add(tuple(sorted((*chosen, *add))))
+        fit = _best([fit_model(m, channel, base.baseline, starts) for m in models])
+        if not chosen and len(add) == 1:
+            singles[add[0]] = fit
+        floor = noise_floor(fit, channel, seed)
+        remaining = max(current.held_mse - current_floor, 1e-300)
+        gain = ((current.held_mse - current_floor) - (fit.held_mse - floor)) / remaining
+        closed = (excess0 - (fit.held_mse - floor)) / excess0
+        ok = fit.model.physical(channel, fit.params)
+        cand = Candidate(fit, floor, closed, gain, False, ok)
+        candidates.append(cand)
+        n_params = sum(EFFECTS[e].n_params for e in add)
+        return (gain, cand) if ok and gain >= price * n_params else None
+
+    while True:
+        trials = [
+            t
+            for e in names
+            if e not in chosen and compatible((*chosen, e))
+            for t in [trial((e,))]
+            if t is not None
+        ]
+        if not trials and not chosen:
+            # effects that act only together (a friction device's clearance, say): when no
+            # single effect buys its parameters, every compatible pair is tried as one step
+            pairs = [
+                (a, b)
+                for i, a in enumerate(names)
+                for b in names[i + 1 :]
+                if compatible((a, b)) and tuple(sorted((a, b))) not in tried
             ]
-            if not models:
-                continue
-            fit = _best([fit_model(m, channel, base.baseline, starts) for m in models])
-            if not chosen:
-                singles[e] = fit
-            floor = noise_floor(fit, channel, seed)
-            remaining = max(current.held_mse - current_floor, 1e-300)
-            gain = ((current.held_mse - current_floor) - (fit.held_mse - floor)) / remaining
-            closed = (excess0 - (fit.held_mse - floor)) / excess0
-            ok = fit.model.physical(channel, fit.params)
-            cand = Candidate(fit, floor, closed, gain, False, ok)
-            candidates.append(cand)
-            if ok and gain >= price * EFFECTS[e].n_params:
-                trials.append((gain, cand))
+            trials = [t for pair in pairs for t in [trial(pair)] if t is not None]
         if not trials:
             break
         gain, cand = max(trials, key=lambda t: t[0])
