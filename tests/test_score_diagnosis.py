@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
-from score_diagnosis import main, score_case, summarize  # noqa: E402
+from score_diagnosis import main, score_case, summarize
 
 
 def _label(*effects: tuple[str, dict]) -> dict:
