@@ -98,7 +98,7 @@ class SeriesChain(Model):
             Param("zeta", 0.005, 2.0, grid=4 if self.backlash else 5, start=0.1),
         ]
         if self.backlash:
-            hi = min(drive_scale(channel), 5e-3)
+            hi = max(drive_scale(channel), 5e-3)  # up to the travel's RMS (>= 5 mm)
             out.append(Param("gap", min(1e-6, 1e-3 * hi), hi, grid=10))
         out += [
             Param("body_damping", 0.0, max(10.0 * c0, 0.2 * w_hi), log=False, start=c0),

@@ -107,7 +107,7 @@ def friction_space(channel: Channel, backlash: bool, grid: bool = True) -> list[
     scale = drive_scale(channel)
     out = [Param("presliding", 1e-8, 0.5 * scale, grid=14 if grid else 0)]
     if backlash:
-        hi = min(scale, 5e-3)
+        hi = max(scale, 5e-3)  # up to the travel's RMS (>= 5 mm)
         out.append(Param("gap", min(1e-6, 1e-3 * hi), hi, grid=14 if grid else 0))
     return out
 
