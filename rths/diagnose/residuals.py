@@ -104,8 +104,13 @@ class Decomposition:
 
 def _welch(parts: list[NDArray], dt: float) -> tuple[NDArray, NDArray, float]:
     """Length-weighted Welch PSD over records and the number of averaged segments."""
-    parts = [p for p in parts if p.size >= 64] or parts
-    nper = max(64, min(int(round(1.0 / (_RESOLUTION * dt))), min(p.size for p in parts)))
+    long = [p for p in parts if p.size >= 64]
+    if long:
+        parts = long
+        nper = max(64, min(int(round(1.0 / (_RESOLUTION * dt))), min(p.size for p in parts)))
+    else:  # only scraps: one segment each, of the shortest length (equal frequency grids)
+        nper = max(2, min(p.size for p in parts))
+        parts = [p[-nper:] for p in parts if p.size >= 2]
     acc, count, f = None, 0.0, None
     for p in parts:
         f, s = signal.welch(p, fs=1.0 / dt, nperseg=nper, detrend="constant")
@@ -205,6 +210,8 @@ def decompose(
     floor_var = float(np.sum(np.interp(f, floor[0], floor[1])) * (f[1] - f[0]))
     score, best, threshold = -math.inf, 0.0, math.inf
     for idx in [*_bands(f, f_lo, f_hi), np.flatnonzero((f >= f_lo) & (f <= f_hi))]:
+        if idx.size == 0:
+            continue
         ratio = float(np.sum(s_r[idx]) / np.sum(s_n[idx]))
         limit = 1.0 + Z_SCORE / math.sqrt(0.9 * k * idx.size) + FLOOR_MARGIN
         if ratio / limit > score:
