@@ -86,14 +86,12 @@ def run(args: argparse.Namespace) -> int:
     from rths.diagnose.effects import EFFECTS
     from rths.diagnose.report import table, write_figures
 
-    nominal = load_nominal(args.nominal)
-    records = [load_record(path) for path in args.data]
     effects = (
         tuple(EFFECTS)
         if args.effects is None
         else tuple(e.strip() for e in args.effects.split(",") if e.strip())
     )
-    options = Options(
+    options = Options(  # the options first: an argument error is named before the data's
         cutoff=DEFAULT_CUTOFF if args.cutoff is None else args.cutoff,
         effects=effects,
         drive=args.drive,
@@ -101,6 +99,8 @@ def run(args: argparse.Namespace) -> int:
         if args.held_out is None
         else tuple(h.strip() for h in args.held_out.split(",") if h.strip()),
     )
+    nominal = load_nominal(args.nominal)
+    records = [load_record(path) for path in args.data]
     result = diagnose(records, nominal, options)
     text = table(result)
     verdict_line = next(line for line in text.splitlines() if line.startswith("verdict:"))
