@@ -345,7 +345,12 @@ def cmd_mts(args: argparse.Namespace) -> int:
         check=True,
         capture_output=True,
     )
-    nominal = Path(__file__).resolve().parents[1] / "scenarios" / "nominal" / "nominal_mts_identified.toml"
+    nominal = (
+        Path(__file__).resolve().parents[1]
+        / "scenarios"
+        / "nominal"
+        / "nominal_mts_identified.toml"
+    )
     (work / "NOMINAL.toml").write_text(nominal.read_text())
     r = _diagnose_case((str(work), None))
     print(
