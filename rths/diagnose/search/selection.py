@@ -18,10 +18,6 @@ Effects that only act together (friction behind a clearance: neither alone descr
 device) would stall step 2: when no single effect buys its parameters, every compatible pair
 is identified and priced as one step (its parameters counted together).
 
-A channel whose baseline is not significant against its floor (the floor's margin) is
-``none`` unless a single effect beats the baseline it nests in a paired held-out test
-(:func:`nested_z`) -- a delay of two samples that the re-calibrated poles nearly mimic.
-
 The set's share of the channel's reducible gap is ``rho = (J_0 - J_S)/(J_0 - N_0)``.  When the
 set is empty or closes less than :data:`MIN_CLOSED` of a significant gap, the channel's gap is
 ``unexplained``.
@@ -37,34 +33,16 @@ from numpy.typing import NDArray
 
 from rths.diagnose.channels.channel import Channel
 from rths.diagnose.effects import CHANNEL_EFFECTS, EFFECTS, baseline_for, compatible, models_for
-from rths.diagnose.residuals import MODEL_TOLERANCE, Decomposition, decompose
+from rths.diagnose.residuals import Decomposition, decompose
 from rths.diagnose.search.floors import noise_floor
 from rths.diagnose.search.identify import Fit, fit_model
 
-__all__ = [
-    "BLOCK_SECONDS",
-    "MIN_CLOSED",
-    "NESTED_Z",
-    "PRICE",
-    "Candidate",
-    "ChannelResult",
-    "held_parts",
-    "held_runs",
-    "nested_z",
-    "select",
-]
+__all__ = ["MIN_CLOSED", "PRICE", "Candidate", "ChannelResult", "held_parts", "held_runs", "select"]
 
 #: Fraction of the remaining reducible gap an added effect must close per identified parameter.
 PRICE: float = 0.1
 #: Smallest share of a significant reducible gap the selected effects must close together.
 MIN_CLOSED: float = 0.5
-#: Length [s] of the held-out blocks of the paired test :func:`nested_z` (many residual
-#: correlation times of any channel, short enough for tens of blocks in a few held-out seconds).
-BLOCK_SECONDS: float = 0.5
-#: One-sided z score the paired held-out improvement of an effect over the baseline must reach
-#: when the baseline is within its noise floor's margin (p ~ 1e-3 per candidate: a per-channel
-#: false-alarm rate of about 1 % over the handful of candidates tried).
-NESTED_Z: float = 3.0
 
 
 @dataclass(frozen=True)
@@ -154,35 +132,6 @@ def held_parts(channel: Channel, arrays: list[NDArray]) -> list[NDArray]:
     ]
 
 
-def nested_z(channel: Channel, simple: Fit, rich: Fit) -> float:
-    """Paired z score of ``rich``'s held-out improvement over ``simple`` (a model it nests).
-
-    The held-out samples are cut into blocks of :data:`BLOCK_SECONDS`; per block ``k`` the
-    difference ``d_k`` of the two models' mean squared residuals is taken, and ``z =
-    mean(d) / (std(d) / sqrt(K))``.  Differencing the same samples cancels the noise both
-    models leave, so the test needs no noise-floor estimate -- it separates effects the
-    floor's margin would hide (a delay of two samples that slower poles almost mimic).  An
-    improvement below the modelling tolerance (:data:`rths.diagnose.residuals.
-    MODEL_TOLERANCE` of the observation's RMS) counts as none.
-    """
-    n = max(2, int(round(BLOCK_SECONDS / channel.dt)))
-    a = held_parts(channel, simple.residuals(channel))
-    b = held_parts(channel, rich.residuals(channel))
-    obs = held_parts(channel, [s.observed for s in channel.segments])
-    d: list[float] = []
-    for ra, rb in zip(a, b, strict=True):
-        for i in range(0, ra.size - n + 1, n):
-            d.append(float(np.mean(ra[i : i + n] ** 2) - np.mean(rb[i : i + n] ** 2)))
-    if len(d) < 4:
-        return 0.0
-    dd = np.asarray(d)
-    tolerance = MODEL_TOLERANCE**2 * float(np.mean(np.concatenate(obs) ** 2))
-    if float(np.mean(dd)) <= tolerance:
-        return 0.0
-    spread = float(np.std(dd, ddof=1)) / math.sqrt(dd.size)
-    return math.inf if spread == 0.0 else float(np.mean(dd)) / spread
-
-
 def _decompose(channel: Channel, fit: Fit, floor_scale: float = 1.0) -> Decomposition:
     if channel.name == "force":
         b = fit.baseline
@@ -214,38 +163,6 @@ def _best(fits: list[Fit]) -> Fit:
     return min(fits, key=lambda f: f.ident_mse)
 
 
-def _at_floor(
-    channel: Channel, base: Fit, n0: float, dec: Decomposition, names: list[str], seed: int
-) -> ChannelResult:
-    """A channel whose baseline is within its floor's margin: an effect is named only when it
-    beats the baseline it nests in the paired held-out test (:func:`nested_z`), the one with
-    the highest z score; otherwise ``none``."""
-    candidates: list[Candidate] = []
-    best: tuple[float, Candidate] | None = None
-    for e in names:
-        models = [m for m in models_for(channel.name, (e,)) if m.applicable(channel, base.baseline)]
-        if not models:
-            continue
-        fit = _best([fit_model(m, channel, base.baseline, [dict(base.theta)]) for m in models])
-        floor = noise_floor(fit, channel, seed)
-        gain = (base.held_mse - fit.held_mse) / max(base.held_mse - min(floor, n0), 1e-300)
-        ok = fit.model.physical(channel, fit.params)
-        z = nested_z(channel, base, fit) if ok else 0.0
-        cand = Candidate(fit, floor, gain, gain, False, ok)
-        candidates.append(cand)
-        if z >= NESTED_Z and (best is None or z > best[0]):
-            best = (z, cand)
-    if best is None:
-        return ChannelResult(channel, base, n0, dec, candidates, (), base, 0.0, "none")
-    c = best[1]
-    candidates[candidates.index(c)] = Candidate(c.fit, c.floor, c.closed, c.gain, True, True)
-    candidates.sort(key=lambda k: (not k.accepted, -k.closed))
-    closed = min(max(c.closed, 0.0), 1.0)
-    return ChannelResult(
-        channel, base, n0, dec, candidates, c.fit.effects, c.fit, closed, c.fit.effects[0]
-    )
-
-
 def select(
     channel: Channel, effects: tuple[str, ...], seed: int = 0, price: float = PRICE
 ) -> ChannelResult:
@@ -267,9 +184,9 @@ def select(
     dec = _decompose(channel, base)
     excess0 = base.held_mse - n0
     candidates: list[Candidate] = []
-    names = [e for e in effects if e in CHANNEL_EFFECTS[channel.name]]
     if not dec.significant or excess0 <= 0.0:
-        return _at_floor(channel, base, n0, dec, names, seed)
+        return ChannelResult(channel, base, n0, dec, candidates, (), base, 0.0, "none")
+    names = [e for e in effects if e in CHANNEL_EFFECTS[channel.name]]
     singles: dict[str, Fit] = {}
     current, current_floor = base, n0
     chosen: tuple[str, ...] = ()
