@@ -35,6 +35,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+from numpy.typing import NDArray
 
 from controllers._lti import inverse_taylor, siso_polynomials
 from controllers.base import Compensator
@@ -175,6 +176,8 @@ class AdaptiveTimeSeries(Compensator):
     def _reset_impl(self) -> None:
         """Return to rest with the initial coefficients and empty history."""
         self.coefficients = np.asarray(self.settings.start, dtype=float)
+        # the same doubles as Python floats: the per-step command without NumPy scalars
+        self._coefficient_floats: tuple[float, ...] = tuple(self.coefficients.tolist())
         self._u_buf = np.zeros(self._n_window)
         self._y_buf = np.zeros(self._n_window)
         self._i = 0
@@ -217,18 +220,24 @@ class AdaptiveTimeSeries(Compensator):
         a = np.linalg.solve(normal, xs.T @ u[1:-1]) / scale
         step = np.clip(a - self.coefficients, -self._step_limit, self._step_limit)
         self.coefficients = np.clip(self.coefficients + step, self._lo, self._hi)
+        self._coefficient_floats = tuple(self.coefficients.tolist())
         self._updates += 1
 
     def _step_impl(self, target: Kinematics, measured: float) -> float:
         self._record(self._u_prev, measured)
         if self._count >= self._n_window and self._count % self.settings.update_every == 0:
             self._identify()
-        a0, a1, a2 = self.coefficients
+        a0, a1, a2 = self._coefficient_floats
         u = a0 * target.displacement + a1 * target.velocity + a2 * target.acceleration
         self._u_prev = u
-        return float(u)
+        return u
 
     def state(self) -> dict[str, float]:
         """Coefficients a0 [-], a1 [s], a2 [s^2], delay estimate a1/a0 [s], update count."""
-        a0, a1, a2 = map(float, self.coefficients)
+        a0, a1, a2 = self._coefficient_floats
         return {"a0": a0, "a1": a1, "a2": a2, "delay": a1 / a0, "updates": float(self._updates)}
+
+    def write_channels(self, out: NDArray[np.float64]) -> None:
+        """Write :meth:`state`'s values into ``out`` (no dict: this runs every step)."""
+        a0, a1, a2 = self._coefficient_floats
+        out[0], out[1], out[2], out[3], out[4] = a0, a1, a2, a1 / a0, self._updates
