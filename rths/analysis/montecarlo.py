@@ -17,10 +17,9 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from rths.config import build
 from rths.config.scenario import Scenario
 from rths.metrics import normalised_rms_error
-from rths.runtime.loop import InProcessLink, Loop
+from rths.session.batch import draw_lab, run_in_process
 
 __all__ = ["MonteCarloResult", "run_draws", "run_one"]
 
@@ -50,29 +49,15 @@ class MonteCarloResult:
 
 
 def run_one(scn: Scenario, kind: str, draw: int, seed: int) -> tuple[float, str | None]:
-    """J2 of one compensator on perturbed lab ``draw``; (nan, reason) if it was interlocked."""
-    lab = build.lab(scn, seed=seed + draw, rng=np.random.default_rng([seed, draw]))
-    n = scn.run.steps
-    target, measured = np.zeros(n), np.zeros(n)
+    """J2 of one compensator on perturbed lab ``draw``; (nan, reason) if it was interlocked.
 
-    def sink(r: dict[str, float]) -> None:
-        k = int(r["seq"])
-        target[k], measured[k] = r["target"], r["measured"]
-
-    loop = Loop(
-        build.substructure(scn),
-        build.compensator(scn, kind),
-        InProcessLink(lab),
-        scn.scaling,
-        n,
-        sink=sink,
-        command_limit=scn.loop.stroke,
-        force_filter=build.correction_filter(scn),
-    )
-    result = loop.run()
-    if result.stopped:
-        return float("nan"), result.stopped
-    return normalised_rms_error(target, measured), None
+    Draw ``draw`` perturbs the lab with ``default_rng([seed, draw])`` and seeds its noise with
+    ``seed + draw`` (:func:`rths.session.batch.draw_lab`).
+    """
+    run = run_in_process(scn, compensator=kind, **draw_lab(draw, seed))
+    if run.stopped:
+        return float("nan"), run.stopped
+    return normalised_rms_error(run.target, run.measured), None
 
 
 def run_draws(

@@ -27,6 +27,8 @@ consistency that needs the plants built (e.g. a stable actuator) is checked when
 from __future__ import annotations
 
 import math
+import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -131,15 +133,66 @@ class Scenario:
         return self.compensator.kind
 
 
-def load_scenario(path: str | Path) -> Scenario:
-    """Read and validate a scenario file (:class:`rths.core.errors.ConfigError` on any problem)."""
+def load_scenario(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Scenario:
+    """Read and validate a scenario file (:class:`rths.core.errors.ConfigError` on any problem).
+
+    Parameters
+    ----------
+    path
+        The scenario TOML file.
+    overrides
+        Dotted keys and values replacing the file's (:func:`parse_scenario`).
+    """
     doc, text = load_toml(path)
+    if overrides:
+        return parse_scenario(text, doc.source, overrides)
     return _parse(doc, text)
 
 
-def parse_scenario(text: str, source: str = "<scenario>") -> Scenario:
-    """Validate scenario text (for tests and for logs that carry the scenario)."""
-    return _parse(parse_toml(text, source), text)
+def parse_scenario(
+    text: str, source: str = "<scenario>", overrides: Mapping[str, Any] | None = None
+) -> Scenario:
+    """Validate scenario text (for tests, logs that carry the scenario and campaigns).
+
+    Parameters
+    ----------
+    text
+        The scenario's TOML text.
+    source
+        Where it came from (named in error messages).
+    overrides
+        Dotted keys replacing values of the text before it is validated, e.g.
+        ``{"specimen.inertance": 1200.0, "substructure.load.amplitude": 20.0}``: the value is
+        checked like the file's own (a key the table does not take is an error naming it).  The
+        returned scenario's ``text`` ends with the overrides as comments.
+    """
+    doc = parse_toml(text, source)
+    if not overrides:
+        return _parse(doc, text)
+    data = tomllib.loads(text)
+    for key, value in overrides.items():
+        _override(data, key, value, source)
+    lines = [f"# override: {k} = {v!r}" for k, v in overrides.items()]
+    return _parse(Table(data, "", source), text.rstrip("\n") + "\n" + "\n".join(lines) + "\n")
+
+
+def _override(data: dict[str, Any], key: str, value: Any, source: str) -> None:
+    """Set the dotted ``key`` of a parsed TOML document to ``value`` (tables created as needed)."""
+    parts = key.split(".")
+    if not key or any(not p for p in parts):
+        raise ConfigError(
+            f"{source}: override key must be dotted names like 'run.seed'; got {key!r}"
+        )
+    table = data
+    for i, part in enumerate(parts[:-1]):
+        nxt = table.setdefault(part, {})
+        if not isinstance(nxt, dict):
+            where = ".".join(parts[: i + 1])
+            raise ConfigError(f"{source}: override {key!r}: {where!r} is a value, not a table")
+        table = nxt
+    if isinstance(table.get(parts[-1]), dict):
+        raise ConfigError(f"{source}: override {key!r} names a table, not a value")
+    table[parts[-1]] = value
 
 
 def _parse(doc: Table, text: str) -> Scenario:
