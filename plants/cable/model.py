@@ -193,6 +193,7 @@ class Cable(Substructure):
         resonance = self.load.mode * properties.omega0
         frequency = self.load.frequency
         self._load_frequency = resonance if frequency is None else frequency
+        self._load_end = math.inf if self.load.duration is None else self.load.duration
         size = n - 1
         self._u, self._v, self._a = np.zeros(size), np.zeros(size), np.zeros(size)
         self._fly = np.zeros(3)  # flywheel (x [m], x' [m/s], x'' [m/s^2]); zero without a branch
@@ -220,7 +221,7 @@ class Cable(Substructure):
             options.damper_position,
             dt,
             elements=n,
-            load=DistributedLoad(amplitude=load.amplitude, mode=load.mode, frequency=omega),
+            load=DistributedLoad(load.amplitude, load.mode, omega, load.duration),
             intrinsic_damping=RayleighDamping(damping) if damping else None,
             damper=device,
         )
@@ -307,7 +308,8 @@ class Cable(Substructure):
 
     def _advance(self, force: float, out: _State) -> _State:
         """The state at ``t_{k+1}`` for device force ``force`` [N], written into ``out``."""
-        load_scale = math.sin(self._load_frequency * (self.steps + 1) * self.dt)
+        t = (self.steps + 1) * self.dt
+        load_scale = math.sin(self._load_frequency * t) if t <= self._load_end else 0.0
         j, series = self._index, self._series
         if not self.use_numba:
             f = load_scale * self._load_shape
@@ -347,7 +349,8 @@ class Cable(Substructure):
     # ------------------------------------------------------------------ state and views
     def nodal_load(self, t: float) -> NDArray[np.float64]:
         """Consistent nodal forces [N] of the distributed load (S0 Eq.22) at time ``t`` [s]."""
-        return math.sin(self._load_frequency * check_finite(t, "time t")) * self._load_shape
+        t = check_finite(t, "time t")
+        return (math.sin(self._load_frequency * t) if t <= self._load_end else 0.0) * self._load_shape
 
     def set_state(
         self,

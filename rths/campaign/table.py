@@ -55,7 +55,7 @@ def _cell(value: Any) -> Any:
 
 
 def digest(rows: Iterable[Mapping[str, Scalar]], exclude: Iterable[str] = TIMING_COLUMNS) -> str:
-    """SHA-256 (hex) of the rows' deterministic columns, rows ordered by ``run`` key.
+    """SHA-256 (hex) of the rows' deterministic columns (empty cells left out), order-free.
 
     Parameters
     ----------
@@ -66,7 +66,10 @@ def digest(rows: Iterable[Mapping[str, Scalar]], exclude: Iterable[str] = TIMING
     """
     skip = set(exclude)
     canon = sorted(
-        json.dumps({k: _cell(v) for k, v in row.items() if k not in skip}, sort_keys=True)
+        json.dumps(
+            {k: _cell(v) for k, v in row.items() if k not in skip and v is not None},
+            sort_keys=True,
+        )
         for row in rows
     )
     return hashlib.sha256("\n".join(canon).encode()).hexdigest()
@@ -136,12 +139,15 @@ class ResultTable:
         return set(self._rows)
 
     def rows(self, keys: Iterable[str] | None = None) -> list[Row]:
-        """Rows (all, or those of ``keys`` present), ordered by ``index`` then key."""
+        """Rows (all, or those of ``keys`` present), ordered by ``index`` then key, each with
+        every column of the table (None where a row has no value)."""
         if keys is None:
             chosen: Iterable[Row] = self._rows.values()
         else:
             chosen = (self._rows[k] for k in keys if k in self._rows)
-        return sorted(chosen, key=lambda r: (_index(r), str(r.get("run"))))
+        columns = self.columns
+        rows = [{c: r.get(c) for c in columns} for r in chosen]
+        return sorted(rows, key=lambda r: (_index(r), str(r.get("run"))))
 
     @property
     def columns(self) -> list[str]:

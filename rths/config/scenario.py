@@ -14,6 +14,8 @@ examples users copy)::
     [compensator]  kind + options
     [loop]         correction_filter [Hz], stroke [m] (interlock)
     [monte_carlo]  draws (perturbed benchmark plants)
+    [study]        a parameter study over this scenario's keys (``rths study``; read and
+                   checked by :mod:`rths.analysis.study`, kept here as given)
 
 The four component tables name a registered kind (:mod:`rths.core.registry`; ``rths kinds``
 lists them with their options): the kind's frozen options dataclass says which keys the table
@@ -111,7 +113,8 @@ class LoopSpec:
 class Scenario:
     """A parsed scenario (see the module docstring).
 
-    ``model`` is the ``[model]`` device at specimen scale, or None for ``kind = "none"``.
+    ``model`` is the ``[model]`` device at specimen scale, or None for ``kind = "none"``;
+    ``study`` is the ``[study]`` table as parsed (None without one).
     """
 
     source: str
@@ -126,6 +129,7 @@ class Scenario:
     compensator: Component
     loop: LoopSpec
     monte_carlo_draws: int = 0
+    study: Mapping[str, Any] | None = None
 
     @property
     def compensator_kind(self) -> str:
@@ -217,6 +221,9 @@ def _parse(doc: Table, text: str) -> Scenario:
     t = doc.table("monte_carlo", {})
     draws = t.integer("draws", 0, minimum=0)
     t.finish()
+    study = doc.raw("study", None)
+    if study is not None and not isinstance(study, dict):
+        raise doc.error("study", f"must be a table; got {study!r}")
     doc.finish()
     if loop.correction_filter and loop.correction_filter >= 0.5 * run.rate:
         raise doc.table("loop").error(
@@ -225,7 +232,19 @@ def _parse(doc: Table, text: str) -> Scenario:
             f"got {loop.correction_filter!r}",
         )
     return Scenario(
-        doc.source, text, run, scaling, sub, specimen, actuator, lab, model, comp, loop, draws
+        doc.source,
+        text,
+        run,
+        scaling,
+        sub,
+        specimen,
+        actuator,
+        lab,
+        model,
+        comp,
+        loop,
+        draws,
+        study,
     )
 
 
