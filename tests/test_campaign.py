@@ -187,7 +187,13 @@ def test_digest_ignores_timing_and_sees_one_bit():
 def test_scenario_overrides_are_validated_like_the_file():
     scn = load_scenario(SCENARIOS / "cable_imd_mode3.toml", {"specimen.inertance": 1200.0})
     assert scn.specimen.options.inertance == 1200.0
-    assert "# override: specimen.inertance = 1200.0" in scn.text
+    assert scn.overrides == (("specimen.inertance", 1200.0),)
+    # a run of it carries the overrides to the worker (the text alone would lose them)
+    from rths.campaign.scenario import scenario_run
+
+    payload = scenario_run(scn, overrides={"run.seed": 3}).payload
+    again = payload.scenario()
+    assert again.specimen.options.inertance == 1200.0 and again.run.seed == 3
     with pytest.raises(ConfigError, match=r"\[specimen\] inertanse: unknown key"):
         load_scenario(SCENARIOS / "cable_imd_mode3.toml", {"specimen.inertanse": 1.0})
     with pytest.raises(ConfigError, match=r"\[specimen\] inertance: must be a number"):

@@ -106,9 +106,11 @@ def scenario_run(
     Parameters
     ----------
     scn
-        The scenario (its ``text`` and ``source`` travel; overrides are applied on the worker).
+        The scenario (its ``text``, ``source`` and own ``overrides`` travel; overrides are
+        applied on the worker).
     overrides, seed, compensator, draw, outputs
-        As :class:`ScenarioRun`; ``seed`` defaults to the scenario's.
+        As :class:`ScenarioRun` (applied after the scenario's own overrides); ``seed`` defaults
+        to the scenario's.
     extra
         Anything else that determines the row (e.g. the response a study measures): part of
         the key.
@@ -119,7 +121,8 @@ def scenario_run(
         Inputs ``scenario`` (name), ``compensator``, ``seed``, ``draw`` and one column per
         override key.
     """
-    items = tuple((k, check_scalar(v, f"override {k!r}")) for k, v in (overrides or {}).items())
+    merged = {**dict(scn.overrides), **(overrides or {})}
+    items = tuple((k, check_scalar(v, f"override {k!r}")) for k, v in merged.items())
     seed = scn.run.seed if seed is None else seed
     kind = compensator or scn.compensator_kind
     payload = ScenarioRun(scn.text, scn.source, items, seed, compensator, draw, outputs)

@@ -31,7 +31,7 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -114,7 +114,8 @@ class Scenario:
     """A parsed scenario (see the module docstring).
 
     ``model`` is the ``[model]`` device at specimen scale, or None for ``kind = "none"``;
-    ``study`` is the ``[study]`` table as parsed (None without one).
+    ``study`` is the ``[study]`` table as parsed (None without one); ``overrides`` are the
+    dotted-key overrides applied on top of ``text`` (:func:`parse_scenario`), in order.
     """
 
     source: str
@@ -130,6 +131,7 @@ class Scenario:
     loop: LoopSpec
     monte_carlo_draws: int = 0
     study: Mapping[str, Any] | None = None
+    overrides: tuple[tuple[str, Any], ...] = ()
 
     @property
     def compensator_kind(self) -> str:
@@ -168,7 +170,7 @@ def parse_scenario(
         Dotted keys replacing values of the text before it is validated, e.g.
         ``{"specimen.inertance": 1200.0, "substructure.load.amplitude": 20.0}``: the value is
         checked like the file's own (a key the table does not take is an error naming it).  The
-        returned scenario's ``text`` ends with the overrides as comments.
+        returned scenario keeps ``text`` as given and the overrides in ``overrides``.
     """
     doc = parse_toml(text, source)
     if not overrides:
@@ -176,8 +178,7 @@ def parse_scenario(
     data = tomllib.loads(text)
     for key, value in overrides.items():
         _override(data, key, value, source)
-    lines = [f"# override: {k} = {v!r}" for k, v in overrides.items()]
-    return _parse(Table(data, "", source), text.rstrip("\n") + "\n" + "\n".join(lines) + "\n")
+    return replace(_parse(Table(data, "", source), text), overrides=tuple(overrides.items()))
 
 
 def _override(data: dict[str, Any], key: str, value: Any, source: str) -> None:

@@ -11,11 +11,12 @@ two roots nearly coalesce (S0 §5.3) and the free decay is close to
 ``(a + b t) e^{-sigma t}``: one fitted exponential then reads a damping below both roots,
 while the pencil separates them.
 
-:func:`free_decay` decimates the record (zero-phase, to about 16 samples per period of the
-band's upper edge), forms the Hankel matrix of the samples with pencil parameter ``L = N/2``,
-keeps its ``2 modes`` dominant singular vectors and takes the eigenvalues of the shifted pencil
-``V_1^+ V_2`` as ``exp(s dt)`` (Hua & Sarkar 1990); the amplitudes come from least squares on
-the decimated record.  Pure NumPy/SciPy: no project imports beyond the errors.
+:func:`free_decay` forms the Hankel matrix of the record whose columns are the record delayed
+by multiples of a lag (about 16 samples per period of the band's upper edge: every sample is
+used, no filter touches the record, and the pencil spans half of it), keeps its ``2 modes``
+dominant singular vectors and takes the eigenvalues of the shifted pencil ``V_1^+ V_2`` as
+``exp(s lag dt)`` (Hua & Sarkar 1990); the amplitudes come from least squares on the record.
+Pure NumPy: no project imports beyond the errors.
 
 References
 ----------
@@ -31,11 +32,13 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.signal import decimate
 
 from rths.core.errors import DataError, check_positive, check_positive_int
 
-__all__ = ["DecayMode", "free_decay"]
+__all__ = ["MAX_COLUMNS", "DecayMode", "free_decay"]
+
+#: Most delayed copies of the record in the pencil (bounds the SVD's cost for long records).
+MAX_COLUMNS = 400
 
 
 @dataclass(frozen=True, slots=True)
@@ -57,16 +60,6 @@ class DecayMode:
     amplitude: float
 
 
-def _decimated(y: np.ndarray, dt: float, f_high: float) -> tuple[np.ndarray, float]:
-    """The record decimated to about 16 samples per period of ``f_high`` [Hz]."""
-    factor = max(1, int(1.0 / (16.0 * f_high * dt)))
-    while factor > 1 and y.size > 64:
-        step = min(factor, 8)
-        y = decimate(y, step, zero_phase=True)
-        dt, factor = dt * step, factor // step
-    return y, dt
-
-
 def free_decay(
     record: ArrayLike,
     dt: float,
@@ -86,8 +79,8 @@ def free_decay(
     modes
         Number of modes (pole pairs) the pencil keeps, >= 1.
     band
-        ``(low, high)`` [Hz]: report only modes in this band; ``high`` also sets the decimation
-        (default: no decimation, every mode below the Nyquist frequency).
+        ``(low, high)`` [Hz]: report only modes in this band; ``high`` also sets the pencil's
+        lag (default: a lag of one sample, every mode below the Nyquist frequency).
     min_amplitude
         Report only modes at least this fraction of the largest one's amplitude.
 
@@ -109,21 +102,22 @@ def free_decay(
         raise DataError("the free-decay record holds non-finite values")
     if not np.any(y != y[0] if y.size else False):
         raise DataError("the free-decay record is flat: nothing vibrates")
-    if band is not None:
-        y, dt = _decimated(y, dt, band[1])
+    # lag between pencil columns: about 16 samples per period of the band's upper edge
+    lag = 1 if band is None else max(1, int(1.0 / (16.0 * band[1] * dt)))
     order = 2 * modes
     n = y.size
-    if n < 4 * order:
+    columns = min((n - 1) // (2 * lag), MAX_COLUMNS)  # the pencil spans up to half the record
+    if columns < 2 * order or n < 16:
         raise DataError(
-            f"a free decay with {modes} mode(s) needs at least {4 * order} samples after "
-            f"decimation; got {n}"
+            f"a free decay with {modes} mode(s) needs at least {max(16, 4 * order * lag + 1)} "
+            f"samples here; got {n}"
         )
-    pencil = n // 2
-    hankel = np.lib.stride_tricks.sliding_window_view(y, pencil + 1)
+    span = columns * lag
+    hankel = np.stack([y[k * lag : n - span + k * lag] for k in range(columns + 1)], axis=1)
     _, _, vh = np.linalg.svd(hankel, full_matrices=False)
     v = vh[:order].T
     z = np.linalg.eigvals(np.linalg.pinv(v[:-1]) @ v[1:])
-    poles = np.log(z.astype(complex)) / dt
+    poles = np.log(z.astype(complex)) / (lag * dt)
     basis = np.exp(np.outer(dt * np.arange(n), poles))
     amplitudes = np.linalg.lstsq(basis, y.astype(complex), rcond=None)[0]
     found = [
