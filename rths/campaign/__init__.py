@@ -17,8 +17,17 @@ May import: sessions and everything below them; never analysis, diagnose, an exp
 command.
 """
 
-from rths.campaign.executor import CampaignStats, Cluster, execute
+from rths.campaign.executor import CampaignStats, Cluster, execute, map_tasks
 from rths.campaign.runs import Campaign, Run
 from rths.campaign.table import ResultTable, digest
 
-__all__ = ["Campaign", "CampaignStats", "Cluster", "ResultTable", "Run", "digest", "execute"]
+__all__ = [
+    "Campaign",
+    "CampaignStats",
+    "Cluster",
+    "ResultTable",
+    "Run",
+    "digest",
+    "execute",
+    "map_tasks",
+]

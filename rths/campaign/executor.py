@@ -27,10 +27,10 @@ import re
 import sys
 import time
 import uuid
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from rths.campaign.runs import Campaign, Task
 from rths.campaign.table import ResultTable, Row
@@ -39,7 +39,18 @@ from rths.core.errors import ConfigError, check_positive_int
 if TYPE_CHECKING:
     from distributed import Client
 
-__all__ = ["CampaignStats", "Cluster", "attempt", "client_for", "default_workers", "execute"]
+__all__ = [
+    "CampaignStats",
+    "Cluster",
+    "attempt",
+    "client_for",
+    "default_workers",
+    "execute",
+    "map_tasks",
+]
+
+T = TypeVar("T")
+R = TypeVar("R")
 
 _ADDRESS = re.compile(r"^(tcp|tls|ucx|inproc)://[^\s/]+$")
 
@@ -269,3 +280,51 @@ def execute(
         bar.close()
         table.flush()
     return stats
+
+
+def map_tasks(
+    task: Callable[[T], R],
+    payloads: Sequence[T],
+    cluster: Cluster | None = None,
+    *,
+    progress: bool = True,
+    desc: str = "tasks",
+) -> list[R]:
+    """``[task(p) for p in payloads]`` on a cluster, for work whose results are not table rows
+    (e.g. the FRFs of ``rths sweep``): results in payload order; the first task that raises
+    raises here (no table, no resume).
+
+    Parameters
+    ----------
+    task
+        Top-level function (importable by name on the workers).
+    payloads
+        Its arguments, one task each.
+    cluster
+        Where to run (default: an embedded cluster sized to the machine).
+    progress
+        A progress bar over tasks on stderr (shown only when stderr is a terminal).
+    desc
+        The progress bar's label.
+    """
+    from distributed import as_completed
+    from tqdm import tqdm
+
+    if not payloads:
+        return []
+    with (
+        client_for(cluster or Cluster()) as client,
+        tqdm(
+            total=len(payloads),
+            unit="task",
+            desc=desc,
+            file=sys.stderr,
+            disable=None if progress else True,
+            leave=False,
+        ) as bar,
+    ):
+        futures = client.map(task, list(payloads), pure=False)
+        for _ in as_completed(futures):
+            bar.update()
+        results: list[R] = client.gather(futures)
+    return results
