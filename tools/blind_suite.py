@@ -1,7 +1,7 @@
 """Blind suite for ``rths diagnose``: generate labelled lab cases, then score the diagnosis.
 
     python tools/blind_suite.py generate --cases 36 --out /tmp/suite --seed 7
-    python tools/blind_suite.py score /tmp/suite
+    python tools/blind_suite.py score /tmp/suite [--workers N | --scheduler tcp://HOST:8786]
 
 ``generate`` runs the project's emulated lab (:class:`plants.lab.EmulatedLab`: 16-bit +/-10 V
 converters with noise, :class:`plants.actuator.TransferFunctionActuator` with the
@@ -48,6 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rths.campaign import Cluster, map_tasks
 from rths.diagnose._signals import actuator_replay
 from rths.diagnose.data import write_csv
 from rths.diagnose.nominal import nominal_toml
@@ -146,18 +147,26 @@ def _diagnose(folder: Path, drive: str) -> dict:
         ]
     )
     if code != 0:
-        raise SystemExit(f"rths diagnose failed on {folder} (exit {code})")
+        raise RuntimeError(f"rths diagnose failed on {folder} (exit {code})")
     return json.loads(target.read_text())
 
 
-def score(directory: Path, drive: str = "auto") -> None:
-    """Diagnose every case, then compare with ``truth.json`` and print the figures."""
+def _diagnose_case(job: tuple[str, str]) -> tuple[dict, float]:
+    """One case of the suite as a campaign task: its diagnosis and wall time [s]."""
+    t0 = time.perf_counter()
+    result = _diagnose(Path(job[0]), job[1])
+    return result, time.perf_counter() - t0
+
+
+def score(directory: Path, drive: str = "auto", cluster: Cluster | None = None) -> None:
+    """Diagnose every case (each a task on ``cluster``: an embedded Dask cluster by default;
+    the workers read the case folders, so a remote cluster needs them on a shared file system),
+    then compare with ``truth.json`` and print the figures."""
     folders = sorted(p for p in directory.iterdir() if p.is_dir() and p.name.startswith("case_"))
-    results, times = {}, []
-    for folder in folders:
-        t0 = time.perf_counter()
-        results[folder.name] = _diagnose(folder, drive)
-        times.append(time.perf_counter() - t0)
+    jobs = [(str(folder), drive) for folder in folders]
+    done = map_tasks(_diagnose_case, jobs, cluster, desc="blind suite")
+    results = {folder.name: d[0] for folder, d in zip(folders, done, strict=True)}
+    times = [d[1] for d in done]
     truth = json.loads((directory / "truth.json").read_text())  # read only after diagnosing
     confusion = {a: dict.fromkeys(CLASSES, 0) for a in CLASSES}
     errors: dict[str, list[float]] = {c: [] for c in PARAMETER}
@@ -218,11 +227,13 @@ def main(argv: list[str] | None = None) -> int:
         default="auto",
         help="rths diagnose --drive (default auto)",
     )
+    s.add_argument("--workers", type=int, help="worker processes (default: one per core)")
+    s.add_argument("--scheduler", help="a Dask cluster's scheduler, tcp://HOST:8786")
     args = p.parse_args(argv)
     if args.action == "generate":
         generate(args.cases, args.out, args.seed)
     else:
-        score(args.directory, args.drive)
+        score(args.directory, args.drive, Cluster(args.scheduler, args.workers))
     return 0
 
 

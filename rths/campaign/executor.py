@@ -190,7 +190,7 @@ def client_for(cluster: Cluster) -> Iterator[Client]:
         threads_per_worker=1,
         processes=cluster.processes,
         dashboard_address=None,
-        silence_logs=logging.ERROR,
+        silence_logs=logging.CRITICAL,
     )
     with local, Client(local) as client:
         yield client
