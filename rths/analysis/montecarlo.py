@@ -30,8 +30,20 @@ __all__ = ["MonteCarloResult", "campaign", "j2_figure", "run_draws", "run_one"]
 
 @dataclass(frozen=True)
 class MonteCarloResult:
-    """J2 [-] per compensator kind and draw (``j2[kind][i]``; NaN if the draw was interlocked
-    or failed), the campaign's rows and how it ran."""
+    """The outcome of a Monte-Carlo campaign.
+
+    Attributes
+    ----------
+    j2
+        J2 [-] per compensator kind and draw (``j2[kind][i]``; NaN if the draw was interlocked
+        or failed).
+    stopped
+        Per kind, ``"draw i: reason"`` of every draw without a J2.
+    rows
+        The campaign's table rows, in run order.
+    stats
+        How the campaign ran (:class:`rths.campaign.CampaignStats`).
+    """
 
     j2: dict[str, np.ndarray]
     stopped: dict[str, list[str]]
@@ -58,8 +70,17 @@ class MonteCarloResult:
 def run_one(scn: Scenario, kind: str, draw: int, seed: int) -> tuple[float, str | None]:
     """J2 of one compensator on perturbed lab ``draw``; (nan, reason) if it was interlocked.
 
-    Draw ``draw`` perturbs the lab with ``default_rng([seed, draw])`` and seeds its noise with
-    ``seed + draw`` (:func:`rths.session.batch.draw_lab`).
+    Parameters
+    ----------
+    scn
+        The scenario.
+    kind
+        Compensator kind.
+    draw
+        Draw number: the lab is perturbed with ``default_rng([seed, draw])`` and its noise
+        seeded with ``seed + draw`` (:func:`rths.session.batch.draw_lab`).
+    seed
+        Monte-Carlo seed.
     """
     run = run_in_process(scn, compensator=kind, **draw_lab(draw, seed))
     if run.stopped:
@@ -68,7 +89,19 @@ def run_one(scn: Scenario, kind: str, draw: int, seed: int) -> tuple[float, str 
 
 
 def campaign(scn: Scenario, kinds: list[str], draws: int, seed: int) -> Campaign:
-    """The Monte-Carlo campaign: ``draws`` perturbed labs x ``kinds`` (draw-major order)."""
+    """The Monte-Carlo campaign: ``draws`` perturbed labs x ``kinds`` (draw-major order).
+
+    Parameters
+    ----------
+    scn
+        The scenario.
+    kinds
+        Compensator kinds.
+    draws
+        Number of perturbed labs.
+    seed
+        Monte-Carlo seed.
+    """
     runs = [
         scenario_run(scn, compensator=k, draw=i, seed=seed) for i in range(draws) for k in kinds
     ]
@@ -128,7 +161,17 @@ def run_draws(
 
 def j2_figure(result: MonteCarloResult, path: str | Path, title: str = "") -> Path:
     """J2 of every draw per compensator (dots; interlocked or failed draws as crosses at the
-    top), with the median; writes a PNG and returns its path."""
+    top), with the median; writes a PNG and returns its path.
+
+    Parameters
+    ----------
+    result
+        The Monte Carlo.
+    path
+        PNG to write.
+    title
+        Figure title (default: the number of draws).
+    """
     import matplotlib
 
     matplotlib.use("Agg")

@@ -135,7 +135,13 @@ class Vary:
         return tuple(float(v) for v in space(self.low, self.high, self.count))
 
     def at(self, u: float) -> float:
-        """The range's value at the fraction ``u`` in [0, 1] (Latin hypercube)."""
+        """The range's value at a fraction of it (Latin hypercube).
+
+        Parameters
+        ----------
+        u
+            Fraction in [0, 1] (of the logarithm of the range with ``log``).
+        """
         if self.low is None or self.high is None:
             raise ConfigError(f"vary {self.label}: Latin hypercube sampling needs a range lo:hi")
         if self.log:
@@ -305,7 +311,13 @@ def plan(
 # ------------------------------------------------------------------------------ one point
 def exact_damping(scn: Scenario) -> tuple[float, ...] | None:
     """Damping ratios [-] of the exact frequency equation's roots near the load's mode, plus the
-    cable's intrinsic ratio; None when the scenario is not a cable with a linear IMD specimen."""
+    cable's intrinsic ratio; None when the scenario is not a cable with a linear IMD specimen.
+
+    Parameters
+    ----------
+    scn
+        The scenario (cable, damper position, load mode, specimen, scaling).
+    """
     sub, spec = scn.substructure, scn.specimen
     if sub.kind != "cable" or spec.kind not in _LINEAR_IMD:
         return None
@@ -372,7 +384,13 @@ class StudyRun:
 
 
 def study_task(spec: StudyRun) -> dict[str, Scalar]:
-    """One study point: tracking columns, response, numerical twin and exact damping."""
+    """One study point: tracking columns, response, numerical twin and exact damping.
+
+    Parameters
+    ----------
+    spec
+        The point.
+    """
     scn = spec.run.scenario()
     batch = spec.run.execute(scn)
     row = tracking_row(batch)
@@ -391,7 +409,19 @@ def campaign(
     scn: Scenario, study: StudyPlan, compensator: str | None = None, numerical: bool = True
 ) -> Campaign:
     """The study's campaign; every point's overrides are validated here first (a bad key or
-    value is one :class:`ConfigError` before anything runs)."""
+    value is one :class:`ConfigError` before anything runs).
+
+    Parameters
+    ----------
+    scn
+        The scenario studied.
+    study
+        What varies and how it is sampled.
+    compensator
+        Compensator kind overriding the scenario's.
+    numerical
+        Also run each point's fully numerical twin.
+    """
     runs = []
     for point in study.points():
         parse_scenario(scn.text, scn.source, point)  # raises on a bad key or value

@@ -148,7 +148,15 @@ class CampaignStats:
 
 def attempt(task: Task, payload: Any) -> Row:
     """Run ``task(payload)`` on a worker: its row plus ``status``, ``error``, ``wall_s`` and
-    ``worker``; an exception becomes ``status = "error"`` (never propagates)."""
+    ``worker``; an exception becomes ``status = "error"`` (never propagates).
+
+    Parameters
+    ----------
+    task
+        The campaign's task.
+    payload
+        The run's payload.
+    """
     start = time.perf_counter()
     try:
         row = dict(task(payload))
@@ -172,7 +180,13 @@ def _worker() -> str:
 
 @contextmanager
 def client_for(cluster: Cluster) -> Iterator[Client]:
-    """A Dask client on ``cluster`` (an embedded cluster is started and closed with it)."""
+    """A Dask client (an embedded cluster is started and closed with it).
+
+    Parameters
+    ----------
+    cluster
+        Where: a scheduler address or the embedded cluster's size and kind.
+    """
     from distributed import Client, LocalCluster
 
     if cluster.scheduler is not None:

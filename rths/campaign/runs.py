@@ -28,7 +28,15 @@ Task = Callable[[Any], dict[str, Scalar]]
 
 
 def check_scalar(value: Any, name: str) -> Scalar:
-    """``value`` if it can be a table cell, else :class:`ParameterError` naming ``name``."""
+    """``value`` if it can be a table cell, else :class:`ParameterError` naming ``name``.
+
+    Parameters
+    ----------
+    value
+        The candidate cell.
+    name
+        What it is (named in the error).
+    """
     if value is None or isinstance(value, bool | int | float | str):
         return value
     raise ParameterError(f"{name} must be a number, a string, a boolean or None; got {value!r}")

@@ -60,8 +60,13 @@ class ScenarioRun:
         return parse_scenario(self.text, self.source, dict(self.overrides))
 
     def execute(self, scn: Scenario | None = None) -> BatchRun:
-        """Run it on the fast clock in this process (``scn``: :meth:`scenario`, if already
-        built)."""
+        """Run it on the fast clock in this process.
+
+        Parameters
+        ----------
+        scn
+            :meth:`scenario`, if already built.
+        """
         scn = self.scenario() if scn is None else scn
         seed = scn.run.seed if self.seed is None else self.seed
         lab: dict[str, Any] = {"seed": seed} if self.draw is None else draw_lab(self.draw, seed)
@@ -71,7 +76,13 @@ class ScenarioRun:
 def tracking_row(run: BatchRun) -> dict[str, Scalar]:
     """Tracking columns of a run: ``steps``, ``stopped`` and ``status`` (``ok`` or
     ``interlock``), and -- for a run that ran to the end -- ``j1_s`` (delay [s]), ``j2``,
-    ``j3``, ``sync_rmse`` (fractions); None where not measured."""
+    ``j3``, ``sync_rmse`` (fractions); None where not measured.
+
+    Parameters
+    ----------
+    run
+        The run's signals.
+    """
     row: dict[str, Scalar] = {"steps": run.result.steps, "stopped": run.stopped}
     row.update(j1_s=None, j2=None, j3=None, sync_rmse=None)
     row["status"] = "interlock" if run.stopped else "ok"
@@ -87,7 +98,13 @@ def tracking_row(run: BatchRun) -> dict[str, Scalar]:
 
 
 def scenario_task(spec: ScenarioRun) -> dict[str, Scalar]:
-    """The campaign task of a scenario run: :func:`tracking_row` of :meth:`ScenarioRun.execute`."""
+    """The campaign task of a scenario run: :func:`tracking_row` of :meth:`ScenarioRun.execute`.
+
+    Parameters
+    ----------
+    spec
+        The run.
+    """
     return tracking_row(spec.execute())
 
 

@@ -139,8 +139,14 @@ class ResultTable:
         return set(self._rows)
 
     def rows(self, keys: Iterable[str] | None = None) -> list[Row]:
-        """Rows (all, or those of ``keys`` present), ordered by ``index`` then key, each with
-        every column of the table (None where a row has no value)."""
+        """Rows ordered by ``index`` then key, each with every column of the table (None where a
+        row has no value).
+
+        Parameters
+        ----------
+        keys
+            Keys of the rows wanted (those absent are left out); None: every row.
+        """
         if keys is None:
             chosen: Iterable[Row] = self._rows.values()
         else:
@@ -157,7 +163,13 @@ class ResultTable:
         return [*_HEAD, *middle, *(c for c in _TAIL if c in present)]
 
     def add(self, row: Mapping[str, Scalar]) -> None:
-        """Add (or replace) the row of run ``row["run"]``; writes if the flush interval passed."""
+        """Add (or replace) the row of run ``row["run"]``; writes if the flush interval passed.
+
+        Parameters
+        ----------
+        row
+            The row; its ``run`` column is the run's key.
+        """
         self._put(dict(row))
         self._dirty = True
         self.flush(force=False)
@@ -172,18 +184,36 @@ class ResultTable:
         self._rows[key] = row
 
     def discard(self, keys: Iterable[str]) -> None:
-        """Drop the rows of ``keys`` (e.g. failed runs about to be retried)."""
+        """Drop rows (e.g. failed runs about to be retried).
+
+        Parameters
+        ----------
+        keys
+            Keys of the rows to drop.
+        """
         for k in keys:
             if self._rows.pop(k, None) is not None:
                 self._dirty = True
 
     def digest(self, keys: Iterable[str] | None = None) -> str:
-        """:func:`digest` of the rows (all, or those of ``keys``)."""
+        """:func:`digest` of the rows.
+
+        Parameters
+        ----------
+        keys
+            Keys of the rows hashed; None: every row.
+        """
         return digest(self.rows(keys))
 
     # ------------------------------------------------------------------------------ files
     def flush(self, force: bool = True) -> None:
-        """Write the table if it changed (``force=False``: only once the flush interval passed)."""
+        """Write the table to its file if it changed.
+
+        Parameters
+        ----------
+        force
+            Write now; False: only if the flush interval has passed since the last write.
+        """
         if self.path is None or not self._dirty:
             return
         now = time.monotonic()

@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -12,12 +11,20 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from rths.campaign import CampaignStats, Cluster, ResultTable
 
-__all__ = ["add_options", "cluster", "progress_enabled", "summary_line"]
+__all__ = ["add_options", "cluster", "summary_line"]
 
 
 def add_options(p: argparse.ArgumentParser, table: bool = True) -> None:
     """Add ``--workers``, ``--scheduler``, ``--in-process`` (and ``--table``,
-    ``--retry-failed``) to ``p``."""
+    ``--retry-failed``) to a command's parser.
+
+    Parameters
+    ----------
+    p
+        The command's parser.
+    table
+        Also the table options.
+    """
     g = p.add_argument_group("campaign (Dask)")
     g.add_argument(
         "--workers",
@@ -51,7 +58,13 @@ def add_options(p: argparse.ArgumentParser, table: bool = True) -> None:
 
 
 def cluster(args: argparse.Namespace) -> Cluster:
-    """The :class:`rths.campaign.Cluster` of the options."""
+    """The :class:`rths.campaign.Cluster` of the options.
+
+    Parameters
+    ----------
+    args
+        Parsed options (:func:`add_options`).
+    """
     from rths.campaign import Cluster
     from rths.core.errors import ConfigError
 
@@ -65,8 +78,20 @@ def cluster(args: argparse.Namespace) -> Cluster:
 def summary_line(
     stats: CampaignStats, table: ResultTable, where: Cluster, keys: Iterable[str]
 ) -> str:
-    """``N runs (R already in the table, F failed) ran ... in T s; table PATH; digest D`` (the
-    digest of the campaign's rows, ``keys``: equal digests, bit-identical results)."""
+    """``N runs (R already in the table, F failed) ran ... in T s; table PATH; digest D``.
+
+    Parameters
+    ----------
+    stats
+        What :func:`rths.campaign.execute` did.
+    table
+        The results table.
+    where
+        Where the campaign ran.
+    keys
+        The campaign's run keys: the digest covers their rows (equal digests: bit-identical
+        results).
+    """
     parts = [f"{stats.total} runs"]
     extra = []
     if stats.skipped:
@@ -81,8 +106,3 @@ def summary_line(
     if table.path is not None:
         text += f"; table {table.path}"
     return text + f"; digest {table.digest(keys)[:16]}"
-
-
-def progress_enabled(args: argparse.Namespace) -> bool:
-    """Progress bar wanted (and stderr a terminal: tqdm checks it too)."""
-    return not getattr(args, "no_progress", False) and sys.stderr.isatty()

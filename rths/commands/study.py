@@ -29,7 +29,13 @@ __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
-    """Register ``rths study``."""
+    """Register ``rths study``.
+
+    Parameters
+    ----------
+    subparsers
+        The ``rths`` sub-command parsers.
+    """
     p = subparsers.add_parser(
         "study",
         help="parameter study (grid or Latin hypercube over scenario keys) as a campaign",
@@ -60,7 +66,13 @@ def _cell(x: Any, scale: float = 1.0, fmt: str = ".4f") -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the study, write the table and figures, print a summary; 0."""
+    """Run the study, write the table and figures, print a summary; 0.
+
+    Parameters
+    ----------
+    args
+        Parsed options.
+    """
     from controllers.factory import kinds
     from rths.analysis.study import campaign, plan
     from rths.campaign import ResultTable, execute

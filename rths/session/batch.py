@@ -72,9 +72,17 @@ class _Keep:
 
 
 def draw_lab(draw: int, seed: int) -> dict[str, Any]:
-    """Keyword arguments of :func:`run_in_process` for Monte-Carlo draw ``draw`` of seed
-    ``seed``: the lab's generator ``default_rng([seed, draw])`` (perturbed specimen and
-    actuator) and the noise seed ``seed + draw``."""
+    """Keyword arguments of :func:`run_in_process` for a Monte-Carlo draw: the lab's generator
+    ``default_rng([seed, draw])`` (perturbed specimen and actuator) and the noise seed
+    ``seed + draw``.
+
+    Parameters
+    ----------
+    draw
+        Draw number, >= 0.
+    seed
+        Monte-Carlo seed.
+    """
     return {"seed": seed + draw, "rng": np.random.default_rng([seed, draw])}
 
 

@@ -354,7 +354,13 @@ class SweepJob:
 
 
 def sweep_level(job: SweepJob) -> tuple[SweepRun, ...]:
-    """Run one :class:`SweepJob`: the table motion, then every model of the scenario."""
+    """Run one :class:`SweepJob`: the table motion, then every model of the scenario.
+
+    Parameters
+    ----------
+    job
+        The PGA and direction.
+    """
     config = job.config
     table = build_table(config.table, config.dt)
     sine = SteppedSine.sweep(job.grid, job.direction, config.cycles)
