@@ -126,6 +126,8 @@ class CampaignStats:
         Time from the first submission to the last row [s].
     busy
         Sum of the runs' own wall times [s] (``wall_s``).
+    cpu
+        Sum of the runs' CPU times [s] (``cpu_s``).
     """
 
     total: int = 0
@@ -136,6 +138,7 @@ class CampaignStats:
     startup: float = 0.0
     wall: float = 0.0
     busy: float = 0.0
+    cpu: float = 0.0
 
     @property
     def overhead_per_run(self) -> float:
@@ -147,8 +150,9 @@ class CampaignStats:
 
 
 def attempt(task: Task, payload: Any) -> Row:
-    """Run ``task(payload)`` on a worker: its row plus ``status``, ``error``, ``wall_s`` and
-    ``worker``; an exception becomes ``status = "error"`` (never propagates).
+    """Run ``task(payload)`` on a worker: its row plus ``status``, ``error``, ``wall_s`` (wall
+    time [s]), ``cpu_s`` (CPU time of the worker thread [s]: the run's cost whatever else loads
+    the machine) and ``worker``; an exception becomes ``status = "error"`` (never propagates).
 
     Parameters
     ----------
@@ -157,14 +161,15 @@ def attempt(task: Task, payload: Any) -> Row:
     payload
         The run's payload.
     """
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.thread_time()
     try:
         row = dict(task(payload))
         status = row.pop("status", "ok")
         error = None
     except Exception as exc:  # a failed run is a row, whatever failed
         row, status, error = {}, "error", f"{type(exc).__name__}: {exc}"
-    row.update(status=status, error=error, wall_s=time.perf_counter() - start, worker=_worker())
+    row.update(status=status, error=error, wall_s=time.perf_counter() - start)
+    row.update(cpu_s=time.thread_time() - cpu, worker=_worker())
     return row
 
 
@@ -283,6 +288,8 @@ def execute(
                     stats.failed += row.get("status") == "error"
                     wall = part.get("wall_s")
                     stats.busy += wall if isinstance(wall, float) else 0.0
+                    cpu = part.get("cpu_s")
+                    stats.cpu += cpu if isinstance(cpu, float) else 0.0
                     bar.update()
                     if stats.failed:
                         bar.set_postfix_str(f"{stats.failed} failed")

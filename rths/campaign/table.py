@@ -2,7 +2,8 @@
 
 Columns, in order: ``run`` (the run's key), ``index`` (its position in the campaign), the run's
 inputs, the task's results, then ``status`` (``ok``, ``interlock`` or ``error``), ``error`` (the
-exception of a failed run), ``wall_s`` (the run's wall time [s] on its worker) and ``worker``.
+exception of a failed run), ``wall_s`` and ``cpu_s`` (the run's wall and CPU time [s] on its
+worker) and ``worker``.
 Rows are kept sorted by ``index``, so the table does not depend on the order in which runs
 finished.  :data:`TIMING_COLUMNS` depend on the machine and the schedule; every other column
 depends only on the run's inputs, and :func:`digest` hashes exactly those: equal digests mean
@@ -36,13 +37,13 @@ __all__ = ["FORMATS", "TIMING_COLUMNS", "ResultTable", "Row", "digest"]
 Row = dict[str, Scalar]
 
 #: Columns that depend on where and when a run executed, not on its inputs.
-TIMING_COLUMNS = ("wall_s", "worker")
+TIMING_COLUMNS = ("wall_s", "cpu_s", "worker")
 #: File formats by suffix.
 FORMATS = (".parquet", ".csv")
 _HEAD = ("run", "index")
 #: Columns read back from CSV as text whatever they look like (a key may read as a number).
 _TEXT_COLUMNS = ("run", "status", "error", "worker")
-_TAIL = ("status", "error", "wall_s", "worker")
+_TAIL = ("status", "error", "wall_s", "cpu_s", "worker")
 
 
 def _cell(value: Any) -> Any:
