@@ -106,7 +106,7 @@ def test_the_scenario_study_table_and_its_checks():
     p = plan(scn)
     assert [v.keys for v in p.varies] == [("specimen.inertance", "model.inertance"),
                                           ("specimen.damping", "model.damping")]  # fmt: skip
-    assert len(p.points()) == 16
+    assert len(p.points()) == 24
     with pytest.raises(ConfigError, match="needs samples"):
         plan(scn, sampling="lhs")
     with pytest.raises(ConfigError, match="varied twice"):
