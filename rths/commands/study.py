@@ -106,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
     labels = [v.label for v in study.varies]
     head = "".join(f"{k[-22:]:>23}" for k in labels)
     print(
-        f"{head} {'status':>9} {'J2 %':>7} {'zeta1 %':>7} {'zeta2 %':>7} {'numer. %':>8}"
+        f"{head} {'status':>9} {'J2 %':>7} {'zeta1 %':>7} {'zeta2 %':>7} {'num1 %':>8}"
         f" {'exact %':>13} {'peak mm':>8}"
     )
     for r in rows:
