@@ -82,8 +82,12 @@ def test_an_external_scheduler_runs_the_same_campaign(tmp_path):
 def test_an_unreachable_scheduler_is_a_one_line_error(capsys):
     # port 9 (discard) on loopback: nothing listens there
     with pytest.raises(ConfigError, match="cannot reach the Dask scheduler at tcp://127.0.0.1:9"):
-        execute(_small_campaign(1, ("ff",)), ResultTable(None),
-                Cluster(scheduler="tcp://127.0.0.1:9", connect_timeout=1.0), progress=False)  # fmt: skip
+        execute(
+            _small_campaign(1, ("ff",)),
+            ResultTable(None),
+            Cluster(scheduler="tcp://127.0.0.1:9", connect_timeout=1.0),
+            progress=False,
+        )
     with pytest.raises(ConfigError, match="tcp://HOST:8786"):
         Cluster(scheduler="127.0.0.1:8786")
     assert main(["run", str(MC), "--monte-carlo", "1", "--scheduler", "localhost"]) == 2
@@ -120,8 +124,13 @@ def test_an_interrupted_campaign_keeps_the_rows_it_finished(tmp_path):
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        execute(c, ResultTable(path, flush_interval=60.0), THREADS, progress=False,
-                on_row=stop_after_two)  # fmt: skip
+        execute(
+            c,
+            ResultTable(path, flush_interval=60.0),
+            THREADS,
+            progress=False,
+            on_row=stop_after_two,
+        )
     assert ResultTable(path).keys() == {r["run"] for r in seen}
     stats = execute(c, ResultTable(path), THREADS, progress=False)
     assert (stats.skipped, stats.ran) == (2, 2)

@@ -39,7 +39,9 @@ def test_draws_are_reproducible_and_differ_from_each_other():
 def test_feedback_improves_on_feedforward_across_draws():
     """The LQG corrects what the feedforward misses on a perturbed plant (Phillips & Spencer):
     per draw, FF+LQG tracks better than FF alone, and both far better than no compensation."""
-    result = run_draws(_short(1.0), ["none", "ff", "ff_lqg"], draws=3, seed=11, progress=False, cluster=LOCAL)
+    result = run_draws(
+        _short(1.0), ["none", "ff", "ff_lqg"], draws=3, seed=11, progress=False, cluster=LOCAL
+    )
     j2 = result.j2
     assert np.all(j2["ff_lqg"] < j2["ff"]) and np.all(j2["ff"] < 0.2 * j2["none"])
 

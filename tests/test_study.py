@@ -58,6 +58,29 @@ def test_free_decay_refuses_what_it_cannot_read():
         free_decay(np.sin(np.arange(10.0)), 0.01)
 
 
+def test_the_cable_load_stops_at_its_duration_and_the_cable_rings_down():
+    """[substructure.load] duration: the S0 Eq.22 load up to it, nothing after (free decay)."""
+    from plants.cable.model import Cable, CableProperties, DistributedLoad
+
+    dt = 1.0 / 256
+    cable = Cable(
+        CableProperties(200.0, 5e6, 80.0),
+        0.02,
+        dt,
+        elements=40,
+        load=DistributedLoad(50.0, mode=3, duration=1.0),
+    )
+    assert np.any(cable.nodal_load(0.99) != 0) and not np.any(cable.nodal_load(1.0 + dt))
+    free = Cable(
+        CableProperties(200.0, 5e6, 80.0), 0.02, dt, elements=40, load=DistributedLoad(50.0, mode=3)
+    )
+    a = [cable.step(0.0).displacement for _ in range(512)]
+    b = [free.step(0.0).displacement for _ in range(512)]
+    assert a[:256] == b[:256] and a[256:] != b[256:]  # identical while loaded, then not
+    with pytest.raises(ConfigError, match="load duration must be positive"):
+        load_scenario(STUDY, {"substructure.load.duration": 0.0})
+
+
 # ------------------------------------------------------------------------------ exact
 def test_exact_damping_is_the_published_seed_pair():
     """design.md §6: m_e = 0.53, c_d x_d = 0.015, mode 3 -> zeta 0.0905 and 0.0878 (plus the
@@ -76,8 +99,12 @@ def test_vary_syntax_grid_and_latin_hypercube():
     assert parse_vary("a.b=10:1000:3:log").grid() == pytest.approx((10.0, 100.0, 1000.0))
     assert parse_vary("a.b=1,2.5,x").values == (1, 2.5, "x")
     grid = StudyPlan((parse_vary("a.x,b.x=1:2:2"), parse_vary("c.y=5,6"))).points()
-    assert grid == [{"a.x": 1.0, "b.x": 1.0, "c.y": 5}, {"a.x": 1.0, "b.x": 1.0, "c.y": 6},
-                    {"a.x": 2.0, "b.x": 2.0, "c.y": 5}, {"a.x": 2.0, "b.x": 2.0, "c.y": 6}]  # fmt: skip
+    assert grid == [
+        {"a.x": 1.0, "b.x": 1.0, "c.y": 5},
+        {"a.x": 1.0, "b.x": 1.0, "c.y": 6},
+        {"a.x": 2.0, "b.x": 2.0, "c.y": 5},
+        {"a.x": 2.0, "b.x": 2.0, "c.y": 6},
+    ]
     lhs = StudyPlan((parse_vary("a.x=0:1"), parse_vary("b.y=10:100:log")), "lhs", 10, seed=4)
     points = lhs.points()
     assert points == lhs.points() and len(points) == 10
@@ -104,8 +131,10 @@ def test_bad_vary_is_one_line(text, message):
 def test_the_scenario_study_table_and_its_checks():
     scn = load_scenario(STUDY)
     p = plan(scn)
-    assert [v.keys for v in p.varies] == [("specimen.inertance", "model.inertance"),
-                                          ("specimen.damping", "model.damping")]  # fmt: skip
+    assert [v.keys for v in p.varies] == [
+        ("specimen.inertance", "model.inertance"),
+        ("specimen.damping", "model.damping"),
+    ]
     assert len(p.points()) == 24
     with pytest.raises(ConfigError, match="needs samples"):
         plan(scn, sampling="lhs")
@@ -125,8 +154,9 @@ def test_rths_free_decay_damping_matches_the_exact_frequency_equation(tmp_path):
     scn = load_scenario(STUDY, SHORT)
     study = StudyPlan((parse_vary("specimen.inertance,model.inertance=600,1400"),))
     table = ResultTable(tmp_path / "study.csv")
-    stats = execute(campaign(scn, study), table, Cluster(workers=1, processes=False),
-                    progress=False)  # fmt: skip
+    stats = execute(
+        campaign(scn, study), table, Cluster(workers=1, processes=False), progress=False
+    )
     assert stats.ran == 2 and stats.failed == 0
     one, two = table.rows()
     assert one["specimen.inertance"] == 600 and one["zeta_2"] is None
@@ -143,11 +173,22 @@ def test_rths_free_decay_damping_matches_the_exact_frequency_equation(tmp_path):
 
 def test_cli_study_writes_table_and_figures_and_refuses_bad_keys(tmp_path, capsys):
     scn = tmp_path / "s.toml"
-    scn.write_text(STUDY.read_text().replace("duration = 8.0", "duration = 1.5")
-                   .replace("duration = 4.0", "duration = 1.0"))  # fmt: skip
+    scn.write_text(
+        STUDY.read_text()
+        .replace("duration = 8.0", "duration = 1.5")
+        .replace("duration = 4.0", "duration = 1.0")
+    )
     table = tmp_path / "s.parquet"
-    argv = ["study", str(scn), "--vary", "specimen.inertance,model.inertance=800,900",
-            "--in-process", "--no-numerical", "--table", str(table)]  # fmt: skip
+    argv = [
+        "study",
+        str(scn),
+        "--vary",
+        "specimen.inertance,model.inertance=800,900",
+        "--in-process",
+        "--no-numerical",
+        "--table",
+        str(table),
+    ]
     assert main(argv) == 0
     out = capsys.readouterr().out
     assert "2 runs ran 2 on 2 local worker threads" in out or "ran 2 on" in out

@@ -350,7 +350,8 @@ class Cable(Substructure):
     def nodal_load(self, t: float) -> NDArray[np.float64]:
         """Consistent nodal forces [N] of the distributed load (S0 Eq.22) at time ``t`` [s]."""
         t = check_finite(t, "time t")
-        return (math.sin(self._load_frequency * t) if t <= self._load_end else 0.0) * self._load_shape
+        scale = math.sin(self._load_frequency * t) if t <= self._load_end else 0.0
+        return scale * self._load_shape
 
     def set_state(
         self,
