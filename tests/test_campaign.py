@@ -69,7 +69,7 @@ def test_an_external_scheduler_runs_the_same_campaign(tmp_path):
         threads_per_worker=1,
         processes=False,
         scheduler_port=0,
-        dashboard_address=None,
+        dashboard_address=":0",
         silence_logs=logging.ERROR,
         protocol="tcp",
     ) as cluster:

@@ -208,7 +208,7 @@ def client_for(cluster: Cluster) -> Iterator[Client]:
         n_workers=cluster.workers or default_workers(),
         threads_per_worker=1,
         processes=cluster.processes,
-        dashboard_address=None,
+        dashboard_address=":0",  # any free port: never collides with another cluster's 8787
         silence_logs=logging.CRITICAL,
     )
     with local, Client(local) as client:
