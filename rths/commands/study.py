@@ -39,7 +39,10 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "study",
         help="parameter study (grid or Latin hypercube over scenario keys) as a campaign",
-        description=__doc__.split("\n\n", 1)[0],
+        description="Parameter study: a grid or Latin hypercube over scenario keys, every point "
+        "an RTHS on the fast clock, run as a campaign; the table (default "
+        "runs/<name>-study.parquet; re-run to resume) and figures of the free-decay modal "
+        "damping against the exact frequency equation and of the peak midspan displacement.",
         epilog="--vary KEY[,KEY...]=SPEC: SPEC is v1,v2,... or lo:hi:n (grid) or lo:hi (Latin "
         "hypercube), with :log for geometric spacing; keys joined by commas take the same value.",
     )
