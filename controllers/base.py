@@ -14,6 +14,10 @@ import math
 from abc import ABC, abstractmethod
 from typing import ClassVar
 
+import numpy as np
+from numpy.typing import NDArray
+
+from rths.core.channels import Channel
 from rths.core.errors import NumericalError, ParameterError, check_positive
 from rths.core.kinematics import Kinematics
 
@@ -89,3 +93,13 @@ class Compensator(ABC):
     def state(self) -> dict[str, float]:
         """Named internal variables for logging; empty unless a compensator has some."""
         return {}
+
+    def channels(self) -> tuple[Channel, ...]:
+        """The logged channels, in the order :meth:`write_channels` writes them (default: the
+        keys of :meth:`state`, no unit declared)."""
+        return tuple(Channel(name, "?", "compensator state") for name in self.state())
+
+    def write_channels(self, out: NDArray[np.float64]) -> None:
+        """Write this step's values of :meth:`channels` into ``out`` (a slice of the loop's
+        preallocated row).  Default: from :meth:`state` (slow: a dict per step)."""
+        out[:] = tuple(self.state().values())

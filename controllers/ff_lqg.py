@@ -45,6 +45,8 @@ class FFLQGCompensator(LQGCompensator):
         LQG gains from :func:`controllers.lqg.design_lqg` (same ``dt``).
     feedforward
         The model-based feedforward (required).
+    use_jit
+        Step with the compiled kernel (default) or the Python reference path.
 
     Notes
     -----
@@ -70,7 +72,14 @@ class FFLQGCompensator(LQGCompensator):
         )
         return cls(dt, design_lqg(nominal, dt, options.weights, delay), feedforward)
 
-    def __init__(self, dt: float, design: LQGDesign, feedforward: FeedforwardCompensator) -> None:
+    def __init__(
+        self,
+        dt: float,
+        design: LQGDesign,
+        feedforward: FeedforwardCompensator,
+        *,
+        use_jit: bool = True,
+    ) -> None:
         if feedforward is None:
             raise ParameterError("FF+LQG needs a feedforward compensator; got None")
-        super().__init__(dt, design, feedforward)
+        super().__init__(dt, design, feedforward, use_jit=use_jit)

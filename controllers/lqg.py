@@ -38,9 +38,11 @@ from dataclasses import dataclass, field
 import control
 import numpy as np
 
+from controllers import _lqg_kernel
 from controllers._lti import FloatArray, balanced_realization, dc_gain, siso_polynomials
 from controllers.base import Compensator
 from controllers.feedforward import FeedforwardCompensator
+from rths.core.channels import Channel
 from rths.core.errors import (
     ParameterError,
     check_nonnegative,
@@ -231,7 +233,20 @@ class LQGCompensator(Compensator):
         Gains from :func:`design_lqg`.
     feedforward
         Model-based feedforward, or ``None`` for the static inverse.
+    use_jit
+        Step with the compiled kernel (:mod:`controllers._lqg_kernel`, one call per step);
+        False runs the readable Python reference (same results to round-off, tested).
     """
+
+    #: Declared channels of :meth:`state` / :meth:`write_channels`.
+    CHANNELS: tuple[Channel, ...] = (
+        Channel("feedforward", "m", "feedforward part of the command"),
+        Channel("feedback", "m", "LQG feedback part of the command"),
+        Channel("tracking_error", "m", "measured minus target at t_k"),
+        Channel("predicted_error", "m", "Kalman prediction of the next tracking error"),
+        Channel("integral_error", "m s", "integral of target minus measured"),
+        Channel("innovation", "m", "Kalman innovation"),
+    )
 
     @classmethod
     def from_options(
@@ -249,7 +264,12 @@ class LQGCompensator(Compensator):
         return cls(dt, design_lqg(nominal, dt, options, delay))
 
     def __init__(
-        self, dt: float, design: LQGDesign, feedforward: FeedforwardCompensator | None = None
+        self,
+        dt: float,
+        design: LQGDesign,
+        feedforward: FeedforwardCompensator | None = None,
+        *,
+        use_jit: bool = True,
     ) -> None:
         super().__init__(dt)
         if not isinstance(design, LQGDesign):
@@ -269,6 +289,22 @@ class LQGCompensator(Compensator):
         self.design = design
         self.feedforward = feedforward
         self._inv_gain = 1.0 / design.static_gain
+        self.use_jit = bool(use_jit)
+        ff = feedforward
+        self._p, self._s = _lqg_kernel.pack(
+            design.dt,
+            design.a,
+            design.b,
+            design.c,
+            design.gain_state,
+            design.gain_integral,
+            design.filter_gain,
+            self._inv_gain,
+            None if ff is None else ff._c,
+            False if ff is None else ff.hold_correction,
+            0 if ff is None else ff._n_diff,
+        )
+        self._log = self._s[-len(_lqg_kernel.LOG_NAMES) :]
         self.reset()
 
     def _reset_impl(self) -> None:
@@ -282,8 +318,22 @@ class LQGCompensator(Compensator):
         self._error = 0.0
         if self.feedforward is not None:
             self.feedforward.reset()
+        self._s[:] = 0.0
+        if self.use_jit:  # compile before the clock starts
+            _lqg_kernel.lqg_step(self._p, self._s.copy(), 0.0, 0.0, 0.0, 0.0)
 
     def _step_impl(self, target: Kinematics, measured: float) -> float:
+        if self.use_jit:
+            return float(
+                _lqg_kernel.lqg_step(
+                    self._p,
+                    self._s,
+                    target.displacement,
+                    target.velocity,
+                    target.acceleration,
+                    measured,
+                )
+            )
         d = self.design
         # measurement update (current estimator) with the tracking error y_k - r_k
         self._error = measured - self._r_prev
@@ -302,9 +352,22 @@ class LQGCompensator(Compensator):
         self._u_ff, self._u_fb = u_ff, u_fb
         return u_ff + u_fb
 
+    def channels(self) -> tuple[Channel, ...]:
+        """:data:`CHANNELS` (the keys of :meth:`state`, with units)."""
+        return self.CHANNELS
+
+    def write_channels(self, out: FloatArray) -> None:
+        """Write :meth:`state`'s values into ``out`` (one slice copy when compiled)."""
+        if self.use_jit:
+            out[:] = self._log
+        else:
+            out[:] = tuple(self.state().values())
+
     def state(self) -> dict[str, float]:
         """Feedforward and feedback parts [m], tracking error and its estimate [m], integral
         [m s], Kalman innovation [m]."""
+        if self.use_jit:
+            return dict(zip(_lqg_kernel.LOG_NAMES, self._log.tolist()))
         return {
             "feedforward": float(self._u_ff),
             "feedback": self._u_fb,

@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from plants.lines import DelayLine, RateLimiter
+from rths.core.channels import Channel
 from rths.core.errors import (
     NumericalError,
     ParameterError,
@@ -157,6 +158,17 @@ class Substructure(ABC):
         point; empty unless a substructure defines some."""
         return {}
 
+    def channels(self) -> tuple[Channel, ...]:
+        """The logged channels, in the order :meth:`write_channels` writes them.  Default: the
+        keys of :meth:`outputs` (no unit declared); a substructure on the real-time path
+        declares its own and overrides :meth:`write_channels`."""
+        return tuple(Channel(name, "?", "substructure output") for name in self.outputs())
+
+    def write_channels(self, out: NDArray[np.float64]) -> None:
+        """Write this step's values of :meth:`channels` into ``out`` (a slice of the loop's
+        preallocated row).  Default: from :meth:`outputs` (slow: a dict per step)."""
+        out[:] = tuple(self.outputs().values())
+
 
 class Specimen(ABC):
     """A physical device driven by the displacement of one end (the other end is fixed).
@@ -250,6 +262,14 @@ class Specimen(ABC):
     def state(self) -> dict[str, float]:
         """Named internal variables (SI) for logging; empty unless a model has some."""
         return {}
+
+    def channels(self) -> tuple[Channel, ...]:
+        """The logged channels (default: the keys of :meth:`state`, no unit declared)."""
+        return tuple(Channel(name, "?", "specimen state") for name in self.state())
+
+    def write_channels(self, out: NDArray[np.float64]) -> None:
+        """Write the values of :meth:`channels` into ``out`` (default: from :meth:`state`)."""
+        out[:] = tuple(self.state().values())
 
 
 class Actuator(ABC):
@@ -368,6 +388,40 @@ class Actuator(ABC):
     def _state_impl(self) -> dict[str, float]:
         """The subclass's named variables for :meth:`state`; none by default."""
         return {}
+
+    def channels(self) -> tuple[Channel, ...]:
+        """The logged channels of :meth:`state`, in order: ``command_delayed`` [m],
+        ``rate_limiting`` [1], the subclass's (:meth:`_channels_impl`), the specimen's as
+        ``specimen.<name>``."""
+        own = (
+            Channel("command_delayed", "m", "command after the actuator's pure delay"),
+            Channel("rate_limiting", "1", "+1/-1 while the flow limit is active, else 0"),
+        )
+        spec = tuple(
+            Channel("specimen." + c.name, c.unit, c.description) for c in self.specimen.channels()
+        )
+        return own + self._channels_impl() + spec
+
+    def _channels_impl(self) -> tuple[Channel, ...]:
+        """Declared channels of :meth:`_state_impl` (default: its keys, no unit declared)."""
+        return tuple(Channel(name, "?", "actuator state") for name in self._state_impl())
+
+    def write_channels(self, out: NDArray[np.float64]) -> None:
+        """Write the values of :meth:`channels` into ``out`` (no dict: the base's two, the
+        subclass's through :meth:`_write_own`, then the specimen's)."""
+        n = getattr(self, "_own_count", None)
+        if n is None:
+            n = self._own_count = 2 + len(self._channels_impl())
+        out[0] = self._command
+        out[1] = 0.0 if self.limiter is None else float(self.limiter.limiting)
+        if n > 2:
+            self._write_own(out[2:n])
+        if out.size > n:
+            self.specimen.write_channels(out[n:])
+
+    def _write_own(self, out: NDArray[np.float64]) -> None:
+        """Write :meth:`_state_impl`'s values into ``out`` (override to avoid the dict)."""
+        out[:] = tuple(self._state_impl().values())
 
 
 def drive(

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from plants.base import Actuator, Kinematics
+from rths.core.channels import Channel
 from rths.core.errors import (
     ParameterError,
     check_finite,
@@ -30,9 +31,22 @@ from rths.core.errors import (
     check_positive_int,
 )
 
-__all__ = ["Converter", "EmulatedLab", "LabConverters"]
+__all__ = ["LAB_CHANNELS", "Converter", "EmulatedLab", "LabConverters"]
 
 _CHANNELS = ("command", "displacement", "force")
+
+#: The lab's own logged channels (the actuator's follow as ``actuator.<name>``).
+LAB_CHANNELS: tuple[Channel, ...] = (
+    Channel("t", "s", "simulated time at the end of the step"),
+    Channel("command", "m", "command received (after the specimen side's guard)"),
+    Channel("command_dac", "m", "command after the DAC"),
+    Channel("displacement", "m", "true displacement of the specimen end"),
+    Channel("velocity", "m/s", "true velocity of the specimen end"),
+    Channel("acceleration", "m/s^2", "true acceleration of the specimen end"),
+    Channel("force", "N", "true restoring force of the specimen"),
+    Channel("measured_displacement", "m", "displacement after the ADC (noise, quantisation)"),
+    Channel("measured_force", "N", "force after the ADC (noise, quantisation)"),
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -272,3 +286,29 @@ class EmulatedLab:
         if state is not None:
             out.update({f"actuator.{name}": value for name, value in state().items()})
         return out
+
+    def channels(self) -> tuple[Channel, ...]:
+        """Declared channels of :meth:`write_channels`: :data:`LAB_CHANNELS`, then the actuator's as
+        ``actuator.<name>`` (the keys of :meth:`truth`, in the same order)."""
+        act = tuple(
+            Channel("actuator." + c.name, c.unit, c.description) for c in self.actuator.channels()
+        )
+        return LAB_CHANNELS + act
+
+    def write_channels(self, out: NDArray[np.float64]) -> None:
+        """Write this step's values of :meth:`channels` into ``out`` (a preallocated row)."""
+        k = self._kinematics
+        n = len(LAB_CHANNELS)
+        out[:n] = (
+            self.time,
+            self._command,
+            self._command_dac,
+            k.displacement,
+            k.velocity,
+            k.acceleration,
+            self._force,
+            self._measured[0],
+            self._measured[1],
+        )
+        if out.size > n:
+            self.actuator.write_channels(out[n:])

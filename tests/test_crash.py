@@ -17,6 +17,7 @@ from mcap.reader import make_reader
 from rths.config.scenario import parse_scenario
 from rths.core.errors import TransportError
 from rths.session.runner import RunOptions, run_scenario
+from rths.wire.auth import RunSecret, write_secret_file
 from rths.wire.transport import loopback_endpoint
 
 
@@ -26,6 +27,7 @@ def test_killed_specimen_leaves_a_finished_readable_log(tmp_path):
     scn = parse_scenario(scn_file.read_text(), str(scn_file))
     endpoint = loopback_endpoint()
     out = tmp_path / "crash.mcap"
+    secret = write_secret_file(tmp_path / "run.secret", RunSecret.new())
     outcome: dict = {}
     running = threading.Event()
 
@@ -42,6 +44,7 @@ def test_killed_specimen_leaves_a_finished_readable_log(tmp_path):
                     listen=(endpoint,),
                     external_specimen=True,
                     run_id="crash-test",
+                    secret_file=secret,
                     step_timeout=3.0,
                     progress=progress,
                 ),
@@ -62,6 +65,8 @@ def test_killed_specimen_leaves_a_finished_readable_log(tmp_path):
             "crash-test",
             "--connect",
             endpoint,
+            "--secret-file",
+            str(secret),
         ],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,

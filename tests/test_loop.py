@@ -28,7 +28,7 @@ def _run(scn, link=None, n=None, **kw):
         link or InProcessLink(build.lab(scn)),
         scn.scaling,
         n,
-        sink=rec.append,
+        sink=lambda block: rec.extend(block.records()),
         force_filter=build.correction_filter(scn),
         command_limit=scn.loop.stroke,
         **kw,
@@ -68,7 +68,7 @@ class _NaNLink:
         self.after = after
 
     def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
-        return LinkSample(math.nan if seq >= self.after else 0.0, 0.0)
+        return LinkSample(math.nan if seq >= self.after else 0.0, 0.0, 0, seq)
 
 
 def test_non_finite_measurement_trips_the_interlock():
@@ -87,7 +87,7 @@ class _SlowLink:
     def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
         if seq == 50:
             self.reached.set()
-        return LinkSample(0.0, 0.0)
+        return LinkSample(0.0, 0.0, 0, seq)
 
 
 def test_stop_from_another_thread_reports_the_reason():

@@ -21,6 +21,7 @@ from rths.config.kinds import load_kinds, registry
 from rths.config.options import describe_options, parse_options
 from rths.config.scenario import parse_scenario
 from rths.config.toml import parse_toml
+from rths.core.channels import RowBlock
 from rths.core.errors import ConfigError
 from rths.core.registry import FAMILIES, SPECIMENS, Registry
 from rths.runtime.loop import InProcessLink, Loop
@@ -76,7 +77,12 @@ def test_every_kind_builds_and_runs(family, kind):
     sub, comp, lab = build.substructure(scn), build.compensator(scn), build.lab(scn)
     records: list[dict[str, float]] = []
     result = Loop(
-        sub, comp, InProcessLink(lab), scn.scaling, scn.run.steps, sink=records.append
+        sub,
+        comp,
+        InProcessLink(lab),
+        scn.scaling,
+        scn.run.steps,
+        sink=lambda b: records.extend(b.records()),
     ).run()
     assert result.stopped is None and result.steps == scn.run.steps == 51
     built = {
@@ -90,6 +96,12 @@ def test_every_kind_builds_and_runs(family, kind):
     )  # factory kinds (imd, benchmark) build a class
     assert all(math.isfinite(v) for r in records for v in r.values())
     assert sub.steps == comp.steps == lab.actuator.steps == 51  # the bases count
+    # declared channels: the row a component writes is its dict, name for name, value for value
+    for part, as_dict in ((lab, lab.truth()), (comp, comp.state()), (sub, sub.outputs())):
+        row = RowBlock(part.channels(), 1).values[0]
+        part.write_channels(row)
+        assert [c.name for c in part.channels()] == list(as_dict), type(part).__name__
+        assert row.tolist() == [float(v) for v in as_dict.values()], type(part).__name__
 
 
 def test_every_kind_is_documented_in_the_readme():

@@ -450,7 +450,7 @@ def partitioned_run(
         ExactKinematicsLink(sub, specimen),
         Scaling(),
         ag.size - 1,
-        sink=records.append,
+        sink=lambda b: records.extend(b.records()),
         command_limit=0.5,
     )
     result = loop.run()

@@ -438,3 +438,53 @@ def test_lockstep_across_processes(specimen_first: bool) -> None:
             child.wait()
     assert child.returncode == 0, err
     assert out.strip().splitlines()[-1] == "served 300: coordinator requested stop: test over"
+
+
+def test_sealed_links_drop_forged_and_replayed_messages(pair) -> None:
+    """Commands, measurements and stop requests that do not carry the run's check, or carry it
+    a second time, are dropped and counted; the genuine exchange goes on unchanged."""
+    from rths.wire.auth import RunSecret
+    from rths.wire.links import SyncClient
+
+    co, sp, ep = pair
+    keys = RunKeys("sealed")
+    secret, wrong = RunSecret.new(), RunSecret.new().sealer("command")
+    with (
+        LockstepClient(co, keys, timeout=PATIENCE, secret=secret) as client,
+        LockstepServer(sp, keys, secret) as server,
+        Presence(co, keys, "coordinator", ep.describe(), secret) as pc,
+        Presence(sp, keys, "specimen", ep.describe(), secret) as ps,
+    ):
+        _handshake(pc, ps, [client.publisher], [server.publisher])
+        worker = threading.Thread(target=server.serve, args=(echo, ps.stop))
+        worker.start()
+        replay = b""
+        for k in range(100):
+            co.put(keys.command, Command(k, 0, 0.04).pack())  # plain: forged
+            co.put(keys.command, wrong.seal(Command(k, 0, 0.04).pack()))  # wrong key
+            if replay:
+                co.put(keys.command, replay)  # a genuine frame, again
+            co.put(keys.stop, b'{"reason": "forged"}')
+            u = 1e-3 * (k % 17 - 8)
+            replay = client.sealer.seal(Command(k, 250_000 * k, u).pack())
+            co.put(keys.command, replay)
+            m = client.receive(k)
+            assert m == Measurement(k, 250_000 * k, 2 * u, -3 * u, 7)
+        pc.request_stop("finished")
+        worker.join(PATIENCE)
+        assert ps.stop_reason == "coordinator requested stop: finished"
+        counts = server.opener.counts()
+        assert counts["accepted"] == 100 and counts["replayed"] == 99
+        assert counts["forged"] == 200 and ps.refused >= 1  # some stops may still be in flight
+    with SyncClient(co, RunKeys("sync"), secret) as sync:
+        meas = secret.sealer("measurement")
+        pub = sp.declare_publisher("rths/sync/measurement")
+        _wait_matched(pub)
+        pub.put(Measurement(0, 0, 0.03, 1.0, 0).pack())  # forged
+        genuine = meas.seal(Measurement(0, 0, 1e-3, 2.0, 0).pack())
+        pub.put(genuine)
+        pub.put(genuine)  # replayed
+        got = sync.exchange(Command(0, 0, 0.0), time.monotonic_ns() + int(PATIENCE * 1e9))
+        assert got == Measurement(0, 0, 1e-3, 2.0, 0) and sync.dropped >= 1
+        late = sync.exchange(Command(1, 0, 0.0), time.monotonic_ns() + 50_000_000)
+        assert late is None and sync.dropped == 2 and sync.newest == got  # the replay: dropped

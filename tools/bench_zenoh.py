@@ -19,6 +19,12 @@ pooled over ``--rounds`` interleaved rounds.  Mechanisms (``*`` = what rths.wire
 * ``batched``        rths with ``express=False`` publishers (zenoh batching on)
 * ``lowlatency``     rths on a ``transport/unicast/lowlatency`` session (QoS off)
 * ``query``          request/response with Querier.get / Queryable.reply
+* ``sync*``          SyncClient (the synchronous ``realtime`` clock: direct callback into a
+  SimpleQueue, timed wait) against LockstepServer, sealed with a run secret (HMAC)
+* ``sync-lowlatency`` the same on ``transport/unicast/lowlatency`` sessions (QoS off)
+* ``sync-shm``       the same with zenoh's shared-memory transport on and the specimen's
+  measurements written into SHM buffers (``zenoh.shm.ShmProvider``)
+* ``sync-poll``      SyncClient on a FIFO channel polled every 20 µs (timer slack 1 µs)
 * ``recording``      rths while a :class:`Recorder` records one rths/loop message per step
   (its writer thread competes for the GIL; CPython's default switch interval is 5 ms)
 * ``recording-si``   the same after ``sys.setswitchinterval(1e-4)`` in the coordinator
@@ -45,12 +51,15 @@ import numpy as np
 import zenoh
 
 from rths.log.recorder import LOOP_TOPIC, Recorder
+from rths.runtime.clocks import realtime_thread
+from rths.wire.auth import RunSecret
 from rths.wire.codec import Command, Measurement
 from rths.wire.transport import (
     LockstepClient,
     LockstepServer,
     Presence,
     RunKeys,
+    SyncClient,
     ZenohEndpoints,
     declare_hot_publisher,
     session_config,
@@ -67,15 +76,25 @@ MECHANISMS = (
     "query",
     "recording",
     "recording-si",
+    "sync",
+    "sync-lowlatency",
+    "sync-shm",
+    "sync-poll",
 )
 RTHS_LINKS = ("rths", "batched", "lowlatency", "recording", "recording-si")
+SYNC_LINKS = ("sync", "sync-lowlatency", "sync-shm", "sync-poll")
+#: A fixed secret for the benchmark's sealed links (both processes know it).
+BENCH_SECRET = RunSecret(b"rths-bench-secret-not-for-runs!!")
 WARMUP = 300
 STOP = b"stop"
 
 
 def config(endpoints: ZenohEndpoints, mechanism: str) -> zenoh.Config:
     cfg = session_config(endpoints)
-    if mechanism == "lowlatency":
+    if mechanism == "sync-shm":
+        cfg.insert_json5("transport/shared_memory/enabled", "true")
+        cfg.insert_json5("transport/shared_memory/transport_optimization/enabled", "true")
+    if mechanism in ("lowlatency", "sync-lowlatency"):
         cfg.insert_json5("transport/unicast/lowlatency", "true")
         cfg.insert_json5("transport/unicast/qos/enabled", "false")
     return cfg
@@ -102,6 +121,28 @@ def run_echo(mechanism: str, endpoint: str, run_id: str) -> None:
     ep, keys = ZenohEndpoints(connect=(endpoint,)), RunKeys(run_id)
     session = zenoh.open(config(ep, mechanism))
     try:
+        if mechanism in SYNC_LINKS:
+            server = LockstepServer(session, keys, BENCH_SECRET)
+            if mechanism == "sync-shm":
+                import zenoh.shm as shm
+
+                provider = shm.ShmProvider.default_backend(1 << 20)
+                plain = server.publisher
+
+                class _ShmPublisher:  # the sealed frame written into an SHM buffer
+                    def put(self, payload: bytes) -> None:
+                        buf = provider.alloc(len(payload), shm.GarbageCollect())
+                        buf[:] = payload
+                        plain.put(buf)
+
+                server.publisher = _ShmPublisher()  # type: ignore[assignment]
+                pubs = [plain]
+            else:
+                pubs = [server.publisher]
+            presence = Presence(session, keys, "specimen", ep.describe())
+            presence.wait_for_peer(30.0, pubs)
+            server.serve(lambda c: Measurement.unpack(echo_measurement(c.pack())), presence.stop)
+            return
         if mechanism in RTHS_LINKS:
             server = LockstepServer(session, keys)
             if mechanism == "batched":
@@ -205,6 +246,19 @@ def round_trips(mechanism: str, steps: int) -> list[float]:
                 return Measurement.unpack(recv())
 
             stop = lambda: pub.put(STOP)
+        elif mechanism in SYNC_LINKS:
+            poll = 20e-6 if mechanism == "sync-poll" else None
+            sync = SyncClient(session, keys, BENCH_SECRET, poll=poll)
+            realtime_thread()
+            presence = Presence(session, keys, "coordinator", ep.describe())
+            presence.wait_for_peer(30.0, [sync.publisher])
+
+            def exchange(c: Command) -> Measurement:
+                m = sync.exchange(c, time.monotonic_ns() + 10_000_000_000)
+                assert m is not None
+                return m
+
+            stop = lambda: presence.request_stop("bench done")
         else:
             client = LockstepClient(session, keys, timeout=10.0)
             if mechanism == "batched":
@@ -308,7 +362,7 @@ def main() -> None:
     print(f"{'mechanism':<16}{'p50 [us]':>10}{'p90 [us]':>10}{'p99 [us]':>10}{'max [us]':>10}")
     for mechanism, times in pooled.items():
         p50, p90, p99 = np.percentile(times, [50, 90, 99])
-        star = "*" if mechanism == "rths" else ""
+        star = "*" if mechanism in ("rths", "sync") else ""
         print(f"{mechanism + star:<16}{p50:>10.1f}{p90:>10.1f}{p99:>10.1f}{max(times):>10.0f}")
     print(f"\nRecorder, {args.messages} rths/loop messages")
     print(f"{'compression':<12}{'put() [us]':>12}{'throughput [msg/s]':>20}")

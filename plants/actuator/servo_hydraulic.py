@@ -48,6 +48,7 @@ from plants.actuator.parameters import (
 from plants.base import Actuator, Kinematics, Specimen
 from plants.device_model import DeviceModel
 from plants.linear_specimen import LinearSpecimen
+from rths.core.channels import Channel
 from rths.core.errors import (
     ParameterError,
     check_nonnegative,
@@ -297,3 +298,14 @@ class ServoHydraulicActuator(Actuator):
         """``hydraulic_force`` [N] and ``displacement_linear`` (before the rate limiter) [m]."""
         x, _, _, f_a = self._outputs
         return {"hydraulic_force": f_a, "displacement_linear": x}
+
+    def _channels_impl(self) -> tuple[Channel, ...]:
+        """``hydraulic_force`` [N], ``displacement_linear`` [m]."""
+        return (
+            Channel("hydraulic_force", "N", "hydraulic force F_a on the piston"),
+            Channel("displacement_linear", "m", "displacement before the rate limiter"),
+        )
+
+    def _write_own(self, out: np.ndarray) -> None:
+        out[0] = self._outputs[3]
+        out[1] = self._outputs[0]

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import control
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from plants.actuator.linear import (
     derivative_model,
@@ -16,6 +16,7 @@ from plants.actuator.linear import (
 from plants.actuator.options import TransferFunctionOptions
 from plants.base import Actuator, Kinematics, Specimen
 from plants.device_model import DeviceModel
+from rths.core.channels import Channel
 from rths.core.registry import ACTUATORS
 
 __all__ = ["TransferFunctionActuator"]
@@ -127,3 +128,10 @@ class TransferFunctionActuator(Actuator):
     def _state_impl(self) -> dict[str, float]:
         """``displacement_linear`` (before the rate limiter) [m]."""
         return {"displacement_linear": self._linear}
+
+    def _channels_impl(self) -> tuple[Channel, ...]:
+        """``displacement_linear`` [m]."""
+        return (Channel("displacement_linear", "m", "displacement before the rate limiter"),)
+
+    def _write_own(self, out: NDArray[np.float64]) -> None:
+        out[0] = self._linear

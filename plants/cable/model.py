@@ -84,6 +84,7 @@ from plants.cable.properties import (
     physical_stiffness,
 )
 from plants.device_model import DeviceModel
+from rths.core.channels import Channel
 from rths.core.errors import (
     ParameterError,
     check_finite,
@@ -96,6 +97,7 @@ from rths.core.registry import SUBSTRUCTURES
 _State = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
 
 __all__ = [
+    "CABLE_CHANNELS",
     "Cable",
     "CableProperties",
     "DistributedLoad",
@@ -111,6 +113,15 @@ __all__ = [
     "physical_damper",
     "physical_stiffness",
 ]
+
+
+#: The cable's logged channels (:meth:`Cable.channels` takes the first 1, 2 or 4).
+CABLE_CHANNELS: tuple[Channel, ...] = (
+    Channel("midspan_displacement", "m", "cable displacement at midspan"),
+    Channel("device_force", "N", "restoring force of the nominal device"),
+    Channel("flywheel_displacement", "m", "nominal device's flywheel"),
+    Channel("flywheel_velocity", "m/s", "nominal device's flywheel"),
+)
 
 
 @SUBSTRUCTURES.register("cable", CableOptions)
@@ -305,6 +316,22 @@ class Cable(Substructure):
             out["flywheel_displacement"] = float(self._fly[0])
             out["flywheel_velocity"] = float(self._fly[1])
         return out
+
+    def channels(self) -> tuple[Channel, ...]:
+        """The keys of :meth:`outputs`, with units (:data:`CABLE_CHANNELS`: the device's only
+        with a device, the flywheel's only with a series branch)."""
+        n = 1 + (self.device is not None) + 2 * (self._series is not None)
+        return CABLE_CHANNELS[:n]
+
+    def write_channels(self, out: NDArray[np.float64]) -> None:
+        """Write :meth:`outputs`' values into ``out`` (no dict)."""
+        i, w = self._midspan
+        out[0] = (1.0 - w) * self._full(i) + w * self._full(i + 1)
+        if self.device is not None:
+            out[1] = self.device_force
+        if self._series is not None:
+            out[2] = self._fly[0]
+            out[3] = self._fly[1]
 
     def _advance(self, force: float, out: _State) -> _State:
         """The state at ``t_{k+1}`` for device force ``force`` [N], written into ``out``."""

@@ -43,6 +43,9 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+from numpy.typing import NDArray
+
 from plants.base import Specimen
 from plants.imd.amplitude import AmplitudeTracker
 from plants.imd.kernels import advance_flywheel, advance_flywheel_jit, regularised_sign
@@ -54,6 +57,7 @@ from plants.imd.parameters import (
     damping_from_ratio,
     screw_series_stiffness,
 )
+from rths.core.channels import Channel
 from rths.core.errors import ParameterError, check_positive, format_choices
 from rths.core.registry import SPECIMENS
 
@@ -70,6 +74,22 @@ __all__ = [
     "imd_from_parameters",
     "screw_series_stiffness",
 ]
+
+_DAMPING_CHANNELS = (
+    Channel("damping", "N s/m", "equivalent damping coefficient c_d"),
+    Channel("amplitude", "m", "drive amplitude estimate behind S0 Eq.18"),
+)
+_SERIES_CHANNELS = (
+    Channel("flywheel_displacement", "m", "flywheel displacement x_i"),
+    Channel("flywheel_velocity", "m/s", "flywheel velocity"),
+    Channel("spring_force", "N", "force through the series spring"),
+    Channel("friction_force", "N", "Coulomb friction force at the driven end"),
+    Channel("force_fluctuation", "N", "S0 Eq.15: F - m_e u'' - c_d u' without friction"),
+    Channel("gap_open", "1", "1 while the backlash gap is crossed, else 0"),
+    Channel("stiffness", "N/m", "series stiffness k_e (S0 Eq.4)"),
+    _DAMPING_CHANNELS[0],
+    _DAMPING_CHANNELS[1],
+)
 
 #: Largest ``|lambda| * dt_sub`` [rad] the series model allows per RK4 sub-step.
 MAX_STEP_PHASE: float = 0.2
@@ -177,6 +197,15 @@ class SimplifiedIMD(_DampingMixin, Specimen):
     def state(self) -> dict[str, float]:
         """``damping`` [N s/m] and ``amplitude`` [m] (the estimate behind S0 Eq.18)."""
         return {"damping": self._damping, "amplitude": self.amplitude}
+
+    def channels(self) -> tuple[Channel, ...]:
+        """The keys of :meth:`state`, with units."""
+        return _DAMPING_CHANNELS
+
+    def write_channels(self, out: NDArray[np.float64]) -> None:
+        """:meth:`state`'s values, no dict."""
+        out[0] = self._damping
+        out[1] = self.amplitude
 
 
 @SPECIMENS.register("imd_internal", IMDParameters)
@@ -300,6 +329,22 @@ class InternalStiffnessIMD(_DampingMixin, Specimen):
     def gap_open(self) -> bool:
         """True while the backlash gap is being crossed (no force through the spring)."""
         return self._half_gap > 0.0 and abs(self._u - self._x) <= self._half_gap
+
+    def channels(self) -> tuple[Channel, ...]:
+        """The keys of :meth:`state`, with units."""
+        return _SERIES_CHANNELS
+
+    def write_channels(self, out: NDArray[np.float64]) -> None:
+        """:meth:`state`'s values, no dict."""
+        out[0] = self._x
+        out[1] = self._w
+        out[2] = self._spring
+        out[3] = self._force - self._spring
+        out[4] = self._spring - self._m * self._a - self._damping * self._v
+        out[5] = 1.0 if self.gap_open else 0.0
+        out[6] = self._k0 if self._lf <= 0.0 else self.stiffness_at(self._u)
+        out[7] = self._damping
+        out[8] = self.amplitude
 
     def state(self) -> dict[str, float]:
         """Internal variables (SI) at the last step.

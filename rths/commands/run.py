@@ -87,6 +87,21 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         metavar="S",
         help="how long to wait for the specimen process [s]",
     )
+    p.add_argument(
+        "--secret-file",
+        type=Path,
+        metavar="FILE",
+        help="run secret (hex, mode 600) shared with an external specimen; default: a fresh "
+        "one, written to <log>.secret when --external-specimen is given",
+    )
+    p.add_argument(
+        "--live",
+        nargs="?",
+        const="127.0.0.1:8765",
+        metavar="HOST:PORT",
+        help="serve the run to Foxglove over WebSocket while it runs (default "
+        "127.0.0.1:8765); open it with the layout in foxglove/rths_layout.json",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     add_options(p)
@@ -138,6 +153,8 @@ def run(args: argparse.Namespace) -> int:
         progress=progress if bar else None,
         seed=args.seed,
         run_id=args.run_id,
+        secret_file=args.secret_file,
+        live=args.live,
         on_waiting=lambda cmd: print(
             f"waiting for the specimen; start it with:\n  {cmd}", file=sys.stderr, flush=True
         ),
@@ -155,6 +172,7 @@ def run(args: argparse.Namespace) -> int:
             "steps": outcome.result.steps,
             "stopped": outcome.result.stopped,
             "overruns": outcome.result.timing.overruns,
+            "deadline_misses": outcome.result.misses,
             "metrics": outcome.metrics.to_dict() if outcome.metrics else None,
         }
         print(json.dumps(doc, indent=2))

@@ -37,6 +37,19 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument(
         "--seed", type=int, help="noise seed (default: the scenario's; 'rths run' passes its own)"
     )
+    secret = p.add_mutually_exclusive_group()
+    secret.add_argument(
+        "--secret-file",
+        type=Path,
+        metavar="FILE",
+        help="the run secret (hex, mode 600) written by 'rths run --external-specimen'; "
+        "default: the environment variable RTHS_RUN_SECRET",
+    )
+    secret.add_argument(
+        "--secret-stdin",
+        action="store_true",
+        help="read the run secret from standard input (how 'rths run' starts this process)",
+    )
     return p
 
 
@@ -45,6 +58,7 @@ def run(args: argparse.Namespace) -> int:
     from rths.config.scenario import load_scenario
     from rths.core.errors import ConfigError
     from rths.session.specimen import serve
+    from rths.wire.auth import read_secret
     from rths.wire.transport import ZenohEndpoints
 
     if not args.connect and not args.listen:
@@ -53,5 +67,14 @@ def run(args: argparse.Namespace) -> int:
     endpoints = ZenohEndpoints(listen=tuple(args.listen), connect=tuple(args.connect))
     if args.seed is not None and args.seed < 0:
         raise ConfigError(f"--seed must be >= 0; got {args.seed}")
-    serve(scn, args.run_id, endpoints, args.clock, ready_timeout=args.ready_timeout, seed=args.seed)
+    secret = read_secret(args.secret_file, stdin=args.secret_stdin)
+    serve(
+        scn,
+        args.run_id,
+        endpoints,
+        args.clock,
+        ready_timeout=args.ready_timeout,
+        seed=args.seed,
+        secret=secret,
+    )
     return 0

@@ -26,12 +26,14 @@ from rths.config.kinds import registry
 from rths.config.scenario import Scenario
 from rths.core.errors import ConfigError, ParameterError
 from rths.core.filters import LowPass
+from rths.runtime.guard import GuardLimits
 
 __all__ = [
     "actuator",
     "compensator",
     "converters",
     "correction_filter",
+    "guard_limits",
     "lab",
     "model_stiffness",
     "nominal_device",
@@ -159,3 +161,10 @@ def correction_filter(scn: Scenario) -> LowPass | None:
     f = scn.loop.correction_filter
     with _table(scn, "loop"):
         return LowPass(f, scn.run.dt) if f > 0 else None
+
+
+def guard_limits(scn: Scenario) -> GuardLimits:
+    """The specimen side's command guard (:mod:`rths.runtime.guard`) from ``[loop]``."""
+    lp = scn.loop
+    with _table(scn, "loop"):
+        return GuardLimits(lp.stroke, lp.max_velocity, lp.ramp_velocity)

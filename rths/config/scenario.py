@@ -12,7 +12,8 @@ examples users copy)::
     [model]        what the numerical side believes about the specimen: the nominal device the
                    substructure carries, the compensator's plant, the fully numerical mock run
     [compensator]  kind + options
-    [loop]         correction_filter [Hz], stroke [m] (interlock)
+    [loop]         correction_filter [Hz], stroke [m] (interlock), max_velocity and
+                   ramp_velocity [m/s] (the specimen side's guard), max_lag [steps] (watchdog)
     [monte_carlo]  draws (perturbed benchmark plants)
     [study]        a parameter study over this scenario's keys (``rths study``; read and
                    checked by :mod:`rths.analysis.study`, kept here as given)
@@ -103,10 +104,15 @@ class LabSpec:
 
 @dataclass(frozen=True)
 class LoopSpec:
-    """``[loop]``: low-pass on the force correction [Hz] (0: none) and the stroke interlock [m]."""
+    """``[loop]``: low-pass on the force correction [Hz] (0: none), the stroke interlock [m],
+    the specimen side's command rate limit and ramp-down rate [m/s] and the measurement
+    watchdog [steps] (:mod:`rths.runtime.guard`, :class:`rths.runtime.loop.Loop`)."""
 
     correction_filter: float = 60.0
     stroke: float = math.inf
+    max_velocity: float = 0.5
+    ramp_velocity: float = 0.05
+    max_lag: int = 5
 
 
 @dataclass(frozen=True)
@@ -217,7 +223,12 @@ def _parse(doc: Table, text: str) -> Scenario:
     loop = LoopSpec(
         t.number("correction_filter", 60.0, nonnegative=True),
         t.number("stroke", math.inf, positive=True),
+        t.number("max_velocity", 0.5, positive=True),
+        t.number("ramp_velocity", 0.05, positive=True),
+        t.integer("max_lag", 5, minimum=1),
     )
+    if loop.ramp_velocity > loop.max_velocity:
+        raise t.error("ramp_velocity", f"must not exceed max_velocity {loop.max_velocity!r} m/s")
     t.finish()
     t = doc.table("monte_carlo", {})
     draws = t.integer("draws", 0, minimum=0)

@@ -7,6 +7,7 @@ tagged tuples from a :class:`queue.SimpleQueue`:
 * ``("s", topic, schema_json_bytes)`` -- register a topic;
 * ``("m", topic, seq, log_time_ns, publish_time_ns, message)`` -- a message from this process;
 * ``("r", topic, payload)`` -- a :class:`rths.wire.codec.LogRecord` from another process;
+* ``("b", topic, row_block)`` -- a :class:`rths.core.channels.RowBlock`, one message per row;
 * ``("e", log_time_ns, event_dict)`` -- an event (sequence numbers assigned here);
 * :data:`STOP` -- finish the file and end.
 """
@@ -29,7 +30,15 @@ from rths import __version__
 from rths.core.errors import DataError
 from rths.wire.codec import LogRecord
 
-__all__ = ["EVENTS_TOPIC", "STOP", "RecordingSummary", "TopicStats", "WriterThread", "open_schema"]
+__all__ = [
+    "EVENTS_TOPIC",
+    "STOP",
+    "RecordingSummary",
+    "TopicStats",
+    "WriterThread",
+    "block_messages",
+    "open_schema",
+]
 
 STOP = object()
 
@@ -125,6 +134,51 @@ _STRICT = json.JSONEncoder(allow_nan=False, separators=(",", ":"), default=_plai
 _LENIENT = json.JSONEncoder(separators=(",", ":"), default=_plain)
 
 
+def block_messages(
+    block: Any, templates: dict[tuple[str, ...], str] | None = None
+) -> list[tuple[int, int, bytes, bool]]:
+    """The rows of a :class:`rths.core.channels.RowBlock` as JSON messages.
+
+    Each row is ``{"seq": k, <channel>: value, ...}``, formatted with a template of the block's
+    channel names (``repr`` of each float: exact and the shortest), or, when the row holds a
+    non-finite value, through the lenient encoder with ``null`` in its place.
+
+    Parameters
+    ----------
+    block
+        A :class:`rths.core.channels.RowBlock`.
+    templates
+        Cache of templates, keyed by the block's channel names (shared across calls).
+
+    Returns
+    -------
+    list of tuple
+        ``(seq, log_time_ns, json_bytes, finite)`` per filled row.
+    """
+    import numpy as np
+
+    n = block.count
+    if not n:
+        return []
+    cache = {} if templates is None else templates
+    template = cache.get(block.names)
+    if template is None:
+        fields = ",".join(f'"{name}":%r' for name in block.names)
+        template = cache[block.names] = '{"seq":%d' + ("," + fields if fields else "") + "}"
+    values = block.values[:n]
+    finite = np.isfinite(values).all(axis=1).tolist()
+    out = []
+    for k, t, row, ok in zip(
+        block.seq[:n].tolist(), block.t_ns[:n].tolist(), values.tolist(), finite
+    ):
+        if ok:
+            data = (template % (k, *row)).encode()
+        else:
+            data = _LENIENT.encode(_finite({"seq": k, **dict(zip(block.names, row))})).encode()
+        out.append((k, t, data, ok))
+    return out
+
+
 class _Topic:
     """Channel id and counters of one topic (writer thread only)."""
 
@@ -163,6 +217,7 @@ class WriterThread(threading.Thread):
         self._writer = Writer(stream, chunk_size=chunk_size, compression=_COMPRESSION[compression])
         self._flush_interval = flush_interval
         self._topics: dict[str, _Topic] = {}
+        self._templates: dict[tuple[str, ...], str] = {}
         self._dirty = False
         self._last_flush = time.monotonic()
 
@@ -231,6 +286,8 @@ class WriterThread(threading.Thread):
         if tag == "m":
             _, topic, seq, log_time, publish_time, message = item
             self._write(topic, seq, log_time, publish_time, message)
+        elif tag == "b":
+            self._block(item[1], item[2])
         elif tag == "r":
             self._record(item[1], item[2])
         elif tag == "e":
@@ -294,6 +351,14 @@ class WriterThread(threading.Thread):
                 },
             )
         entry.last_seq = max(last, seq)
+
+    def _block(self, topic: str, block: Any) -> None:
+        """Write the rows of a :class:`rths.core.channels.RowBlock` (:func:`block_messages`)."""
+        entry = self._topics[topic]
+        for k, t, data, finite in block_messages(block, self._templates):
+            if not finite:
+                entry.nonfinite += 1
+            self._add(topic, k, t, t, data)
 
     def _record(self, topic: str, payload: bytes) -> None:
         """Write a record from another process; its JSON is written as received unless it

@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from rths import __version__
+from rths.core.channels import RowBlock, json_schema
 from rths.core.errors import (
     DataError,
     ParameterError,
@@ -116,6 +117,27 @@ LOOP_SCHEMA: dict[str, Any] = object_schema(
     },
     description="One RTHS loop step at the interface (specimen scale); Message.sequence = k.",
 )
+
+
+def block_schema(topic: str, block: RowBlock, description: str = "") -> dict[str, Any]:
+    """The JSON schema of a topic whose messages are the rows of ``block``.
+
+    Parameters
+    ----------
+    topic
+        The MCAP topic (the title is the topic with ``/`` as ``.``).
+    block
+        A block with the topic's channel declarations (its rows are not read).
+    description
+        What one message is (default: one row per step).
+    """
+    return json_schema(
+        topic.replace("/", "."),
+        block.channels,
+        description=description or f"one row per step of {topic}; Message.sequence = seq",
+        seq=True,
+    )
+
 
 #: Schema of ``rths/events``.
 EVENTS_SCHEMA: dict[str, Any] = {
@@ -335,6 +357,35 @@ class Recorder:
         self._check_alive()
         self._last_time_ns = log_time_ns
         self._queue.put(("m", topic, seq, log_time_ns, publish, message))
+
+    def put_block(self, topic: str, block: RowBlock) -> None:
+        """Queue a block of rows (one message per row); never blocks and does no I/O.
+
+        Each row becomes one JSON message ``{"seq": k, <channel>: value, ...}`` with
+        ``Message.sequence = seq`` and ``log_time = t_ns``, encoded on the writer thread.  A
+        topic not registered yet is registered with the schema generated from the block's
+        channel declarations (:func:`rths.core.channels.json_schema`).
+
+        Parameters
+        ----------
+        topic
+            MCAP topic.
+        block
+            Filled rows (``block.count`` of them); must not change afterwards.
+
+        Raises
+        ------
+        DataError
+            If the writer thread has failed (e.g. disk full).
+        """
+        if topic == EVENTS_TOPIC:
+            raise ParameterError("events go through event(), not put_block()")
+        if topic not in self._schemas:
+            self.add_topic(topic, block_schema(topic, block))
+        self._check_alive()
+        if block.count:
+            self._last_time_ns = int(block.t_ns[block.count - 1])
+        self._queue.put(("b", topic, block))
 
     def add_metadata(self, name: str, data: Mapping[str, str]) -> None:
         """Queue one more MCAP metadata record (e.g. the run's summary, known only at the end).

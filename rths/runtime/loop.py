@@ -13,15 +13,26 @@ The same loop serves the three clocks; only the pacer and the link differ:
 
 ``fast``      in-process link to an :class:`plants.lab.EmulatedLab`, no pacing (batch, Monte Carlo);
 ``lockstep``  zenoh link, the specimen advances exactly one step per command (deterministic, CI);
-``realtime``  wall-clock pacer, the specimen free-runs; the link returns the newest sample and its
-              age, which the loop logs with the overruns and jitter.
+``realtime``  wall-clock pacer; the specimen steps once per command and answers at once; the loop
+              waits for the answer until the step's deadline (synchronous real time, as a
+              lab's controller board runs).  A missed deadline uses the last sample, is counted
+              and logged (``lag`` > 0); more than ``max_lag`` steps without a fresh measurement
+              stop the run (the measurement watchdog).
 
 Scale factors are explicit (:class:`Scaling`): the specimen sees ``displacement_scale`` times the
 prototype interface displacement, and the prototype receives ``force_scale`` times the specimen
 force; so a specimen inertance ``m`` acts on the prototype as ``force_scale*displacement_scale*m``.
 
-A safety interlock stops the run (as a lab's would) when the command leaves the actuator stroke or
-any signal stops being finite; the run's record then ends with the reason.
+A safety interlock stops the run (as a lab's would) when the command leaves the actuator stroke,
+any signal stops being finite or the measurement is older than ``max_lag`` steps; the run's
+record then ends with the reason.  After every stop -- the end of the run included -- the link is
+asked for a controlled ramp-down (``safe_stop``): the specimen side drives the actuator back to
+zero at its ramp velocity (:class:`rths.runtime.guard.CommandGuard`), never with a jump.
+
+Logging.  The loop's channels (:data:`LOOP_CHANNELS`), the compensator's (``ctrl_*``) and the
+substructure's (``sub_*``) are declared once; each step writes floats into a row of a
+preallocated :class:`rths.core.channels.RowBlock`, and full blocks go to the sink.  Nothing is
+encoded on the loop thread.
 
 Force correction.  Feeding the measured force of a stiff or heavy specimen straight back into a
 flexible structure is unstable: with any lag (one loop step, the actuator's residual delay ``tau``)
@@ -47,6 +58,7 @@ from typing import Protocol
 
 from controllers.base import Compensator
 from plants.base import Substructure
+from rths.core.channels import Channel, RowBlock, prefixed
 from rths.core.errors import (
     NumericalError,
     ParameterError,
@@ -55,8 +67,10 @@ from rths.core.errors import (
 )
 from rths.core.scaling import Scaling
 from rths.runtime.clocks import FreeRunning, Pacer, TimingStats
+from rths.runtime.guard import CommandGuard
 
 __all__ = [
+    "LOOP_CHANNELS",
     "InProcessLink",
     "InterlockTripped",
     "LinkSample",
@@ -64,6 +78,24 @@ __all__ = [
     "LoopResult",
     "SpecimenLink",
 ]
+
+#: The loop's own channels on ``rths/loop`` (each row also carries the integer ``seq`` = k).
+LOOP_CHANNELS: tuple[Channel, ...] = (
+    Channel("t", "s", "simulated time at the end of the step, t_(k+1) = (k+1) dt"),
+    Channel("target", "m", "target displacement of the specimen end from the substructure"),
+    Channel("target_velocity", "m/s", "target velocity of the specimen end"),
+    Channel("target_acceleration", "m/s^2", "target acceleration of the specimen end"),
+    Channel("command", "m", "actuator command held over the step, after compensation"),
+    Channel("measured", "m", "measured displacement of the specimen end"),
+    Channel("force", "N", "measured restoring force of the specimen"),
+    Channel("correction", "N", "force correction fed to the substructure, prototype scale"),
+    Channel("age", "s", "wall-clock age of the measurement when used (0 off the wall clock)"),
+    Channel("lag", "1", "steps the measurement used lags behind the step (0: fresh; >0: missed)"),
+    Channel("late", "s", "lateness of the step's start behind the wall-clock schedule"),
+)
+
+#: Rows per block handed to the sink.
+BLOCK_ROWS = 256
 
 
 class InterlockTripped(RTHSError, RuntimeError):
@@ -73,7 +105,8 @@ class InterlockTripped(RTHSError, RuntimeError):
 @dataclass(frozen=True, slots=True)
 class LinkSample:
     """What the specimen answers: measured displacement [m], force [N] (specimen scale), the age
-    of the sample when the loop uses it [ns] (0 in lockstep/fast) and the specimen's step number."""
+    of the sample when the loop uses it [ns] (0 in lockstep/fast) and the specimen's step number
+    (the ``seq`` of the command it answers; older than the step after a missed deadline)."""
 
     displacement: float
     force: float
@@ -82,7 +115,10 @@ class LinkSample:
 
 
 class SpecimenLink(Protocol):
-    """How the loop reaches the specimen (in process, or over zenoh in lockstep or real time)."""
+    """How the loop reaches the specimen (in process, or over zenoh in lockstep or real time).
+
+    A link may also offer ``safe_stop(reason)``: the controlled ramp-down the loop asks for
+    after every stop."""
 
     def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
         """Send command ``seq`` (to be held until ``t_ns``, simulated ns); return the measurement
@@ -93,31 +129,69 @@ class SpecimenLink(Protocol):
 class _Lab(Protocol):
     def step(self, command: float) -> tuple[float, float]: ...
 
-    def truth(self) -> dict[str, float]: ...
-
 
 class InProcessLink:
-    """The ``fast`` clock's link: calls an emulated lab directly in this process."""
+    """The ``fast`` clock's link: calls an emulated lab directly in this process, through the
+    same :class:`CommandGuard` the specimen process applies (so fast and lockstep agree).
 
-    def __init__(self, lab: _Lab) -> None:
+    Parameters
+    ----------
+    lab
+        The emulated lab (anything with ``step(command) -> (displacement, force)``).
+    guard
+        The specimen side's command guard; None: commands go to the lab unchecked.
+    """
+
+    def __init__(self, lab: _Lab, guard: CommandGuard | None = None) -> None:
         self.lab = lab
+        self.guard = guard
 
     def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
+        if self.guard is not None:
+            command = self.guard.apply(command)
         displacement, force = self.lab.step(command)
         return LinkSample(displacement, force, 0, seq)
+
+    def safe_stop(self, reason: str) -> int:
+        """Ramp the lab's actuator to zero through the guard; returns the steps it took.
+
+        Parameters
+        ----------
+        reason
+            Why the run stopped (latched in the guard).
+        """
+        if self.guard is None:
+            return 0
+        self.guard.trip(reason)
+        steps = 0
+        while not self.guard.at_rest:
+            self.lab.step(self.guard.ramp())
+            steps += 1
+        return steps
 
 
 @dataclass(frozen=True)
 class LoopResult:
-    """Outcome of :meth:`Loop.run`: steps completed, timing figures and why it stopped early
-    (``None`` when it ran to the end)."""
+    """Outcome of :meth:`Loop.run`: steps completed, timing figures, why it stopped early
+    (``None`` when it ran to the end), and the deadline misses (measurements not there by the
+    step's deadline; the longest lag in ``longest_lag`` steps) and when the loop ended on the
+    pacer's clock (``ended_ns``)."""
 
     steps: int
     timing: TimingStats
     stopped: str | None = None
+    misses: int = 0
+    longest_lag: int = 0
+    ended_ns: int = 0  #: the pacer's clock when the last step ended [ns] (fault timing)
+    link_mean: float = 0.0  #: mean time per step in ``link.exchange`` [s] (the round trip)
+
+    @property
+    def work_mean(self) -> float:
+        """Mean work per step [s] outside the link (busy time less the round trip)."""
+        return max(self.timing.busy_mean - self.link_mean, 0.0)
 
 
-Record = dict[str, float]
+Sink = Callable[[RowBlock], None]
 
 
 class Loop:
@@ -138,13 +212,20 @@ class Loop:
     pacer
         Real-time pacing and timing accounting (default: free running).
     sink
-        Receives one record (a flat ``dict``) per step; must not block (publish or enqueue).
+        Receives each full :class:`RowBlock` of rows (and the last, partial one); must not block
+        (enqueue).  The block is the sink's from then on.
     command_limit
         Interlock: stop when ``|command|`` exceeds this [m] (the actuator stroke).
     force_filter
         Optional per-sample filter applied to the force correction before it enters the
         substructure (a low-pass that keeps sensor noise and the out-of-band correction out of
         the numerical model; see the module docstring).
+    max_lag
+        Measurement watchdog: stop when the newest measurement lags the step by more than this
+        many steps (consecutive deadline misses); before the first fresh measurement, 0.1 s is
+        allowed for the specimen to start.
+    block_rows
+        Rows per block.
     """
 
     def __init__(
@@ -155,9 +236,11 @@ class Loop:
         scaling: Scaling,
         n_steps: int,
         pacer: Pacer | None = None,
-        sink: Callable[[Record], None] | None = None,
+        sink: Sink | None = None,
         command_limit: float = math.inf,
         force_filter: Callable[[float], float] | None = None,
+        max_lag: int = 5,
+        block_rows: int = BLOCK_ROWS,
     ) -> None:
         if not math.isclose(substructure.dt, compensator.dt, rel_tol=1e-12):
             raise RTHSError(
@@ -171,13 +254,23 @@ class Loop:
         self.n_steps = check_positive_int(n_steps, "number of steps")
         self.dt = substructure.dt
         self.pacer = pacer or FreeRunning(self.dt, self.n_steps)
-        self.sink = sink or (lambda record: None)
+        self.sink: Sink = sink or (lambda block: None)
         if not (isinstance(command_limit, int | float) and command_limit > 0):
             raise ParameterError(
                 f"command limit must be positive (inf: none); got {command_limit!r}"
             )
         self.command_limit = float(command_limit)
         self.force_filter = force_filter
+        self.max_lag = check_positive_int(max_lag, "max_lag (watchdog steps)")
+        self.block_rows = check_positive_int(block_rows, "block_rows")
+        comp_channels = prefixed("ctrl_", compensator.channels())
+        sub_channels = prefixed("sub_", substructure.channels())
+        self.channels: tuple[Channel, ...] = LOOP_CHANNELS + comp_channels + sub_channels
+        n0 = len(LOOP_CHANNELS)
+        self._comp_cols = (n0, n0 + len(comp_channels))
+        self._sub_cols = (self._comp_cols[1], len(self.channels))
+        RowBlock(self.channels, 1)  # names unique
+        self.safe_stop_steps = 0  #: steps the ramp-down after the run took (in-process links)
         self._stop = threading.Event()
         self._stop_reason = "stopped by request"
 
@@ -188,15 +281,22 @@ class Loop:
 
     def run(self, progress: Callable[[int], None] | None = None) -> LoopResult:
         """Run the steps; ``progress(k)`` is called every 256 steps from the loop thread."""
-        sub, comp, link, sink, pacer = (
-            self.substructure,
-            self.compensator,
-            self.link,
-            self.sink,
-            self.pacer,
-        )
+        sub, comp, link, pacer = self.substructure, self.compensator, self.link, self.pacer
         lam_u, lam_f = self.scaling.displacement, self.scaling.force
+        channels, rows = self.channels, self.block_rows
+        c0, c1 = self._comp_cols
+        s0, s1 = self._sub_cols
+        n0 = len(LOOP_CHANNELS)
+        record_comp, record_sub = comp.write_channels, sub.write_channels
+        dt_s = self.dt
+        block = RowBlock(channels, rows)
+        values, seqs, times = block.values, block.seq, block.t_ns
+        i = 0
         measured, force, fed = 0.0, 0.0, 0.0
+        misses = run_of_misses = longest = 0
+        # until the first fresh measurement (start-up of the specimen's thread), allow 0.1 s
+        fresh, start_lag = False, max(self.max_lag, round(0.1 / dt_s))
+        now, in_link = pacer.now_ns, 0
         stopped: str | None = None
         pacer.start()
         k = 0
@@ -214,11 +314,29 @@ class Loop:
             if not abs(command) <= self.command_limit:  # also catches NaN
                 stopped = (
                     f"interlock: command {command:.6g} m outside the stroke "
-                    f"±{self.command_limit:g} m at t = {(k + 1) * self.dt:.4f} s"
+                    f"±{self.command_limit:g} m at t = {(k + 1) * dt_s:.4f} s"
                 )
                 break
-            t_ns = round((k + 1) * self.dt * 1e9)  # exact to 1 ns, no accumulated rounding
+            t_ns = round((k + 1) * dt_s * 1e9)  # exact to 1 ns, no accumulated rounding
+            sent = now()
             sample = link.exchange(k, t_ns, command)
+            in_link += now() - sent
+            lag = k - sample.specimen_seq
+            if lag:
+                misses += 1
+                run_of_misses += 1
+                if lag > longest:
+                    longest = lag
+                if lag > (self.max_lag if fresh else start_lag):
+                    stopped = (
+                        f"watchdog: no fresh measurement for {lag} steps "
+                        f"({lag * dt_s * 1e3:.2f} ms > {self.max_lag} steps) at "
+                        f"t = {t_ns * 1e-9:.4f} s; holding and ramping down"
+                    )
+                    break
+            else:
+                run_of_misses = 0
+                fresh = True
             measured, force = sample.displacement, sample.force
             if not (math.isfinite(measured) and math.isfinite(force)):
                 stopped = f"interlock: non-finite measurement at t = {t_ns * 1e-9:.4f} s"
@@ -226,28 +344,53 @@ class Loop:
             fed = lam_f * force - sub.device_force
             if self.force_filter is not None:
                 fed = self.force_filter(fed)
-            record: Record = {
-                "seq": k,
-                "t": t_ns * 1e-9,
-                "target": target.displacement,
-                "target_velocity": target.velocity,
-                "target_acceleration": target.acceleration,
-                "command": command,
-                "measured": measured,
-                "force": force,
-                "correction": fed,
-                "age": sample.age_ns * 1e-9,
-            }
-            for name, value in comp.state().items():
-                record["ctrl_" + name] = value
-            for name, value in sub.outputs().items():
-                record["sub_" + name] = value
-            sink(record)
+            row = values[i]
+            row[:n0] = (
+                t_ns * 1e-9,
+                target.displacement,
+                target.velocity,
+                target.acceleration,
+                command,
+                measured,
+                force,
+                fed,
+                sample.age_ns * 1e-9,
+                lag,
+                pacer.lateness_ns(k) * 1e-9,
+            )
+            if c1 > c0:
+                record_comp(row[c0:c1])
+            if s1 > s0:
+                record_sub(row[s0:s1])
+            seqs[i] = k
+            times[i] = t_ns
+            i += 1
+            if i == rows:
+                block.count = i
+                self.sink(block)
+                block = RowBlock(channels, rows)
+                values, seqs, times = block.values, block.seq, block.t_ns
+                i = 0
             pacer.done(k)
             if progress is not None and k % 256 == 255:
                 progress(k + 1)
         else:
             k = self.n_steps
+        ended = pacer.now_ns()
+        if i:
+            block.count = i
+            self.sink(block)
         if progress is not None:
             progress(k)
-        return LoopResult(steps=k, timing=pacer.stats(), stopped=stopped)
+        safe_stop = getattr(link, "safe_stop", None)
+        if safe_stop is not None:
+            self.safe_stop_steps = safe_stop(stopped or "run complete") or 0
+        return LoopResult(
+            steps=k,
+            timing=pacer.stats(),
+            stopped=stopped,
+            misses=misses,
+            longest_lag=longest,
+            ended_ns=ended,
+            link_mean=in_link * 1e-9 / max(k, 1),
+        )

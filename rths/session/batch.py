@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 
 from rths.config import build
 from rths.config.scenario import Scenario
+from rths.core.channels import RowBlock
 from rths.runtime.loop import InProcessLink, Loop, LoopResult
 
 __all__ = ["BatchRun", "draw_lab", "run_in_process"]
@@ -56,19 +57,19 @@ class BatchRun:
 
 
 class _Keep:
-    """The loop's sink: copies the kept channels of each record into preallocated arrays."""
+    """The loop's sink: copies the kept channels of each row block into preallocated arrays."""
 
     def __init__(self, n: int, outputs: Sequence[str]) -> None:
         self.signals = {name: np.zeros(n) for name in ("target", "measured", "force")}
-        self.outputs = {name: np.zeros(n) for name in outputs}
-        self._sub = tuple((name, "sub_" + name) for name in outputs)
+        self.outputs = {name: np.full(n, np.nan) for name in outputs}
 
-    def __call__(self, record: dict[str, float]) -> None:
-        k = int(record["seq"])
+    def __call__(self, block: RowBlock) -> None:
+        k0, m = int(block.seq[0]), block.count
         for name, values in self.signals.items():
-            values[k] = record[name]
-        for name, key in self._sub:
-            self.outputs[name][k] = record.get(key, np.nan)
+            values[k0 : k0 + m] = block.column(name)
+        for name, values in self.outputs.items():
+            if "sub_" + name in block.names:
+                values[k0 : k0 + m] = block.column("sub_" + name)
 
 
 def draw_lab(draw: int, seed: int) -> dict[str, Any]:

@@ -3,13 +3,17 @@
 ``fast``      everything in this process; the loop writes the MCAP log through the recorder's
               queue.
 ``lockstep``  and ``realtime``: the specimen is a separate process (``rths specimen``) started here
-              (or elsewhere, ``external_specimen=True``).  Commands and measurements cross zenoh;
-              the specimen's own stream (its truth each step) arrives on ``rths/<run>/log/
-              specimen`` and the recorder, subscribed through a
-              :class:`rths.wire.transport.LogBridge`, writes it into the MCAP log.  The loop's
-              record goes to the recorder's queue (never lost) and a live copy to
-              ``rths/<run>/loop`` for monitors, published from a background thread: the loop thread
-              only enqueues and publishes the command.
+              (or elsewhere, ``external_specimen=True``).  Commands and measurements cross zenoh,
+              sealed with the run's secret (:mod:`rths.wire.auth`), which the specimen process
+              gets on its standard input; the specimen's own rows (its truth each step) arrive
+              in blocks on ``rths/<run>/log/specimen`` and the recorder, subscribed through a
+              :class:`rths.wire.transport.LogBridge`, writes them into the MCAP log.  The loop's
+              rows go to the recorder's queue a block at a time (never lost): the loop thread
+              only fills preallocated rows and publishes the command.
+
+Real-time runs keep the garbage collector out of the loop (:class:`rths.runtime.clocks.QuietGC`)
+and lower the loop thread's timer slack; collections, deadline misses and the measurement's age
+are counted and written to the summary.
 
 A crashed or vanished specimen ends the run with a :class:`rths.core.errors.TransportError`; the log
 is finished, carries an ``error`` event with the specimen's last words (its stderr), and the summary
@@ -21,7 +25,8 @@ from __future__ import annotations
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,16 +36,25 @@ import numpy as np
 from rths import __version__
 from rths.config import build
 from rths.config.scenario import Scenario
-from rths.core.errors import ConfigError, DataError, check_positive
+from rths.core.channels import RowBlock
+from rths.core.errors import ConfigError, DataError, ParameterError, check_positive
 from rths.log.recorder import (
-    LOOP_SCHEMA,
     LOOP_TOPIC,
     Recorder,
     RecordingSummary,
-    object_schema,
+    block_schema,
 )
 from rths.metrics import TrackingSummary, summarize
-from rths.runtime.clocks import SWITCH_INTERVAL, FreeRunning, Pacer, WallClock
+from rths.runtime.clocks import (
+    SWITCH_INTERVAL,
+    FreeRunning,
+    Pacer,
+    QuietGC,
+    WallClock,
+    realtime_priority,
+    realtime_thread,
+)
+from rths.runtime.guard import CommandGuard
 from rths.runtime.loop import InProcessLink, LinkSample, Loop, LoopResult
 from rths.wire.keys import check_run_id, new_run_id
 
@@ -48,27 +62,10 @@ __all__ = ["RunOptions", "RunOutcome", "run_scenario"]
 
 SPECIMEN_TOPIC = "rths/specimen"
 
-#: Extra delay [loop steps] the realtime link adds, which the compensator is told about: the
-#: free-running specimen picks a command up at its next tick (~1 step) and the loop uses the
-#: newest measurement, ~1 step old on average (the logged ``age``).
-REALTIME_LINK_DELAY_STEPS = 2.0
-
-#: Schema of ``rths/specimen``: the emulated lab's truth each step (plus the actuator's and the
-#: specimen's internal states as ``actuator.<name>`` / ``actuator.specimen.<name>``, SI).
-SPECIMEN_SCHEMA = object_schema(
-    "rths.specimen",
-    {
-        "t": "simulated time at the end of the step [s]",
-        "command": "command received [m]",
-        "command_dac": "command after the DAC [m]",
-        "displacement": "true displacement of the specimen end [m]",
-        "velocity": "true velocity of the specimen end [m/s]",
-        "acceleration": "true acceleration of the specimen end [m/s^2]",
-        "force": "true restoring force of the specimen [N]",
-        "measured_displacement": "displacement after the ADC (noise, quantisation) [m]",
-        "measured_force": "force after the ADC (noise, quantisation) [N]",
-    },
-    description="One step of the emulated lab, specimen scale.",
+SPEC_DOC = "One step of the emulated lab, specimen scale (its actuator's state as actuator.*)."
+LOOP_DOC = (
+    "One RTHS loop step at the interface (specimen scale); Message.sequence = seq = k; "
+    "ctrl_*: the compensator's channels, sub_*: the substructure's."
 )
 
 
@@ -98,6 +95,11 @@ class RunOptions:
         The run id (keys ``rths/<run_id>/``); default ``<name>-<timestamp>-<random>``.
     on_waiting
         Called with the ``rths specimen`` command line when waiting for an external specimen.
+    secret_file
+        File holding the run secret (hex) for an external specimen; default: a fresh secret
+        written to ``<log>.secret`` (mode 600) when the specimen is external.
+    live
+        Serve the run to Foxglove over WebSocket while it runs (``host:port``; None: no).
     """
 
     clock: str | None = None
@@ -112,6 +114,8 @@ class RunOptions:
     seed: int | None = None
     run_id: str | None = None
     on_waiting: Callable[[str], None] | None = None
+    secret_file: Path | None = None
+    live: str | None = None
 
 
 @dataclass
@@ -126,6 +130,10 @@ class RunOutcome:
     recording: RecordingSummary | None = None
     events: list[str] = field(default_factory=list)
     saturated: dict[str, int] = field(default_factory=dict)
+    age_p99: float = 0.0
+    priority: int = 0
+    gc: tuple[int, float] = (0, 0.0)
+    security: dict[str, int] = field(default_factory=dict)
 
     def line(self) -> str:
         """The one-line summary the CLI prints."""
@@ -142,7 +150,12 @@ class RunOutcome:
             parts.append("metrics n/a")
         parts.append(f"overruns {t.overruns}/{t.steps}")
         if self.clock == "realtime":
+            parts.append(f"misses {self.result.misses}/{t.steps}")
             parts.append(f"p99 jitter {1e6 * t.jitter_p99:.0f} us")
+            parts.append(f"p99 age {1e6 * self.age_p99:.0f} us")
+        if self.security:
+            dropped = self.security.get("forged", 0) + self.security.get("replayed", 0)
+            parts.append(f"forged/replayed dropped {dropped}")
         gaps = sum(s.missing for s in self.recording.topics.values()) if self.recording else 0
         parts.append(f"gaps {gaps}")
         clipped = {k: v for k, v in self.saturated.items() if v}
@@ -152,18 +165,22 @@ class RunOutcome:
 
 
 class _Collector:
-    """Keeps target, measured and force per step for the summary (preallocated, no I/O)."""
+    """Keeps target, measured, force and age per step for the summary (preallocated; a block's
+    columns are copied when the block is handed over, not per step)."""
 
     def __init__(self, n: int) -> None:
         self.target, self.measured, self.force = np.zeros(n), np.zeros(n), np.zeros(n)
         self.age = np.zeros(n)
         self.count = 0
 
-    def __call__(self, record: dict[str, float]) -> None:
-        k = int(record["seq"])
-        self.target[k], self.measured[k] = record["target"], record["measured"]
-        self.force[k], self.age[k] = record["force"], record["age"]
-        self.count = k + 1
+    def __call__(self, block: RowBlock) -> None:
+        n = block.count
+        if not n:
+            return
+        k0 = int(block.seq[0])
+        for name in ("target", "measured", "force", "age"):
+            getattr(self, name)[k0 : k0 + n] = block.column(name)
+        self.count = k0 + n
 
 
 class _Progress(threading.Thread):
@@ -184,16 +201,40 @@ class _Progress(threading.Thread):
 
 
 class _TruthLink(InProcessLink):
-    """The fast clock's link, also recording the lab's truth on ``rths/specimen``."""
+    """The fast clock's link, also recording the lab's rows on ``rths/specimen`` (in blocks)."""
 
-    def __init__(self, lab: Any, recorder: Recorder) -> None:
-        super().__init__(lab)
-        self.recorder = recorder
+    def __init__(
+        self, lab: Any, guard: CommandGuard, recorder: Recorder, rows: int, live: Any = None
+    ) -> None:
+        super().__init__(lab, guard)
+        self.recorder, self.live, self.rows_of = recorder, live, lab
+        self._channels = lab.channels()
+        self._rows = rows
+        self._block = RowBlock(self._channels, rows)
+        recorder.add_topic(SPECIMEN_TOPIC, block_schema(SPECIMEN_TOPIC, self._block, SPEC_DOC))
 
     def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
         sample = super().exchange(seq, t_ns, command)
-        self.recorder.put(SPECIMEN_TOPIC, seq, t_ns, self.lab.truth())
+        b = self._block
+        i = b.count
+        self.rows_of.write_channels(b.values[i])
+        b.seq[i], b.t_ns[i] = seq, t_ns
+        b.count = i + 1
+        if b.count == self._rows:
+            self.flush()
         return sample
+
+    def flush(self) -> None:
+        """Hand the filled rows to the recorder."""
+        if self._block.count:
+            self.recorder.put_block(SPECIMEN_TOPIC, self._block)
+            if self.live is not None:
+                self.live.put_block(SPECIMEN_TOPIC, self._block)
+            self._block = RowBlock(self._channels, self._rows)
+
+    def safe_stop(self, reason: str) -> int:
+        self.flush()
+        return super().safe_stop(reason)
 
 
 def _metadata(
@@ -232,6 +273,8 @@ def _metadata(
             "force": "N",
             "correction": "N (prototype scale)",
             "age": "s",
+            "lag": "steps",
+            "late": "s",
             "scale": "target/command/measured/force are at specimen scale",
         },
     }
@@ -258,35 +301,47 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
     path.parent.mkdir(parents=True, exist_ok=True)
     n, dt = scn.run.steps, scn.run.dt
     substructure = build.substructure(scn)
-    link_delay = REALTIME_LINK_DELAY_STEPS * dt if clock == "realtime" else 0.0
-    compensator = build.compensator(scn, opts.compensator, extra_delay=link_delay)
+    compensator = build.compensator(scn, opts.compensator)
     substructure.predict(0.0)  # compile kernels before the clock starts
+    quiet = QuietGC() if clock == "realtime" else None
+    priority = realtime_priority() if clock == "realtime" else 0  # opt-in: RTHS_RT_PRIORITY
     pacer: Pacer = WallClock(dt, n) if clock == "realtime" else FreeRunning(dt, n)
+    if quiet is not None:
+        pacer.idle = quiet.idle
     collector = _Collector(n)
     progress = _Progress(opts.progress, n) if opts.progress else None
-    topics = {LOOP_TOPIC: LOOP_SCHEMA, SPECIMEN_TOPIC: SPECIMEN_SCHEMA}
     outcome = RunOutcome(path, run_id, clock, LoopResult(0, pacer.stats()), None)
-    with Recorder(
-        path, topics=topics, metadata=_metadata(scn, run_id, clock, comp_kind, seed)
-    ) as rec:
+    outcome.priority = priority
+    with Recorder(path, topics={}, metadata=_metadata(scn, run_id, clock, comp_kind, seed)) as rec:
         rec.event(0, "start", f"run {run_id}: {scn.run.name}, clock {clock}, {n} steps")
+        live = _live_server(opts.live, rec) if opts.live else None
 
-        def make_loop(link: Any, sink: Callable[[dict[str, float]], None]) -> Loop:
-            def record(r: dict[str, float]) -> None:
-                collector(r)
-                sink(r)
+        def make_loop(link: Any, extra_sink: Callable[[RowBlock], None] | None = None) -> Loop:
+            def sink(block: RowBlock) -> None:
+                collector(block)
+                rec.put_block(LOOP_TOPIC, block)
+                if live is not None:
+                    live.put_block(LOOP_TOPIC, block)
+                if extra_sink is not None:
+                    extra_sink(block)
 
-            return Loop(
+            loop = Loop(
                 substructure,
                 compensator,
                 link,
                 scn.scaling,
                 n,
                 pacer,
-                record,
+                sink,
                 command_limit=scn.loop.stroke,
                 force_filter=build.correction_filter(scn),
+                max_lag=scn.loop.max_lag,
             )
+            schema = block_schema(LOOP_TOPIC, RowBlock(loop.channels, 0), LOOP_DOC)
+            rec.add_topic(LOOP_TOPIC, schema)
+            if live is not None:
+                live.add_topic(LOOP_TOPIC, schema)
+            return loop
 
         def on_progress(k: int) -> None:
             if progress is not None:
@@ -300,36 +355,49 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
         try:
             if clock == "fast":
                 lab = build.lab(scn, seed)
-                loop = make_loop(
-                    _TruthLink(lab, rec),
-                    lambda r: rec.put(LOOP_TOPIC, int(r["seq"]), round(r["t"] * 1e9), r),
-                )
+                guard = CommandGuard(build.guard_limits(scn), dt)
+                loop = make_loop(_TruthLink(lab, guard, rec, 256, live))
                 outcome.result = loop.run(on_progress)
+                if guard.tripped or loop.safe_stop_steps:
+                    rec.event(
+                        round(outcome.result.steps * dt * 1e9),
+                        "ramp-down",
+                        f"{loop.safe_stop_steps} steps to zero at "
+                        f"{scn.loop.ramp_velocity:g} m/s ({guard.tripped})",
+                        **guard.summary(),
+                    )
             else:
-                from rths.session.zenoh_run import (
-                    run_over_zenoh,  # zenoh is imported only here
-                )
+                from rths.session.zenoh_run import run_over_zenoh  # zenoh is imported only here
 
-                outcome.result = run_over_zenoh(
-                    scn,
-                    opts,
-                    clock,
-                    run_id,
-                    rec,
-                    make_loop,
-                    on_progress,
-                    path.with_suffix(".specimen.log"),
-                    lambda: round(collector.count * dt * 1e9),
-                    seed,
-                )
+                realtime_thread()
+                with quiet if quiet is not None else _nothing():
+                    outcome.result, outcome.security = run_over_zenoh(
+                        scn,
+                        opts,
+                        clock,
+                        run_id,
+                        rec,
+                        make_loop,
+                        on_progress,
+                        path.with_suffix(".specimen.log"),
+                        lambda: round(collector.count * dt * 1e9),
+                        seed,
+                        live,
+                    )
+                if quiet is not None:
+                    outcome.gc = (quiet.collections, quiet.longest)
         finally:
             sys.setswitchinterval(switch)
             if progress is not None:
                 progress.finish()
+            if live is not None:
+                live.close()
         t_end = round(max(outcome.result.steps, collector.count) * dt * 1e9)
         if outcome.result.stopped:
             rec.event(t_end, "stopped", outcome.result.stopped)
         k = collector.count
+        if k:
+            outcome.age_p99 = float(np.percentile(collector.age[:k], 99))
         try:
             outcome.metrics = summarize(
                 collector.target[:k],
@@ -338,7 +406,7 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
                 dt,
                 max_delay=min(0.1, 0.25 * k * dt),
             )
-        except DataError as exc:  # too short or too quiet a record for some metric
+        except (DataError, ParameterError) as exc:  # too short or too quiet a record
             outcome.events.append(f"metrics not computed: {exc}")
         outcome.saturated = _saturations(scn, collector.measured[:k], collector.force[:k])
         for channel, count in outcome.saturated.items():
@@ -352,6 +420,22 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
         rec.event(t_end, "end", f"{outcome.result.steps} steps")
     outcome.recording = rec.summary
     return outcome
+
+
+@contextmanager
+def _nothing() -> Iterator[None]:
+    yield
+
+
+def _live_server(where: str, rec: Recorder) -> Any:
+    """The Foxglove WebSocket server of ``--live HOST:PORT`` (imported only when asked); its
+    address goes into the log's events."""
+    from rths.log.live import LiveServer
+
+    server = LiveServer.start(where)
+    host = where.rpartition(":")[0]
+    rec.event(0, "live", f"serving the run to Foxglove on ws://{host}:{server.port}")
+    return server
 
 
 def _saturations(scn: Scenario, measured: np.ndarray, force: np.ndarray) -> dict[str, int]:
@@ -382,6 +466,21 @@ def _summary(outcome: RunOutcome) -> dict[str, str]:
     }
     if outcome.metrics is not None:
         out.update({k: repr(v) for k, v in outcome.metrics.to_dict().items()})
+    if outcome.clock == "realtime":
+        out.update(
+            {
+                "deadline_misses": str(outcome.result.misses),
+                "longest_lag_steps": str(outcome.result.longest_lag),
+                "jitter_p50_s": repr(t.jitter_p50),
+                "jitter_max_s": repr(t.jitter_max),
+                "age_p99_s": repr(outcome.age_p99),
+                "gc_collections_in_loop": str(outcome.gc[0]),
+                "gc_longest_s": repr(outcome.gc[1]),
+                "loop_ended_monotonic_ns": str(outcome.result.ended_ns),
+                "sched_fifo_priority": str(outcome.priority),
+            }
+        )
+    out.update({f"auth_{k}": str(v) for k, v in outcome.security.items()})
     if outcome.events:
         out["notes"] = "; ".join(outcome.events)
     out.update({f"saturated_{k}": str(v) for k, v in outcome.saturated.items()})

@@ -1,37 +1,54 @@
 """The specimen process (``rths specimen``): the emulated lab served over zenoh.
 
-It builds the lab from the scenario file (the same file the coordinator reads), connects to the
-coordinator, announces readiness and then, per clock:
+It builds the lab from the scenario file (the same file the coordinator reads), reads the run's
+secret (from its standard input when ``rths run`` starts it), connects to the coordinator,
+announces readiness and then answers every command with one lab step, at once -- in ``lockstep``
+(deterministic) and in ``realtime`` alike, where the coordinator waits for the answer until the
+step's deadline.  Messages that do not carry the run's check are dropped and counted.
 
-``lockstep``  answers every command with one lab step (deterministic);
-``realtime``  free-runs at the scenario's rate on a wall-clock schedule, stepping the lab with the
-              newest command it has (zero-order hold) and publishing every sample stamped with
-              the monotonic clock, so the coordinator can measure its age.
+Every command passes the specimen side's own interlock first (:class:`CommandGuard`: stroke,
+velocity, per-step change); the actuator never sees anything else.  When the guard trips, when
+the coordinator asks to stop or goes away, or -- in real time -- when commands stop coming for
+``max_lag`` steps (the command watchdog), the process drives the actuator back to zero with a
+controlled ramp on its own clock, asks the coordinator to stop (naming why) and ends.
 
-Every step it also publishes the lab's truth (true kinematics and force, the specimen's and the
-actuator's internal states) on the ``specimen`` log stream, which the coordinator records as MCAP
-topic ``rths/specimen``.  It stops when the coordinator asks, when the coordinator disappears, or
-when the lab fails -- in which case it publishes an ``error`` record first so the coordinator's
-log says why.
+Every step it also records the lab's row (true kinematics and force, the actuator's and the
+specimen's internal states; :meth:`plants.lab.EmulatedLab.write_channels`) into a preallocated
+block, published a block at a time on the ``specimen`` log stream, which the coordinator records
+as MCAP topic ``rths/specimen``.  Its summary (steps, guard figures, ramp-down, timing, garbage
+collections, messages dropped) goes on ``specimen/summary``.  The garbage collector is kept out
+of the serving loop (:class:`rths.runtime.clocks.QuietGC`).
 """
 
 from __future__ import annotations
 
+import json
+import math
 import sys
 import time
 import traceback
+from typing import Any
 
 from plants.lab import EmulatedLab
 from rths.config import build
 from rths.config.scenario import Scenario
+from rths.core.channels import RowBlock
 from rths.core.errors import TransportError
-from rths.runtime.clocks import SWITCH_INTERVAL, WallClock
-from rths.wire.codec import Measurement
+from rths.runtime.clocks import (
+    SWITCH_INTERVAL,
+    QuietGC,
+    WallClock,
+    realtime_priority,
+    realtime_thread,
+)
+from rths.runtime.guard import CommandGuard
+from rths.wire.auth import RunSecret
+from rths.wire.codec import Command, Measurement
 from rths.wire.transport import (
     BackgroundPublisher,
+    BlockPublisher,
     LockstepServer,
     Presence,
-    RealtimeServer,
     RunKeys,
     ZenohEndpoints,
     open_session,
@@ -39,11 +56,42 @@ from rths.wire.transport import (
 
 __all__ = ["serve"]
 
+#: Rows per published block of the lab's truth.
+BLOCK_ROWS = 64
+#: Resolution [s] of the command watchdog (the inbox's wake-up tick).
+WATCHDOG_TICK = 0.002
+
 
 def _warm_up(lab: EmulatedLab) -> None:
     """Step once and reset, so compiled kernels are built before the handshake."""
     lab.step(0.0)
+    lab.write_channels(RowBlock(lab.channels(), 1).values[0])
     lab.reset()
+
+
+class _Rows:
+    """The lab's rows, a block at a time, to a :class:`BlockPublisher`."""
+
+    def __init__(self, lab: EmulatedLab, publisher: BlockPublisher | None) -> None:
+        self.lab, self.publisher = lab, publisher
+        self.channels = lab.channels()
+        self.block = RowBlock(self.channels, BLOCK_ROWS)
+
+    def add(self, seq: int, t_ns: int) -> None:
+        if self.publisher is None:
+            return
+        b = self.block
+        i = b.count
+        self.lab.write_channels(b.values[i])
+        b.seq[i], b.t_ns[i] = seq, t_ns
+        b.count = i + 1
+        if b.count == BLOCK_ROWS:
+            self.flush()
+
+    def flush(self) -> None:
+        if self.publisher is not None and self.block.count:
+            self.publisher.put_block(self.block)
+            self.block = RowBlock(self.channels, BLOCK_ROWS)
 
 
 def serve(
@@ -55,13 +103,15 @@ def serve(
     ready_timeout: float = 30.0,
     log_state: bool = True,
     seed: int | None = None,
+    secret: RunSecret | None = None,
 ) -> int:
     """Serve the scenario's emulated lab until stopped; return the number of steps served.
 
     Parameters
     ----------
     scn
-        The scenario (its ``[specimen]``, ``[actuator]``, ``[lab]`` and ``[run]`` tables).
+        The scenario (its ``[specimen]``, ``[actuator]``, ``[lab]``, ``[loop]`` and ``[run]``
+        tables).
     run_id
         The run's id (keys under ``rths/<run_id>/``).
     endpoints
@@ -71,9 +121,11 @@ def serve(
     ready_timeout
         Longest wait [s] for the coordinator.
     log_state
-        Publish the lab's truth every step on the ``specimen`` log stream.
+        Publish the lab's rows on the ``specimen`` log stream.
     seed
         Noise seed of the lab (default: the scenario's ``[run] seed``).
+    secret
+        The run's secret (:mod:`rths.wire.auth`); None: plain messages (tests only).
 
     Raises
     ------
@@ -82,88 +134,164 @@ def serve(
     """
     if clock not in ("lockstep", "realtime"):
         raise TransportError(f"the specimen process serves 'lockstep' or 'realtime'; got {clock!r}")
+    if clock == "realtime":
+        realtime_priority()  # opt-in (RTHS_RT_PRIORITY), before zenoh starts its threads
     lab = build.lab(scn, seed)
     _warm_up(lab)
+    guard = CommandGuard(build.guard_limits(scn), scn.run.dt)
     keys = RunKeys(run_id)
     with (
         open_session(endpoints) as session,
-        BackgroundPublisher(session, keys.specimen_state) as log,
-        BackgroundPublisher(session, keys.log("specimen/summary")) as summary,
+        BlockPublisher(session, keys.specimen_state, secret=secret) as log,
+        BackgroundPublisher(session, keys.log("specimen/summary"), secret=secret) as summary,
     ):
+        server = _Server(scn, lab, guard, _Rows(lab, log if log_state else None), clock)
         try:
-            if clock == "lockstep":
-                served = _lockstep(lab, session, keys, endpoints, log, ready_timeout, log_state)
-            else:
-                served = _realtime(
-                    scn, lab, session, keys, endpoints, log, ready_timeout, log_state, summary
-                )
+            server.run(session, keys, endpoints, ready_timeout, secret)
         except Exception as exc:
             summary.put(
                 round(lab.time * 1e9),
                 {"error": f"specimen process failed: {exc!r}", "traceback": traceback.format_exc()},
             )
             raise
-        summary.put(
-            round(lab.time * 1e9),
-            {
-                "steps": served,
-                **{f"saturated_{name}": count for name, count in lab.saturation_counts.items()},
-            },
-        )
-        return served
+        finally:
+            server.rows.flush()
+        figures = server.summary()
+        summary.put(round(lab.time * 1e9), figures)
+        print("specimen summary: " + json.dumps(figures), file=sys.stderr, flush=True)
+        return server.served
 
 
-def _lockstep(lab, session, keys, endpoints, log, ready_timeout, log_state) -> int:
-    with (
-        LockstepServer(session, keys) as link,
-        Presence(session, keys, "specimen", endpoints.describe()) as presence,
-    ):
-        presence.wait_for_peer(ready_timeout, [link.publisher])
-        sys.setswitchinterval(SWITCH_INTERVAL)
-        served = 0
+class _Server:
+    """The serving loop (one instance per run)."""
+
+    def __init__(
+        self, scn: Scenario, lab: EmulatedLab, guard: CommandGuard, rows: _Rows, clock: str
+    ) -> None:
+        self.scn, self.lab, self.guard, self.rows, self.clock = scn, lab, guard, rows, clock
+        self.dt = scn.run.dt
+        self.steps = scn.run.steps
+        self.served = 0
+        self.ramp_steps = 0
+        self.stop_reason = ""
+        self.quiet = QuietGC()
+        self.opener: Any = None
+        self.refused = 0
+        self.late_commands = 0
+        self.tripped_ns = 0  # monotonic clock when the serving loop ended (trip or stop)
+        self.safe_ns = 0  # monotonic clock when the actuator was back at rest
+
+    def run(
+        self,
+        session: Any,
+        keys: RunKeys,
+        endpoints: ZenohEndpoints,
+        ready_timeout: float,
+        secret: RunSecret | None,
+    ) -> None:
+        with (
+            LockstepServer(session, keys, secret, tick=WATCHDOG_TICK) as link,
+            Presence(session, keys, "specimen", endpoints.describe(), secret) as presence,
+        ):
+            self.opener = link.opener
+            sys.setswitchinterval(SWITCH_INTERVAL)
+            realtime_thread()
+            with self.quiet:  # before announcing: the full collection it starts with is slow
+                presence.wait_for_peer(ready_timeout, [link.publisher])
+                self._serve(link, presence)
+                self.tripped_ns = time.monotonic_ns()
+                if self.guard.tripped and not presence.stop.is_set():  # say why, then ramp
+                    presence.request_stop(f"specimen interlock: {self.guard.tripped}")
+                self._ramp_down(link)
+                self.safe_ns = time.monotonic_ns()
+            self.refused = presence.refused
+
+    def _serve(self, link: LockstepServer, presence: Presence) -> None:
+        """Answer commands until a stop, the end of the run, a trip or a silent coordinator."""
+        guard, rows = self.guard, self.rows
+        realtime = self.clock == "realtime"
+        # the command watchdog: real time only (in lockstep the lab does not move on its own)
+        timeout = max(self.scn.loop.max_lag * self.dt, WATCHDOG_TICK) if realtime else 0.05
+        idle = self.quiet.idle
+        last_seq = -1
         while not presence.stop.is_set():
-            command = link.receive(0.05)
+            wait = timeout if realtime and 0 <= last_seq < self.steps - 1 else 0.05
+            command = link.receive(wait)
             if command is None:
+                if realtime and 0 <= last_seq < self.steps - 1 and not presence.stop.is_set():
+                    guard.trip(
+                        f"no command for {wait * 1e3:.1f} ms after step {last_seq} "
+                        "(command watchdog)"
+                    )
+                    self.stop_reason = guard.tripped or ""
+                    return
                 continue
-            displacement, force = lab.step(command.command)
-            link.reply(
+            # a backlog (this process was held up): step through every queued command, answer
+            # only the newest (the coordinator has dropped the older ones)
+            while (newer := link.pending()) is not None:
+                self._step(command, reply=None)
+                self.late_commands += 1
+                command = newer
+            if presence.stop.is_set():
+                return
+            self._step(command, reply=link)
+            last_seq = command.seq
+            if guard.tripped:
+                self.stop_reason = guard.tripped
+                return
+            idle(round(self.dt * 1e9) // 2)
+        self.stop_reason = presence.stop_reason
+        rows.flush()
+
+    def _step(self, command: Command, reply: LockstepServer | None) -> None:
+        displacement, force = self.lab.step(self.guard.apply(command.command))
+        if reply is not None:
+            reply.reply(
                 Measurement(command.seq, command.t_ns, displacement, force, time.monotonic_ns())
             )
-            if log_state:  # after the reply: logging is off the round trip
-                log.put(command.t_ns, lab.truth())
-            served += 1
-        return served
+        self.rows.add(command.seq, command.t_ns)
+        self.served += 1
 
-
-def _realtime(scn, lab, session, keys, endpoints, log, ready_timeout, log_state, summary) -> int:
-    dt = scn.run.dt
-    dt_ns = round(dt * 1e9)
-    # run up to 10 s past the scenario's end if the coordinator is late to stop us
-    horizon = scn.run.steps + round(10.0 / dt)
-    with (
-        RealtimeServer(session, keys) as link,
-        Presence(session, keys, "specimen", endpoints.describe()) as presence,
-    ):
-        presence.wait_for_peer(ready_timeout, [link.publisher])
-        sys.setswitchinterval(SWITCH_INTERVAL)
-        pacer = WallClock(dt, horizon)
-        command = 0.0
-        pacer.start()
-        served = 0
-        for k in range(horizon):
-            if presence.stop.is_set():
+    def _ramp_down(self, link: LockstepServer) -> None:
+        """Drive the actuator to zero through the guard (paced by the wall clock in real time);
+        commands that still arrive are counted and ignored."""
+        guard = self.guard
+        guard.trip(self.stop_reason or "stop")
+        n = guard.ramp_steps()
+        if n == 0:
+            return
+        pacer = WallClock(self.dt, n + 1) if self.clock == "realtime" else None
+        if pacer is not None:
+            pacer.start()
+        for k in range(n + 1):
+            if pacer is not None:
+                pacer.wait(k)
+            while link.pending() is not None:
+                guard.ignored += 1
+            self.lab.step(guard.ramp())
+            self.ramp_steps += 1
+            if guard.at_rest:
                 break
-            pacer.wait(k)
-            latest = link.latest()
-            if latest is not None:
-                command = latest.message.command
-            displacement, force = lab.step(command)
-            t_ns = (k + 1) * dt_ns
-            link.publish(Measurement(k, t_ns, displacement, force, time.monotonic_ns()))
-            if log_state:
-                log.put(t_ns, lab.truth())
-            pacer.done(k)
-            served = k + 1
-        stats = pacer.stats()
-        summary.put(served * dt_ns, {"overruns": stats.overruns, "jitter_p99": stats.jitter_p99})
-        return served
+
+    def summary(self) -> dict[str, Any]:
+        """The process's figures for the coordinator's log."""
+        out: dict[str, Any] = {
+            "steps": self.served,
+            "stop_reason": self.stop_reason,
+            "ramp_down_steps": self.ramp_steps,
+            "late_commands": self.late_commands,
+            "gc_collections_in_loop": self.quiet.collections,
+            "gc_longest_s": self.quiet.longest,
+            "stopped_at_ns": self.tripped_ns,
+            "at_rest_ns": self.safe_ns,
+            **self.guard.summary(),
+            **{f"saturated_{name}": count for name, count in self.lab.saturation_counts.items()},
+        }
+        if self.opener is not None:
+            c = self.opener.counts()
+            out["auth_commands_accepted"] = c["accepted"]
+            out["auth_forged_dropped"] = c["forged"] + self.refused
+            out["auth_replayed_dropped"] = c["replayed"]
+        if not math.isfinite(out["gc_longest_s"]):
+            out["gc_longest_s"] = 0.0
+        return out

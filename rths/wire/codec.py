@@ -14,7 +14,10 @@ dt``); ``sample_ns`` is the specimen's monotonic clock [ns] when it sampled the 
 realtime clock can tell how old the newest sample is.
 
 :class:`LogRecord` is the (slower, self-describing) JSON record another process publishes on
-``rths/<run>/log/<name>`` for the coordinator's recorder, e.g. the specimen's internal state.
+``rths/<run>/log/<name>`` for the coordinator's recorder, e.g. the specimen's summary.  A block of
+per-step rows (:class:`rths.core.channels.RowBlock`, e.g. the emulated lab's truth) travels as one
+binary frame (:func:`pack_block`): its channel declarations as JSON, then the step counters, log
+times and values as little-endian arrays, so the specimen's loop never encodes JSON.
 """
 
 from __future__ import annotations
@@ -25,9 +28,12 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
+import numpy as np
+
+from rths.core.channels import Channel, RowBlock
 from rths.core.errors import DataError, ParameterError
 
-__all__ = ["Command", "LogRecord", "Measurement"]
+__all__ = ["BLOCK_MAGIC", "Command", "LogRecord", "Measurement", "pack_block", "unpack_block"]
 
 _COMMAND = struct.Struct("<Qqd")
 _MEASUREMENT = struct.Struct("<Qqddq")
@@ -220,3 +226,69 @@ class LogRecord:
         if not isinstance(message, dict):
             raise DataError(f"log record message must be a JSON object; got {message!r:.60}")
         return cls(seq, log_time, message)
+
+
+#: First bytes of a :func:`pack_block` frame (never the start of a LogRecord's JSON header).
+BLOCK_MAGIC = b"RTHSBLK1"
+_U32 = struct.Struct("<I")
+
+
+def pack_block(block: RowBlock) -> bytes:
+    """One binary frame for the filled rows of ``block``: magic, the channels (JSON), the row
+    count, then ``seq`` (int64), ``t_ns`` (int64) and the values (float64, row-major).
+
+    Parameters
+    ----------
+    block
+        The rows (``block.count`` of them are packed).
+    """
+    n = block.count
+    head = json.dumps([[c.name, c.unit, c.description] for c in block.channels]).encode()
+    return b"".join(
+        (
+            BLOCK_MAGIC,
+            _U32.pack(len(head)),
+            head,
+            _U32.pack(n),
+            block.seq[:n].astype("<i8").tobytes(),
+            block.t_ns[:n].astype("<i8").tobytes(),
+            np.ascontiguousarray(block.values[:n], dtype="<f8").tobytes(),
+        )
+    )
+
+
+def unpack_block(data: bytes | bytearray | memoryview) -> RowBlock:
+    """Decode a :func:`pack_block` frame.
+
+    Parameters
+    ----------
+    data
+        The frame.
+
+    Raises
+    ------
+    DataError
+        If ``data`` is not such a frame (the message says what is wrong).
+    """
+    raw = bytes(data)
+    try:
+        if not raw.startswith(BLOCK_MAGIC):
+            raise ValueError("no block magic")
+        at = len(BLOCK_MAGIC)
+        (size,) = _U32.unpack_from(raw, at)
+        at += 4
+        columns = [Channel(str(n), str(u), str(d)) for n, u, d in json.loads(raw[at : at + size])]
+        at += size
+        (n,) = _U32.unpack_from(raw, at)
+        at += 4
+        m = len(columns)
+        if len(raw) != at + 16 * n + 8 * n * m:
+            raise ValueError(f"{len(raw)} bytes for {n} rows of {m} channels")
+        block = RowBlock(columns, n)
+        block.seq[:] = np.frombuffer(raw, "<i8", n, at)
+        block.t_ns[:] = np.frombuffer(raw, "<i8", n, at + 8 * n)
+        block.values[:] = np.frombuffer(raw, "<f8", n * m, at + 16 * n).reshape(n, m)
+        block.count = n
+        return block
+    except (ValueError, TypeError, struct.error, ParameterError) as exc:
+        raise DataError(f"row block frame is malformed ({exc}); got {raw[:40]!r}") from None

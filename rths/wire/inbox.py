@@ -69,7 +69,9 @@ class Inbox(Generic[T]):
     key
         Key expression to receive from.
     decode
-        ``bytes -> message``; raises :class:`DataError` on a malformed payload.
+        ``bytes -> message``; raises :class:`DataError` on a malformed payload, or returns
+        None for a payload to drop (an :class:`rths.wire.auth.Opener` refusing a forged or
+        replayed frame); dropped payloads are counted in :attr:`dropped`.
     capacity
         Messages the channel holds before zenoh's receive thread blocks (lockstep needs 1).
     tick
@@ -80,11 +82,12 @@ class Inbox(Generic[T]):
         self,
         session: zenoh.Session,
         key: str,
-        decode: Callable[[bytes], T],
+        decode: Callable[[bytes], T | None],
         capacity: int = 1024,
         tick: float = 0.01,
     ) -> None:
         self.key = key
+        self.dropped = 0  #: payloads the decoder refused (returned None for), e.g. forged
         self._decode = decode
         self._tick = check_positive(tick, "watchdog tick")
         self._subscriber = session.declare_subscriber(key, zenoh.handlers.FifoChannel(capacity))
@@ -119,14 +122,20 @@ class Inbox(Generic[T]):
         DataError
             If the next payload could not be decoded.
         """
-        with self._receiving:  # close() must not undeclare while recv() runs
-            if self._closed.is_set():
-                raise TransportError(f"inbox on key '{self.key}' is closed")
-            payload = self._receive(timeout)
-        try:
-            return self._decode(payload)
-        except DataError as exc:
-            raise DataError(f"on key '{self.key}': {exc}") from None
+        deadline = None if timeout is None else time.monotonic_ns() + int(timeout * 1e9)
+        while True:
+            with self._receiving:  # close() must not undeclare while recv() runs
+                if self._closed.is_set():
+                    raise TransportError(f"inbox on key '{self.key}' is closed")
+                left = None if deadline is None else (deadline - time.monotonic_ns()) * 1e-9
+                payload = self._receive(left)
+            try:
+                message = self._decode(payload)
+            except DataError as exc:
+                raise DataError(f"on key '{self.key}': {exc}") from None
+            if message is not None:
+                return message
+            self.dropped += 1  # a frame the decoder refused (forged, replayed): counted, skipped
 
     def _receive(self, timeout: float | None) -> bytes:
         while (sample := self._subscriber.try_recv()) is not None:

@@ -14,10 +14,36 @@ from typing import Any, Protocol
 import zenoh
 
 from rths.core.errors import TransportError, check_positive
+from rths.wire.auth import Opener, RunSecret, Sealer
 from rths.wire.codec import Command, Measurement
 from rths.wire.inbox import Inbox, Latest, Mailbox, declare_hot_publisher
 
-__all__ = ["LockstepClient", "LockstepServer", "RealtimeClient", "RealtimeServer"]
+__all__ = [
+    "COMMAND_DOMAIN",
+    "MEASUREMENT_DOMAIN",
+    "LockstepClient",
+    "LockstepServer",
+    "RealtimeClient",
+    "RealtimeServer",
+    "SyncClient",
+]
+
+#: HMAC domains of the hot path (:mod:`rths.wire.auth`).
+COMMAND_DOMAIN = "command"
+MEASUREMENT_DOMAIN = "measurement"
+
+
+def _sealed(secret: RunSecret | None, domain: str) -> tuple[Sealer | None, Opener | None]:
+    return (None, None) if secret is None else (secret.sealer(domain), None)
+
+
+def _opened(
+    secret: RunSecret | None, domain: str, decode: Callable[[bytes], Any]
+) -> tuple[Opener | None, Callable[[bytes], Any]]:
+    if secret is None:
+        return None, decode
+    opener = secret.opener(domain)
+    return opener, opener.decoder(decode)
 
 
 class _HotKeys(Protocol):
@@ -59,17 +85,29 @@ class LockstepClient(_Link):
         The run's keys.
     timeout
         Default wait for a measurement [s].
+    secret
+        The run's secret: commands are sealed and measurements opened with it
+        (:mod:`rths.wire.auth`); None sends and accepts plain records (tests, benchmarks).
     """
 
-    def __init__(self, session: zenoh.Session, keys: _HotKeys, timeout: float = 1.0) -> None:
+    def __init__(
+        self,
+        session: zenoh.Session,
+        keys: _HotKeys,
+        timeout: float = 1.0,
+        secret: RunSecret | None = None,
+    ) -> None:
         self.timeout = check_positive(timeout, "lockstep timeout")
         self.stale = 0  #: measurements for older steps that were discarded
-        self._receiver: Inbox[Measurement] = Inbox(session, keys.measurement, Measurement.unpack)
+        self.sealer, _ = _sealed(secret, COMMAND_DOMAIN)
+        self.opener, decode = _opened(secret, MEASUREMENT_DOMAIN, Measurement.unpack)
+        self._receiver: Inbox[Measurement] = Inbox(session, keys.measurement, decode)
         self.publisher = declare_hot_publisher(session, keys.command)
 
     def send(self, command: Command) -> None:
         """Publish a command without waiting."""
-        self.publisher.put(command.pack())
+        payload = command.pack()
+        self.publisher.put(payload if self.sealer is None else self.sealer.seal(payload))
 
     def receive(self, seq: int, timeout: float | None = None) -> Measurement:
         """Wait for the measurement answering command ``seq``; older ones are discarded.
@@ -101,7 +139,7 @@ class LockstepClient(_Link):
 
     def exchange(self, command: Command, timeout: float | None = None) -> Measurement:
         """Send ``command``; return the measurement with the same ``seq`` (:meth:`receive`)."""
-        self.publisher.put(command.pack())
+        self.send(command)
         return self.receive(command.seq, timeout)
 
 
@@ -112,11 +150,27 @@ class LockstepServer(_Link):
     ----------
     session, keys
         Open session and the run's keys.
+    secret
+        The run's secret (commands opened, measurements sealed); None for plain records.
+    tick
+        Resolution [s] of :meth:`receive`'s timeout (the command watchdog's).
     """
 
-    def __init__(self, session: zenoh.Session, keys: _HotKeys) -> None:
-        self._receiver: Inbox[Command] = Inbox(session, keys.command, Command.unpack)
+    def __init__(
+        self,
+        session: zenoh.Session,
+        keys: _HotKeys,
+        secret: RunSecret | None = None,
+        tick: float = 0.01,
+    ) -> None:
+        self.sealer, _ = _sealed(secret, MEASUREMENT_DOMAIN)
+        self.opener, decode = _opened(secret, COMMAND_DOMAIN, Command.unpack)
+        self._receiver: Inbox[Command] = Inbox(session, keys.command, decode, tick=tick)
         self.publisher = declare_hot_publisher(session, keys.measurement)
+
+    def pending(self) -> Command | None:
+        """A command already waiting, without blocking (None if there is none)."""
+        return self.receive(0.0)
 
     def receive(self, timeout: float | None) -> Command | None:
         """The next command, or None if none arrived within ``timeout`` [s]."""
@@ -127,7 +181,8 @@ class LockstepServer(_Link):
 
     def reply(self, measurement: Measurement) -> None:
         """Publish the measurement for the command just taken."""
-        self.publisher.put(measurement.pack())
+        payload = measurement.pack()
+        self.publisher.put(payload if self.sealer is None else self.sealer.seal(payload))
 
     def serve(
         self,
@@ -151,7 +206,7 @@ class LockstepServer(_Link):
         while not stop.is_set():
             command = self.receive(poll)
             if command is not None:
-                self.publisher.put(respond(command).pack())
+                self.reply(respond(command))
                 served += 1
         return served
 
@@ -213,3 +268,135 @@ class RealtimeServer(_Link):
     def publish(self, measurement: Measurement) -> None:
         """Publish a measurement."""
         self.publisher.put(measurement.pack())
+
+
+class SyncClient:
+    """Coordinator end of the synchronous real-time link (the ``realtime`` clock).
+
+    Each step the loop sends command ``k`` and waits for measurement ``k`` until the step's
+    deadline, as a lab's controller board does: the specimen process steps once per command and
+    answers at once (it is the :class:`LockstepServer`).  A measurement that is not there by the
+    deadline is a *miss*: :meth:`exchange` returns None and the loop goes on with the newest
+    sample it has (:attr:`newest`); the late measurement is dropped when it arrives.
+
+    The receive side is a direct zenoh callback feeding a :class:`queue.SimpleQueue`, because
+    waiting for the deadline needs a wait with a precise timeout (``SimpleQueue.get`` with a
+    timeout sleeps in the kernel to the microsecond, with the thread's timer slack lowered by
+    :func:`rths.runtime.clocks.realtime_thread`); a FIFO channel's ``recv`` cannot time out.
+
+    Parameters
+    ----------
+    session, keys
+        Open session and the run's keys.
+    secret
+        The run's secret (commands sealed, measurements opened); None for plain records.
+    clock
+        Monotonic clock [ns] the deadlines refer to.
+    poll
+        None (default): the callback and timed wait above.  A period [s]: instead, a FIFO
+        channel filled without the GIL, polled with ``try_recv`` and short sleeps until the
+        deadline (compared in ``tools/bench_zenoh.py``).
+    """
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        keys: _HotKeys,
+        secret: RunSecret | None = None,
+        clock: Callable[[], int] = time.monotonic_ns,
+        poll: float | None = None,
+    ) -> None:
+        self.sealer, _ = _sealed(secret, COMMAND_DOMAIN)
+        self.opener, self._decode = _opened(secret, MEASUREMENT_DOMAIN, Measurement.unpack)
+        self._clock = clock
+        self._queue: queue.SimpleQueue[bytes] = queue.SimpleQueue()
+        self._poll = None if poll is None else check_positive(poll, "poll period")
+        self._subscriber: Any
+        if self._poll is not None:
+            self._subscriber = session.declare_subscriber(
+                keys.measurement, zenoh.handlers.FifoChannel(1024)
+            )
+        else:
+            put = self._queue.put
+
+            def on_sample(sample: zenoh.Sample) -> None:  # on zenoh's thread: one enqueue
+                put(sample.payload.to_bytes())
+
+            self._subscriber = session.declare_subscriber(
+                keys.measurement, zenoh.handlers.Callback(on_sample, indirect=False)
+            )
+        self.publisher = declare_hot_publisher(session, keys.command)
+        self.newest: Measurement | None = None  #: the newest measurement received
+        self.late = 0  #: measurements that arrived after their step's deadline (dropped)
+        self.dropped = 0  #: frames refused by the opener (forged, replayed)
+
+    def send(self, command: Command) -> None:
+        """Publish a command without waiting."""
+        payload = command.pack()
+        self.publisher.put(payload if self.sealer is None else self.sealer.seal(payload))
+
+    def exchange(self, command: Command, deadline_ns: int) -> Measurement | None:
+        """Send ``command``; wait until ``deadline_ns`` for the measurement with its ``seq``.
+
+        Parameters
+        ----------
+        command
+            The step's command.
+        deadline_ns
+            Until when to wait, on the client's clock [ns].
+
+        Returns
+        -------
+        Measurement or None
+            The answer, or None if it did not come in time (a deadline miss).
+        """
+        self.send(command)
+        seq, get, decode = command.seq, self._get, self._decode
+        while True:
+            raw = get(deadline_ns)
+            if raw is None:
+                return None
+            m = decode(raw)
+            if m is None:
+                self.dropped += 1
+                continue
+            if self.newest is None or m.seq > self.newest.seq:
+                self.newest = m
+            if m.seq == seq:
+                return m
+            if m.seq < seq:
+                self.late += 1
+            else:
+                raise TransportError(
+                    f"measurement seq={m.seq} is ahead of the command seq={seq}: specimen out "
+                    "of step"
+                )
+
+    def _get(self, deadline_ns: int) -> bytes | None:
+        clock = self._clock
+        if self._poll is None:
+            left = deadline_ns - clock()
+            try:
+                return self._queue.get(timeout=left * 1e-9) if left > 0 else self._queue.get(False)
+            except queue.Empty:
+                return None
+        try_recv, pause = self._subscriber.try_recv, self._poll
+        while True:
+            sample = try_recv()
+            if sample is not None:
+                return bytes(sample.payload.to_bytes())
+            left = deadline_ns - clock()
+            if left <= 0:
+                return None
+            time.sleep(min(pause, left * 1e-9))
+
+    def close(self) -> None:
+        """Undeclare the subscriber and the publisher."""
+        self._subscriber.undeclare()
+        self.publisher.undeclare()
+
+    def __enter__(self) -> SyncClient:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

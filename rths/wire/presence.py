@@ -14,6 +14,7 @@ from typing import Protocol
 import zenoh
 
 from rths.core.errors import ParameterError, TransportError, check_positive
+from rths.wire.auth import RunSecret
 from rths.wire.keys import ROLES, Role
 
 __all__ = ["ROLES", "Presence", "Role"]
@@ -45,13 +46,26 @@ class Presence:
         ``"coordinator"`` or ``"specimen"``; the peer is the other one.
     where
         Endpoint description for error messages (e.g. ``endpoints.describe()``).
+    secret
+        The run's secret: stop requests are sealed, and the peer's are honoured only if they
+        verify (:mod:`rths.wire.auth`; forged and replayed ones are counted in
+        :attr:`refused`).  None: plain stop requests (tests).
     """
 
-    def __init__(self, session: zenoh.Session, keys: _ControlKeys, role: Role, where: str) -> None:
+    def __init__(
+        self,
+        session: zenoh.Session,
+        keys: _ControlKeys,
+        role: Role,
+        where: str,
+        secret: RunSecret | None = None,
+    ) -> None:
         if role not in ROLES:
             raise ParameterError(f"role must be one of {ROLES}; got {role!r}")
         self.role: Role = role
         self.peer: Role = ROLES[1 - ROLES.index(role)]
+        self._sealer = None if secret is None else secret.sealer(f"stop/{role}")
+        self._opener = None if secret is None else secret.opener(f"stop/{self.peer}")
         self.where = where
         self.stop = threading.Event()
         self.stop_reason = ""
@@ -78,9 +92,19 @@ class Presence:
             self._peer_up.clear()
             self._set_stop(f"{self.peer} process went away")
 
+    @property
+    def refused(self) -> int:
+        """Stop requests dropped because they did not verify (forged or replayed)."""
+        return 0 if self._opener is None else self._opener.forged + self._opener.replayed
+
     def _on_stop(self, sample: zenoh.Sample) -> None:
+        payload: bytes | None = sample.payload.to_bytes()
+        if self._opener is not None:
+            payload = self._opener.open(payload)  # type: ignore[arg-type]
+            if payload is None:
+                return  # forged or replayed: counted by the opener, never obeyed
         try:
-            reason = str(json.loads(sample.payload.to_bytes()).get("reason", "stop requested"))
+            reason = str(json.loads(payload).get("reason", "stop requested"))  # type: ignore[arg-type]
         except (ValueError, AttributeError):
             reason = "stop requested"
         self._set_stop(f"{self.peer} requested stop: {reason}")
@@ -137,7 +161,10 @@ class Presence:
 
     def request_stop(self, reason: str = "done") -> None:
         """Ask the peer to stop (it sees ``"<role> requested stop: <reason>"``)."""
-        self._session.put(self._keys.stop, json.dumps({"reason": reason, "pid": os.getpid()}))
+        payload = json.dumps({"reason": reason, "pid": os.getpid()}).encode()
+        if self._sealer is not None:
+            payload = self._sealer.seal(payload)
+        self._session.put(self._keys.stop, payload)
 
     def close(self) -> None:
         """Withdraw the token and undeclare the subscribers."""

@@ -10,11 +10,13 @@ from typing import Any, Protocol
 
 import zenoh
 
+from rths.core.channels import RowBlock
 from rths.core.errors import DataError
-from rths.wire.codec import LogRecord
+from rths.wire.auth import Opener, RunSecret
+from rths.wire.codec import BLOCK_MAGIC, LogRecord, pack_block, unpack_block
 from rths.wire.keys import RunKeys
 
-__all__ = ["BackgroundPublisher", "LogBridge", "LogPublisher", "RecordSink"]
+__all__ = ["BackgroundPublisher", "BlockPublisher", "LogBridge", "LogPublisher", "RecordSink"]
 
 
 class LogPublisher:
@@ -33,9 +35,12 @@ class LogPublisher:
     transport, and the recorder counts gaps in ``seq`` anyway.
     """
 
-    def __init__(self, session: zenoh.Session, keys: RunKeys, name: str) -> None:
+    def __init__(
+        self, session: zenoh.Session, keys: RunKeys, name: str, secret: RunSecret | None = None
+    ) -> None:
         self.key = keys.log(name)
         self.seq = 0  #: seq of the next record
+        self._sealer = None if secret is None else secret.sealer(self.key)
         self._publisher = session.declare_publisher(
             self.key,
             congestion_control=zenoh.CongestionControl.BLOCK,
@@ -52,7 +57,8 @@ class LogPublisher:
         message
             JSON-serialisable mapping of named values in SI units.
         """
-        self._publisher.put(LogRecord(self.seq, log_time_ns, message).encode())
+        payload = LogRecord(self.seq, log_time_ns, message).encode()
+        self._publisher.put(payload if self._sealer is None else self._sealer.seal(payload))
         self.seq += 1
 
     def close(self) -> None:
@@ -82,13 +88,24 @@ class BackgroundPublisher:
         True: reliable with congestion control BLOCK (the recorder sees every record; the
         queue absorbs congestion).  False: best effort, dropped under congestion (live copies
         for monitors).
+    secret
+        The run's secret: each payload is sealed (domain: the key), so the recorder can tell
+        it from a forged one.  None: plain payloads.
     """
 
-    def __init__(self, session: zenoh.Session, key: str, *, reliable: bool = True) -> None:
+    def __init__(
+        self,
+        session: zenoh.Session,
+        key: str,
+        *,
+        reliable: bool = True,
+        secret: RunSecret | None = None,
+    ) -> None:
         import queue
         import threading
 
         self.key = key
+        self._sealer = None if secret is None else secret.sealer(key)
         self.seq = 0  #: seq of the next record
         congestion = zenoh.CongestionControl.BLOCK if reliable else zenoh.CongestionControl.DROP
         self._publisher = session.declare_publisher(
@@ -120,7 +137,11 @@ class BackgroundPublisher:
                     break
                 if item is None:
                     return
-                put(LogRecord(*item).encode())
+                put(self._encode(item))
+
+    def _encode(self, item: Any) -> bytes:
+        payload = pack_block(item) if isinstance(item, RowBlock) else LogRecord(*item).encode()
+        return payload if self._sealer is None else self._sealer.seal(payload)
 
     def close(self) -> None:
         """Publish what is queued, then undeclare the publisher."""
@@ -135,11 +156,26 @@ class BackgroundPublisher:
         self.close()
 
 
+class BlockPublisher(BackgroundPublisher):
+    """Publish :class:`rths.core.channels.RowBlock` s (binary frames, :func:`pack_block`) from a
+    background thread: the producer hands over a full block and returns."""
+
+    def put_block(self, block: RowBlock) -> None:
+        """Queue a filled block; it must not change afterwards."""
+        self._queue.put(block)
+
+    def __enter__(self) -> BlockPublisher:
+        return self
+
+
 class RecordSink(Protocol):
     """What :class:`LogBridge` feeds: :class:`rths.log.recorder.Recorder` satisfies it."""
 
     def put_record(self, topic: str, payload: bytes) -> None:
         """Queue an encoded :class:`rths.wire.codec.LogRecord` for ``topic`` without blocking."""
+
+    def put_block(self, topic: str, block: RowBlock) -> None:
+        """Queue a block of rows for ``topic`` without blocking."""
 
 
 class LogBridge:
@@ -155,14 +191,26 @@ class LogBridge:
     keys
         The run's :class:`rths.wire.transport.RunKeys`.
     recorder
-        A started :class:`rths.log.recorder.Recorder` (anything with its ``put_record``).
+        A started :class:`rths.log.recorder.Recorder` (anything with its ``put_record`` and
+        ``put_block``).
+    secret
+        The run's secret: a payload is recorded only if it verifies (one opener per key);
+        forged and replayed ones are dropped and counted (:meth:`refused`).  None: plain.
     """
 
-    def __init__(self, session: zenoh.Session, keys: RunKeys, recorder: RecordSink) -> None:
+    def __init__(
+        self,
+        session: zenoh.Session,
+        keys: RunKeys,
+        recorder: RecordSink,
+        secret: RunSecret | None = None,
+    ) -> None:
         import threading
 
         self._keys = keys
         self._recorder = recorder
+        self._secret = secret
+        self._openers: dict[str, Opener] = {}
         self.received = 0  #: payloads received
         self.dropped = 0  #: payloads the recorder refused (closed or failed) -- lost, but counted
         # A FIFO channel filled by zenoh's threads without the GIL, drained every 5 ms by one
@@ -183,11 +231,27 @@ class LogBridge:
         try_recv = self._subscriber.try_recv
         while (sample := try_recv()) is not None:
             self.received += 1
-            topic = self._keys.topic_of(str(sample.key_expr))
+            key = str(sample.key_expr)
+            payload: bytes | None = sample.payload.to_bytes()
+            if self._secret is not None:
+                opener = self._openers.get(key)
+                if opener is None:
+                    opener = self._openers[key] = self._secret.opener(key)
+                payload = opener.open(payload)  # type: ignore[arg-type]
+                if payload is None:
+                    continue  # forged or replayed: counted by the opener, never recorded
             try:
-                self._recorder.put_record(topic, sample.payload.to_bytes())
-            except DataError:  # the recorder is closed or failed; it reports the failure itself
+                topic = self._keys.topic_of(key)
+                if payload.startswith(BLOCK_MAGIC):  # type: ignore[union-attr]
+                    self._recorder.put_block(topic, unpack_block(payload))  # type: ignore[arg-type]
+                else:
+                    self._recorder.put_record(topic, payload)  # type: ignore[arg-type]
+            except DataError:  # closed/failed recorder or a malformed block: counted
                 self.dropped += 1
+
+    def refused(self) -> dict[str, dict[str, int]]:
+        """Per key: payloads accepted, and dropped as forged or replayed."""
+        return {key: o.counts() for key, o in self._openers.items()}
 
     def close(self) -> None:
         """Record what has arrived, then undeclare the subscriber."""

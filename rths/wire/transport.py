@@ -39,6 +39,7 @@ when both processes run on one host (the default) and meaningless across hosts.
 from __future__ import annotations
 
 import json
+import os
 import re
 import socket
 from collections.abc import Iterator, Sequence
@@ -55,10 +56,12 @@ from rths.wire.links import (
     LockstepServer,
     RealtimeClient,
     RealtimeServer,
+    SyncClient,
 )
 from rths.wire.presence import Presence, Role
 from rths.wire.sidestreams import (
     BackgroundPublisher,
+    BlockPublisher,
     LogBridge,
     LogPublisher,
     RecordSink,
@@ -66,6 +69,7 @@ from rths.wire.sidestreams import (
 
 __all__ = [
     "BackgroundPublisher",
+    "BlockPublisher",
     "Inbox",
     "Latest",
     "LockstepClient",
@@ -79,6 +83,7 @@ __all__ = [
     "RecordSink",
     "Role",
     "RunKeys",
+    "SyncClient",
     "ZenohEndpoints",
     "declare_hot_publisher",
     "free_loopback_port",
@@ -89,6 +94,12 @@ __all__ = [
 ]
 
 _ENDPOINT = re.compile(r"^[a-z][a-z0-9+-]*/\S+$")
+
+#: ``RTHS_ZENOH_LOWLATENCY=1`` selects zenoh's low-latency unicast transport (no QoS queues, no
+#: fragmentation: every message must fit one 64 KiB batch) on both processes (the specimen
+#: inherits the variable; a specimen on another host must set it too).  Measured with
+#: ``tools/bench_zenoh.py`` (``sync-lowlatency``); off by default.
+LOWLATENCY_ENV = "RTHS_ZENOH_LOWLATENCY"
 
 
 # --------------------------------------------------------------------------- session
@@ -180,6 +191,9 @@ def session_config(endpoints: ZenohEndpoints) -> zenoh.Config:
     config.insert_json5("connect/retry", "{period_init_ms: 100, period_max_ms: 500}")
     # open() need not wait (up to 0.5 s) for the peer's initial declarations: Presence does.
     config.insert_json5("open/return_conditions/declares", "false")
+    if os.environ.get(LOWLATENCY_ENV, "") == "1":  # both sides must agree (see LOWLATENCY_ENV)
+        config.insert_json5("transport/unicast/lowlatency", "true")
+        config.insert_json5("transport/unicast/qos/enabled", "false")
     return config
 
 
