@@ -184,6 +184,22 @@ class ResultTable:
                 self._columns.append(column)
         self._rows[key] = row
 
+    def reindex(self, positions: Mapping[str, int]) -> None:
+        """Give the rows of these runs their position in the current campaign (``index``): a
+        campaign resumed with more runs (e.g. another compensator) orders its table, and hashes
+        it, as if it had run straight through.
+
+        Parameters
+        ----------
+        positions
+            Run key -> index; keys the table does not hold are ignored.
+        """
+        for key, index in positions.items():
+            row = self._rows.get(key)
+            if row is not None and row.get("index") != index:
+                row["index"] = index
+                self._dirty = True
+
     def discard(self, keys: Iterable[str]) -> None:
         """Drop rows (e.g. failed runs about to be retried).
 
