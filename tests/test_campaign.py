@@ -113,6 +113,22 @@ def test_resume_skips_rows_in_the_table_and_equals_a_straight_run(tmp_path, suff
     assert reread.digest() == resumed.digest() == straight.digest()  # every bit survives the file
 
 
+def test_a_campaign_resumed_with_more_runs_is_ordered_and_hashed_as_one_run_straight(tmp_path):
+    """Adding a compensator later: the kept rows take their place in the larger campaign."""
+    full = _small_campaign(draws=2)  # draw-major: ff, ff_lqg, ff, ff_lqg
+    straight = ResultTable(None)
+    execute(full, straight, THREADS, progress=False)
+    path = tmp_path / "mc.parquet"
+    execute(_small_campaign(draws=2, kinds=("ff_lqg",)), ResultTable(path), THREADS, progress=False)
+    assert [r["index"] for r in ResultTable(path).rows()] == [0, 1]
+    stats = execute(full, ResultTable(path), THREADS, progress=False)
+    assert (stats.skipped, stats.ran) == (2, 2)
+    reread = ResultTable(path)
+    assert [r["index"] for r in reread.rows()] == [0, 1, 2, 3]
+    assert [r["run"] for r in reread.rows()] == [r.key for r in full.runs]
+    assert reread.digest() == straight.digest()
+
+
 def test_an_interrupted_campaign_keeps_the_rows_it_finished(tmp_path):
     path = tmp_path / "mc.parquet"
     c = _small_campaign(draws=2)
