@@ -220,6 +220,16 @@ class FeedforwardOptions:
     def __post_init__(self) -> None:
         if isinstance(self.order, bool) or not isinstance(self.order, int):
             raise ParameterError(f"feedforward order must be an integer; got {self.order!r}")
+        if not 1 <= self.order <= MAX_ORDER:
+            raise ParameterError(
+                f"feedforward order must lie in [1, {MAX_ORDER}]; got {self.order}"
+            )
+        lo, hi = (check_finite(f, "feedforward band_hz") for f in self.band_hz)
+        if not 0.0 <= lo < hi:
+            raise ParameterError(
+                f"feedforward band_hz must be [low, high] with 0 <= low < high [Hz]; got "
+                f"{list(self.band_hz)!r}"
+            )
 
     def low_order(self, nominal: object, delay: float) -> LowOrderModel:
         """The model to invert: the nominal itself when it is all-pole of degree <= ``order``,
@@ -269,6 +279,11 @@ class FeedforwardCompensator(Compensator):
         **_: object,
     ) -> FeedforwardCompensator:
         """The ``ff`` kind: the inverse of :meth:`FeedforwardOptions.low_order`."""
+        if options.band_hz[1] > 0.5 / dt:
+            raise ParameterError(
+                f"feedforward band_hz {list(options.band_hz)!r} must lie below the Nyquist "
+                f"frequency {0.5 / dt:g} Hz of the loop rate"
+            )
         return cls(dt, options.low_order(nominal, delay), options.hold_correction)
 
     def __init__(self, dt: float, model: LowOrderModel, hold_correction: bool = True) -> None:

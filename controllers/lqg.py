@@ -55,6 +55,11 @@ from rths.core.registry import COMPENSATORS
 __all__ = ["LQGCompensator", "LQGDesign", "LQGWeights", "design_lqg", "discrete_nominal"]
 
 
+#: Highest Padé order for a nominal delay: beyond it the polynomial coefficients span more
+#: orders of magnitude than double precision resolves.
+MAX_PADE_ORDER = 10
+
+
 @dataclass(frozen=True, slots=True)
 class LQGWeights:
     """Weights of the LQG design.
@@ -95,6 +100,11 @@ class LQGWeights:
         check_positive(self.noise_rms, "LQG noise_rms")
         check_positive(self.process_noise_rms, "LQG process_noise_rms")
         check_positive_int(self.pade_order, "LQG pade_order")
+        if self.pade_order > MAX_PADE_ORDER:
+            raise ParameterError(
+                f"LQG pade_order must be at most {MAX_PADE_ORDER} (higher Padé approximants "
+                f"are ill-conditioned); got {self.pade_order!r}"
+            )
 
 
 @dataclass(frozen=True)
@@ -162,6 +172,15 @@ def discrete_nominal(
     return (np.asarray(sys_d.A), np.asarray(sys_d.B)[:, 0], np.asarray(sys_d.C)[0, :])
 
 
+def _design_failure(weights: LQGWeights, delay: float, why: object) -> str:
+    return (
+        f"LQG design failed ({why}): no stabilising Riccati solution for error_weight="
+        f"{weights.error_weight!r}, integral_weight={weights.integral_weight!r}, noise_rms="
+        f"{weights.noise_rms!r}, process_noise_rms={weights.process_noise_rms!r} and a nominal "
+        f"delay of {delay!r} s"
+    )
+
+
 def design_lqg(
     nominal: object, dt: float, weights: LQGWeights | None = None, delay: float = 0.0
 ) -> LQGDesign:
@@ -193,13 +212,19 @@ def design_lqg(
     q_aug = np.zeros((n + 1, n + 1))
     q_aug[:n, :n] = weights.error_weight * np.outer(c, c)
     q_aug[n, n] = weights.integral_weight
-    k_aug, _, _ = control.dlqr(a_aug, b_aug, q_aug, np.eye(1))
-    k_aug = np.asarray(k_aug)[0]
-    # Kalman filter: process noise with the command (G = B), sensor noise R
     qn = np.array([[weights.process_noise_rms**2]])
     rn = np.array([[weights.noise_rms**2]])
-    l_pred, p_prior, _ = control.dlqe(a, b[:, None], c[None, :], qn, rn)
+    try:
+        with np.errstate(all="ignore"):
+            k_aug, _, _ = control.dlqr(a_aug, b_aug, q_aug, np.eye(1))
+            # Kalman filter: process noise with the command (G = B), sensor noise R
+            l_pred, p_prior, _ = control.dlqe(a, b[:, None], c[None, :], qn, rn)
+    except (np.linalg.LinAlgError, ValueError) as exc:
+        raise ParameterError(_design_failure(weights, delay, exc)) from None
+    k_aug = np.asarray(k_aug)[0]
     p_prior = np.asarray(p_prior)
+    if not (np.all(np.isfinite(k_aug)) and np.all(np.isfinite(p_prior))):
+        raise ParameterError(_design_failure(weights, delay, "non-finite gains"))
     m_filter = p_prior @ c / (c @ p_prior @ c + rn[0, 0])
     return LQGDesign(
         dt=float(dt),

@@ -76,6 +76,11 @@ class Substructure(ABC):
     the step; :attr:`steps` and :attr:`time` follow from that count; :meth:`reset` zeroes it and
     calls ``_reset_impl``.
 
+    Parameters
+    ----------
+    dt : float
+        Fixed integration time step [s], > 0 (the loop period at which :meth:`step` is called).
+
     Subclass contract
     -----------------
     * Call ``super().__init__(dt)``; ``dt`` [s] is fixed at construction.
@@ -285,6 +290,23 @@ class Actuator(ABC):
     and counts the step; :meth:`reset` resets the lines, the specimen and the count and calls
     ``_reset_impl``; :meth:`state` reports the delayed command, the limiter and the specimen.
 
+    Parameters
+    ----------
+    specimen : Specimen
+        The device the actuator drives; it is reset with the actuator.
+    dt : float
+        Fixed step [s], > 0, at which :meth:`step` is called (the loop period).
+    delay : float, default 0.0
+        Pure transport delay [s], >= 0, on the command path (:class:`plants.lines.DelayLine`;
+        a delay that is not a whole number of steps is interpolated linearly).  0 means none.
+    velocity_limit : float or None, default None
+        Largest actuator velocity [m/s] (the servo-valve flow limit), applied by
+        :class:`plants.lines.RateLimiter` as a largest displacement change of
+        ``velocity_limit * limiter_step`` per limiter step.  None means no limit.
+    limiter_step : float or None, default None
+        Step [s] at which the subclass applies the rate limiter (e.g. its internal sub-step);
+        None means ``dt``.
+
     Subclass contract
     -----------------
     * Call ``super().__init__(specimen, dt, delay=..., velocity_limit=..., limiter_step=...)``;
@@ -435,14 +457,17 @@ def drive(
 
     Parameters
     ----------
-    specimen
+    specimen : Specimen
         The device; it is reset first.
-    displacement
-        Samples of the drive displacement at uniform spacing ``dt`` [s], shape ``(n,)``.
-    velocity, acceleration
-        Matching derivatives, shape ``(n,)``.  When omitted they are computed with second-order
-        central differences (``numpy.gradient``), which is exact for quadratics and adequate for
-        smooth, noise-free drives; filter noisy records before calling.
+    displacement : array_like
+        Samples of the drive displacement [m] at uniform spacing ``dt``, shape ``(n,)``.
+    dt : float
+        Sample spacing [s], > 0; also the ``dt`` of every :meth:`Specimen.step`.
+    velocity, acceleration : array_like or None, default None
+        Matching derivatives [m/s] and [m/s^2], shape ``(n,)``.  When omitted they are computed
+        with second-order central differences (``numpy.gradient``), which is exact for
+        quadratics and adequate for smooth, noise-free drives; filter noisy records before
+        calling.
 
     Returns
     -------

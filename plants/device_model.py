@@ -18,7 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Any, Literal
 
-from rths.core.errors import ParameterError, check_nonnegative, check_positive
+from rths.core.errors import ParameterError, check_in_range, check_positive
 
 __all__ = ["DEVICE_KINDS", "DeviceModel"]
 
@@ -26,6 +26,9 @@ DeviceKind = Literal["imd", "linear", "inerter"]
 
 #: Kinds of nominal device.
 DEVICE_KINDS: tuple[str, ...] = ("imd", "linear", "inerter")
+#: Largest inertance [kg], damping [N s/m] or stiffness [N/m] of a device (prototype scale
+#: included): 1e12 is a mountain's mass; beyond it the structure's matrices lose all precision.
+MAX_VALUE = 1e12
 
 
 @dataclass(frozen=True)
@@ -57,15 +60,15 @@ class DeviceModel:
             raise ParameterError(
                 f"device model kind must be one of {DEVICE_KINDS}; got {self.kind!r}"
             )
-        check_nonnegative(self.inertance, "device inertance")
-        check_nonnegative(self.damping, "device damping")
-        check_nonnegative(self.stiffness, "device stiffness")
+        for name in ("inertance", "damping", "stiffness"):
+            check_in_range(getattr(self, name), f"device {name}", 0.0, MAX_VALUE)
         if self.stiffness and self.kind != "linear":
             raise ParameterError(
                 f"only a linear device has a parallel stiffness; got {self.kind!r}"
             )
         if self.series_stiffness is not None:
             check_positive(self.series_stiffness, "device series stiffness")
+            check_in_range(self.series_stiffness, "device series stiffness", 0.0, MAX_VALUE)
             if self.kind != "imd":
                 raise ParameterError(f"only an imd has a series stiffness; got {self.kind!r}")
 

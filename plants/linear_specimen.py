@@ -206,5 +206,15 @@ def benchmark(
     options: BenchmarkSpecimenParameters, *, rng: np.random.Generator | None = None, **_: object
 ) -> LinearSpecimen:
     """The vRTHS benchmark's linear specimen (Silva et al. 2020), perturbed by ``rng`` in a
-    Monte-Carlo draw (:meth:`BenchmarkSpecimenParameters.sample`)."""
+    Monte-Carlo draw (:meth:`BenchmarkSpecimenParameters.sample`).
+
+    Parameters
+    ----------
+    options : BenchmarkSpecimenParameters
+        Nominal mass [kg], stiffness [N/m], damping ratio [-] and stiffness spread [N/m] (the
+        ``[specimen]`` table of a ``kind = "benchmark"`` scenario).
+    rng : numpy.random.Generator or None, default None
+        Generator for one Monte-Carlo draw of the stiffness; None gives the nominal specimen.
+        Any other registry context (see :mod:`rths.core.registry`) is accepted and ignored.
+    """
     return (options if rng is None else options.sample(rng)).specimen()

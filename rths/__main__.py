@@ -1,7 +1,5 @@
 """``python -m rths`` is the same as the ``rths`` console script."""
 
-import sys
+from rths.cli import console
 
-from rths.cli import main
-
-sys.exit(main())
+console()

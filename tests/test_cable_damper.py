@@ -204,8 +204,12 @@ def test_asymptotic_formula_rejects_bad_series_stiffness(k_e, m_e, match):
 
 
 def test_bad_fe_mesh_and_asymptotic_input_are_rejected():
-    with pytest.raises(ParameterError, match="number of elements must be at least 2; got 1"):
+    with pytest.raises(
+        ParameterError, match=r"number of elements must lie in \[2, 100000\]; got 1"
+    ):
         fe_roots(1, 0.5, 0.0, 1.0, elements=1)
+    with pytest.raises(ParameterError, match="mode 40 needs more FE elements than 40"):
+        fe_roots(40, 0.5, 0.0, 1.0, elements=40)
     with pytest.raises(ParameterError, match=r"damper position x_d must lie in \(0, 1\); got -0.2"):
         asymptotic_damping(1, -0.2, 0.0, 1.0)
 

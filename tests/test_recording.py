@@ -28,6 +28,7 @@ from rths.log.recorder import (
     LOOP_SCHEMA,
     LOOP_TOPIC,
     Recorder,
+    RecordingFailed,
     object_schema,
 )
 from rths.wire.transport import (
@@ -172,19 +173,36 @@ def test_file_is_finished_when_the_body_raises(tmp_path: Path) -> None:
     assert read_topic(path, EVENTS_TOPIC)["log_time_ns"][0] == 99 * DT_NS  # last time seen
 
 
-def test_writer_failure_surfaces_on_the_callers_thread(tmp_path: Path, monkeypatch) -> None:
+def test_writer_failure_stops_nothing_and_ends_the_log_readably(
+    tmp_path: Path, monkeypatch
+) -> None:
+    """A failing write is reported once through on_fault (from the writer thread); the producer
+    keeps putting without an error (the loop must not die in its sink), what follows is counted
+    as lost, metadata queued afterwards (the run's summary) still lands in the finished file, and
+    close() raises the run-time fault."""
+
     def broken(self, *args, **kwargs):
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(rths.log.mcap_writer.Writer, "add_message", broken)
-    rec = Recorder(tmp_path / "full.mcap").start()
+    faults: list[str] = []
+    told = threading.Event()
+    rec = Recorder(
+        tmp_path / "full.mcap", on_fault=lambda m: (faults.append(m), told.set())
+    ).start()
     rec.put(LOOP_TOPIC, 0, 0, loop_row(0))
-    rec._writer.join(PATIENCE)  # the thread ends after the failure (file finished)
-    with pytest.raises(DataError, match=r"recorder for .*full.mcap' is failed: OSError"):
-        rec.put(LOOP_TOPIC, 1, 0, loop_row(1))
-    with pytest.raises(DataError, match=r"recording to .*full.mcap' failed: OSError"):
+    assert told.wait(PATIENCE)
+    rec.put(LOOP_TOPIC, 1, DT_NS, loop_row(1))  # accepted, not written (nor was message 0)
+    rec.add_metadata("rths.summary", {"stopped": "recording failed"})
+    with pytest.raises(
+        RecordingFailed, match=r"recording to .*full.mcap' failed: OSError.*2 messages not written"
+    ):
         rec.close()
+    assert len(faults) == 1 and "No space left" in faults[0] and rec.fault == faults[0]
     assert is_complete(tmp_path / "full.mcap")
+    meta = read_metadata(tmp_path / "full.mcap")
+    assert meta["rths.summary"] == {"stopped": "recording failed"}
+    assert meta["rths.recording"]["complete"] == "false" and meta["rths.recording"]["lost"] == "2"
     # While the body is already raising, the writer's failure is attached as a note instead.
     with pytest.raises(KeyError) as info:
         with Recorder(tmp_path / "full2.mcap") as rec:
@@ -302,7 +320,7 @@ def test_mcap_io_errors(tmp_path: Path) -> None:
     with pytest.raises(DataError, match=r"cannot open MCAP log '.*missing.mcap'"):
         read_topic(tmp_path / "missing.mcap", LOOP_TOPIC)
     (tmp_path / "x.csv").write_text("time,command,measured,force\n0,0,0,0\n")
-    with pytest.raises(DataError, match=r"'.*x.csv' is not a readable MCAP log: InvalidMagic"):
+    with pytest.raises(DataError, match=r"'.*x.csv' is not an MCAP log \(InvalidMagic\)"):
         list_topics(tmp_path / "x.csv")
     for name, data in (("notjson", b"{oops"), ("array", b"[1, 2]")):
         with open(tmp_path / f"{name}.mcap", "wb") as f:  # a foreign log, plain mcap writer

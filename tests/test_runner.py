@@ -156,7 +156,7 @@ def test_check_fails_a_run_that_stopped_early_or_was_cut_off(tmp_path, capsys):
     scn_path = tmp_path / "s.toml"
     scn_path.write_text(short(1.0, **{r"^stroke = 0.05": "stroke = 1e-4"}))
     log = tmp_path / "stopped.mcap"
-    assert main(["run", str(scn_path), "--clock", "fast", "--out", str(log), "--no-progress"]) == 1
+    assert main(["run", str(scn_path), "--clock", "fast", "--out", str(log), "--no-progress"]) == 3
     capsys.readouterr()
     assert main(["check", str(log), "--max-rmse", "1000"]) == 1
     assert "run stopped early" in capsys.readouterr().out

@@ -111,17 +111,25 @@ def test_missing_section_and_missing_file(tmp_path):
     "pattern, replacement, match",
     [
         (
-            r'^preset = "mts_identified".*$',
-            "num = [1.0]\nden = [1.0, -2.0]",
-            r"\[actuator\] .*unstable",
+            r"^mode = 3 .*$",
+            "mode = 3\nfrequency = 5000.0",
+            r"\[substructure\] load frequency 5000 Hz \(mode 3\) must lie below the Nyquist",
         ),
     ],
 )
 def test_builders_name_the_table_a_plant_rejected(pattern, replacement, match):
+    """What a plant can check only once built (here: against the loop rate) names the table."""
     scn = parse_scenario(seed_text(**{pattern: replacement}), "bad.toml")
     with pytest.raises(ConfigError, match=r"^bad\.toml: " + match):
-        build.lab(scn)
-        build.compensator(scn)
+        build.substructure(scn)
+
+
+def test_an_unstable_actuator_is_refused_with_the_scenario():
+    with pytest.raises(ConfigError, match=r"^bad\.toml: \[actuator\] .*unstable: poles .*2\+0j"):
+        parse_scenario(
+            seed_text(**{r'^preset = "mts_identified".*$': "num = [1.0]\nden = [1.0, -2.0]"}),
+            "bad.toml",
+        )
 
 
 def test_auto_mesh_resolves_the_internal_stiffness():

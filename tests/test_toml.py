@@ -34,7 +34,8 @@ def test_typed_getters_and_defaults():
     "getter, match",
     [
         (lambda t: t.number("clock"), r"s.toml: \[run\] clock: must be a number; got 'lockstep'"),
-        (lambda t: t.number("rate", hi=1000), r"rate: must lie in"),
+        (lambda t: t.number("rate", hi=1000), r"rate: must be <= 1000; got 2048"),
+        (lambda t: t.number("rate", lo=0, hi=1000), r"rate: must lie in \[0, 1000\]"),
         (lambda t: t.choice("clock", ("fast",)), r"clock: must be one of 'fast'; got 'lockstep'"),
         (lambda t: t.integer("rate", minimum=4096), r"rate: must be >= 4096"),
         (lambda t: t.integer("flag"), r"flag: must be an integer"),

@@ -1,27 +1,38 @@
-"""Fault figures of issue 10 (items 1-2): what happens to the actuator when a process of a
-real-time run is stopped, paused or attacked.
+"""Fault figures of issue 10 in one table: what happens to the actuator and to the log when a
+process of a run is signalled, killed, paused or attacked, or its disk fills up.
 
-Faults (seed scenario, ``realtime`` clock, coordinator and specimen as separate processes on this
-machine, the specimen started here so its pid is known):
+Faults (seed scenario, ``realtime`` clock by default, coordinator and specimen as separate processes
+on this machine, the specimen started here so its pid is known):
 
+* ``sigint`` / ``sigterm`` / ``sighup``  the signal to the coordinator alone;
+* ``coordinator-sigkill``    SIGKILL of the coordinator (the specimen ramps down by itself; the log
+                             is read after ``rths recover``);
+* ``specimen-sigkill``       SIGKILL of the specimen process;
 * ``specimen-pause-300ms``   SIGSTOP of the specimen, SIGCONT 0.3 s later;
 * ``specimen-gc-106ms``      a 106 ms pause of the specimen (the full collection measured before
                              the loops were made immune to their collector), as SIGSTOP/SIGCONT;
 * ``specimen-sigstop``       SIGSTOP of the specimen, resumed only after the coordinator ended;
 * ``coordinator-pause-1s``   SIGSTOP of the coordinator for 1 s (the specimen's command watchdog);
 * ``forged-peer``            a foreign zenoh peer publishing forged and replayed commands,
-                             measurements, stop requests and log records during the run.
+                             measurements, stop requests and log records during the run;
+* ``full-disk``              a filler takes all the free space of the 64 MB tmpfs holding the log
+                             (a private mount namespace, ``unshare -rm``; skipped where refused).
 
-Per fault: time from the fault to the coordinator's stop and to the actuator at rest [ms] (wall
-clock, this host), the largest command step the actuator executed [mm] (the specimen's own
-count, ramp-down included, against its per-step limit ``max_velocity * dt``), whether the log
-reads with the plain ``mcap`` reader, whether it has its summary; and for the forged peer the
-messages sent and accepted.  Prints one table; ``--json`` writes the rows.
+Per fault: time from the fault to the loop's stop, to the actuator at rest and to the
+coordinator's exit [ms] (wall clock, this host), the largest command step the actuator executed
+[mm] (the specimen's own count, ramp-down included, against its per-step limit
+``max_velocity * dt``), the exit code, whether the log reads with the plain ``mcap`` reader and
+whether it has its summary; for the forged peer the messages sent and accepted.  The 1-minute
+load average is printed before and after.  ``--json`` writes the rows.
 
-    python tools/fault_figures.py [--rate 2048] [--duration 4] [--max-lag 5] [--only NAME ...]
+    python tools/fault_figures.py [--clock realtime|lockstep] [--rate 2048] [--duration 4]
+                                  [--max-lag 5] [--only NAME ...] [--json FILE]
 
 The fault is injected once the run is under way (a passive zenoh peer has seen half a second of
-commands go by).
+commands go by; two seconds for SIGKILL, so the log has been flushed at least once).
+
+The 10 x 60 s real-time runs at 2048 Hz are ``python tools/bench_loop.py --rates 2048 --clocks
+realtime --repeats 10 --duration 60`` (its ``finished k/n`` column).
 """
 
 from __future__ import annotations
@@ -43,12 +54,20 @@ import zenoh
 ROOT = Path(__file__).resolve().parent.parent
 SEED = ROOT / "scenarios" / "cable_imd_mode3.toml"
 FAULTS = (
+    "sigint",
+    "sigterm",
+    "sighup",
+    "coordinator-sigkill",
+    "specimen-sigkill",
     "specimen-pause-300ms",
     "specimen-gc-106ms",
     "specimen-sigstop",
     "coordinator-pause-1s",
     "forged-peer",
+    "full-disk",
 )
+#: Size of the tmpfs the full-disk fault fills.
+DISK = "64m"
 
 
 def scenario(rate: float, duration: float, max_lag: int) -> str:
@@ -145,7 +164,43 @@ def forger(endpoint: str, run_id: str, done: threading.Event, counts: dict) -> N
         counts["sent"] = sent
 
 
-def run_fault(fault: str, rate: float, duration: float, max_lag: int, tmp: Path) -> dict:
+def _fill(folder: Path) -> None:
+    """Take all the free space of the file system holding ``folder``."""
+    st = os.statvfs(folder)
+    free = st.f_bavail * st.f_frsize
+    with open(folder / "filler", "wb") as f:
+        for size in (free, free - (1 << 16), free - (1 << 20)):
+            try:
+                os.posix_fallocate(f.fileno(), 0, max(size, 1))
+                return
+            except OSError:
+                continue
+
+
+def _inject(fault: str, coord: subprocess.Popen, spec: subprocess.Popen, tmp: Path) -> None:
+    if fault in ("sigint", "sigterm", "sighup"):
+        coord.send_signal(getattr(signal, fault.upper()))
+    elif fault == "coordinator-sigkill":
+        coord.kill()
+    elif fault == "specimen-sigkill":
+        spec.kill()
+    elif fault.startswith("specimen"):
+        os.kill(spec.pid, signal.SIGSTOP)
+        if fault != "specimen-sigstop":
+            time.sleep(0.3 if "300ms" in fault else 0.106)
+            os.kill(spec.pid, signal.SIGCONT)
+    elif fault == "coordinator-pause-1s":
+        os.kill(coord.pid, signal.SIGSTOP)
+        time.sleep(1.0)
+        os.kill(coord.pid, signal.SIGCONT)
+    elif fault == "full-disk":
+        _fill(tmp)
+
+
+def run_fault(
+    fault: str, clock: str, rate: float, duration: float, max_lag: int, tmp: Path
+) -> dict:
+    """Inject ``fault`` into one run (module docstring); its row of the table."""
     from rths.wire.auth import RunSecret, write_secret_file
     from rths.wire.transport import loopback_endpoint
 
@@ -155,66 +210,37 @@ def run_fault(fault: str, rate: float, duration: float, max_lag: int, tmp: Path)
     secret = write_secret_file(tmp / f"{fault}.secret", RunSecret.new())
     endpoint = loopback_endpoint()
     run_id = f"fault-{fault}-{os.getpid()}"
-    common = ["--run-id", run_id, "--secret-file", str(secret)]
+    common = ["--run-id", run_id, "--secret-file", str(secret), "--clock", clock]
+    rths = [sys.executable, "-m", "rths"]
     coord = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "rths",
-            "run",
-            str(scn),
-            "--clock",
-            "realtime",
-            "--out",
-            str(out),
-            "--listen",
-            endpoint,
-            "--external-specimen",
-            "--no-progress",
-            *common,
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+        [*rths, "run", str(scn), "--out", str(out), "--listen", endpoint,
+         "--external-specimen", "--no-progress", *common],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
     spec = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "rths",
-            "specimen",
-            str(scn),
-            "--connect",
-            endpoint,
-            "--clock",
-            "realtime",
-            *common,
-        ],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    running = wait_until_running(endpoint, run_id, round(0.5 * rate), 120.0, coord)
+        [*rths, "specimen", str(scn), "--connect", endpoint, *common],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    # SIGKILL: after 2 s, so the recorder's periodic flush has put whole chunks on the disk
+    lead = 2.0 if fault == "coordinator-sigkill" else 0.5
+    running = wait_until_running(endpoint, run_id, round(lead * rate), 120.0, coord)
     fault_ns = time.monotonic_ns()
     counts: dict = {}
     done = threading.Event()
-    if fault.startswith("specimen"):
-        os.kill(spec.pid, signal.SIGSTOP)
-        if fault != "specimen-sigstop":
-            time.sleep(0.3 if "300ms" in fault else 0.106)
-            os.kill(spec.pid, signal.SIGCONT)
-    elif fault == "coordinator-pause-1s":
-        os.kill(coord.pid, signal.SIGSTOP)
-        time.sleep(1.0)
-        os.kill(coord.pid, signal.SIGCONT)
-    else:
+    attacker = None
+    if not running:
+        pass
+    elif fault == "forged-peer":
         attacker = threading.Thread(target=forger, args=(endpoint, run_id, done, counts))
         attacker.start()
+    else:
+        _inject(fault, coord, spec, tmp)
     try:
         stdout, stderr = coord.communicate(timeout=120)
+        exited_ms = (time.monotonic_ns() - fault_ns) / 1e6
     finally:
         done.set()
-        if fault == "forged-peer":
+        if attacker is not None:
             attacker.join()
         if fault == "specimen-sigstop":
             os.kill(spec.pid, signal.SIGCONT)
@@ -223,47 +249,108 @@ def run_fault(fault: str, rate: float, duration: float, max_lag: int, tmp: Path)
     except subprocess.TimeoutExpired:
         spec.kill()
         _, spec_err = spec.communicate()
-    readable, meta, logged = read_log(out)
+    log = out
+    if fault == "coordinator-sigkill":  # nothing finished the log: rths recover does
+        subprocess.run([*rths, "recover", str(out)], capture_output=True, check=False)
+        log = out.with_name(f"{out.stem}.recovered.mcap")
+    readable, meta, logged = read_log(log)
     figures = spec_summary(spec_err) or logged
     summary = meta.get("rths.summary", {})
     dt = 1.0 / rate
     row = {
         "fault": fault,
+        "clock": clock,
         "fault_during_run": running,
         "exit": coord.returncode,
         "stopped": summary.get("stopped", "") or "",
-        "coordinator_stop_ms": None,
+        "loop_stop_ms": None,
         "at_rest_ms": None,
+        "exited_ms": exited_ms if running else None,
         "largest_step_mm": 1e3 * float(figures.get("largest_command_step", float("nan"))),
         "step_limit_mm": 1e3 * 0.5 * dt,
         "readable": readable,
         "summary": bool(summary),
+        "recovered": log != out,
         "specimen_reason": figures.get("stop_reason", ""),
         "ramp_steps": figures.get("ramp_down_steps"),
         "gc_in_loop": (
             summary.get("gc_collections_in_loop"),
             figures.get("gc_collections_in_loop"),
         ),
+        "left_behind": sorted(
+            p.name
+            for p in tmp.iterdir()
+            if p.name.startswith(fault) and p.suffix not in (".toml", ".mcap", ".secret")
+        ),  # fmt: skip
     }
     if not running:
         row["stopped"] = "(fault not injected: the run had already stopped) " + row["stopped"]
     elif summary.get("loop_ended_monotonic_ns"):
-        row["coordinator_stop_ms"] = (int(summary["loop_ended_monotonic_ns"]) - fault_ns) / 1e6
+        row["loop_stop_ms"] = (int(summary["loop_ended_monotonic_ns"]) - fault_ns) / 1e6
+    elif fault == "coordinator-sigkill":
+        row["loop_stop_ms"] = 0.0  # killed: the loop stopped with the signal
     if running and figures.get("at_rest_ns"):
         row["at_rest_ms"] = (figures["at_rest_ns"] - fault_ns) / 1e6
-    ended = [ln for ln in stderr.splitlines() if "stopped early" in ln]
-    row["stderr"] = ended[-1] if ended else stderr.strip().splitlines()[-1:] or ""
+    if running and not summary.get("stopped") and fault != "coordinator-sigkill":
+        row["loop_stop_ms"] = row["at_rest_ms"] = None  # it ran to its end: no stop to time
+    ended = [ln for ln in stderr.splitlines() if ln.strip()]
+    row["stderr"] = ended[-1] if ended else ""
     if fault == "forged-peer":
         row["forged_sent"] = counts.get("sent", 0)
-        row["forged_dropped"] = int(summary.get("auth_forged", 0)) + int(
-            summary.get("auth_replayed", 0)
+        # dropped by the coordinator (measurements, stops, log records) and by the specimen
+        # (commands, stops)
+        row["forged_dropped"] = (
+            int(summary.get("auth_forged", 0))
+            + int(summary.get("auth_replayed", 0))
+            + int(figures.get("auth_forged_dropped", 0))
+            + int(figures.get("auth_replayed_dropped", 0))
         )
-        row["forged_accepted"] = 0 if summary.get("stopped", "") == "" else "see stopped"
+        # accepted: a forged message the loop or the specimen used -- the run would have
+        # stopped (a forged stop, a jump) or its specimen would count it accepted
+        row["forged_accepted"] = 0 if not row["stopped"] else "see stopped"
     return row
+
+
+def full_disk(clock: str, rate: float, duration: float, max_lag: int) -> dict | None:
+    """The full-disk fault in a private mount namespace (a tmpfs of :data:`DISK` mounted over a
+    fresh folder); None where that is not allowed."""
+    import shutil
+
+    if (
+        shutil.which("unshare") is None
+        or subprocess.run(["unshare", "-rm", "true"], capture_output=True).returncode
+    ):
+        return None
+    with tempfile.TemporaryDirectory() as tmp:
+        done = subprocess.run(
+            ["unshare", "-rm", sys.executable, __file__, "--inner-full-disk", tmp,
+             "--clock", clock, "--rate", str(rate), "--duration", str(duration),
+             "--max-lag", str(max_lag)],
+            capture_output=True, text=True, check=False,
+        )  # fmt: skip
+    if done.returncode:
+        raise RuntimeError(f"full-disk fault failed: {done.stderr.strip()[-500:]}")
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def _inner_full_disk(args: argparse.Namespace) -> None:
+    disk = Path(args.inner_full_disk)
+    subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={DISK}", "tmpfs", str(disk)], check=True)
+    row = run_fault("full-disk", args.clock, args.rate, args.duration, args.max_lag, disk)
+    print(json.dumps(row))
+
+
+def _cell(value: float | None, fmt: str = ".0f") -> str:
+    return "–" if value is None else format(value, fmt)
+
+
+def _step(mm: float) -> str:
+    return "– (process dead)" if mm != mm else f"{mm:.4f}"
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--clock", choices=("realtime", "lockstep"), default="realtime")
     ap.add_argument("--rate", type=float, default=2048.0)
     ap.add_argument("--duration", type=float, default=4.0)
     ap.add_argument(
@@ -271,27 +358,50 @@ def main() -> None:
     )
     ap.add_argument("--only", nargs="*", choices=FAULTS, default=list(FAULTS))
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--inner-full-disk", help=argparse.SUPPRESS)
     args = ap.parse_args()
-    print(f"load: {os.getloadavg()}", file=sys.stderr)
+    if args.inner_full_disk:
+        _inner_full_disk(args)
+        return
+    load = os.getloadavg()
+    print(f"load before: {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}", file=sys.stderr)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for fault in args.only:
-            rows.append(run_fault(fault, args.rate, args.duration, args.max_lag, Path(tmp)))
-            print(json.dumps(rows[-1]), file=sys.stderr)
+            if fault == "full-disk":
+                row = full_disk(args.clock, args.rate, args.duration, args.max_lag)
+                if row is None:
+                    print("full-disk: skipped (no private mount namespace)", file=sys.stderr)
+                    continue
+            else:
+                row = run_fault(
+                    fault, args.clock, args.rate, args.duration, args.max_lag, Path(tmp)
+                )
+            rows.append(row)
+            print(json.dumps(row), file=sys.stderr)
+    after = os.getloadavg()
     print(
-        "| fault | fault → loop stopped [ms] | fault → actuator at rest [ms] | largest command "
-        "step [mm] (limit) | log readable | summary | stopped |"
+        f"{args.clock}, {args.rate:g} Hz, {args.duration:g} s runs, max_lag {args.max_lag}; "
+        f"load (1/5/15 min) before {load[0]:.2f}/{load[1]:.2f}/{load[2]:.2f}, after "
+        f"{after[0]:.2f}/{after[1]:.2f}/{after[2]:.2f} on {os.cpu_count()} cores"
     )
-    print("|---|---|---|---|---|---|---|")
+    print(
+        "| fault | → loop stopped [ms] | → actuator at rest [ms] | → coordinator exited [ms] "
+        "| largest command step [mm] (limit) | exit | log readable | summary | stopped |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        rest = "–" if r["at_rest_ms"] is None else f"{r['at_rest_ms']:.0f}"
-        stop = "–" if r["coordinator_stop_ms"] is None else f"{r['coordinator_stop_ms']:.0f}"
         extra = ""
         if r["fault"] == "forged-peer":
-            extra = f" (forged sent {r['forged_sent']}, dropped {r['forged_dropped']})"
+            extra = (
+                f" (forged sent {r['forged_sent']}, dropped {r['forged_dropped']}, "
+                f"accepted {r['forged_accepted']})"
+            )
+        readable = ("y" if r["readable"] else "n") + (" (recover)" if r["recovered"] else "")
         print(
-            f"| {r['fault']}{extra} | {stop} | {rest} | {r['largest_step_mm']:.4f} "
-            f"({r['step_limit_mm']:.4f}) | {'y' if r['readable'] else 'n'} | "
+            f"| {r['fault']}{extra} | {_cell(r['loop_stop_ms'])} | {_cell(r['at_rest_ms'])} "
+            f"| {_cell(r['exited_ms'])} | {_step(r['largest_step_mm'])} "
+            f"({r['step_limit_mm']:.4f}) | {r['exit']} | {readable} | "
             f"{'y' if r['summary'] else 'n'} | {r['stopped'] or 'ran to the end'} |"
         )
     if args.json:

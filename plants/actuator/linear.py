@@ -16,14 +16,20 @@ from plants.actuator.parameters import BenchmarkParameters
 from rths.core.errors import ParameterError
 
 __all__ = [
+    "MAX_POLE",
     "DiscreteModel",
     "check_stable",
+    "check_transfer_function",
     "close_remainder",
     "derivative_model",
     "discretise",
     "servo_hydraulic_model",
     "siso_transfer_function",
 ]
+
+#: Largest pole magnitude [rad/s] of an actuator model: a million times any servo-valve's
+#: bandwidth; beyond it the coefficients overflow in the compensator's design.
+MAX_POLE = 1e8
 
 #: Names of the open model's signals (inputs, then outputs).
 INPUTS = ["command", "remainder_force"]
@@ -174,6 +180,42 @@ def _trim(coefficients: ArrayLike, name: str) -> NDArray[np.float64]:
     return c[nonzero[0] :]
 
 
+def check_transfer_function(
+    num: ArrayLike, den: ArrayLike, what: str = "actuator transfer function"
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Validated ``(num, den)`` of a command→displacement model, leading zeros trimmed.
+
+    Parameters
+    ----------
+    num, den
+        Coefficients in descending powers of ``s``.
+    what
+        How the model is named in error messages.
+
+    Raises
+    ------
+    ParameterError
+        Naming ``what`` when a coefficient list is empty, all zero or not finite, the model is
+        improper (``deg num > deg den``), unstable, or has a pole beyond :data:`MAX_POLE`.
+    """
+    n = _trim(num, f"{what}: numerator num")
+    d = _trim(den, f"{what}: denominator den")
+    if n.size > d.size:
+        raise ParameterError(
+            f"{what} must be proper (deg num <= deg den); got num of degree {n.size - 1} and den "
+            f"of degree {d.size - 1}"
+        )
+    with np.errstate(all="ignore"):
+        poles = np.roots(d / d[0]) if d.size > 1 else np.zeros(0)
+    if not np.all(np.isfinite(poles)) or np.any(np.abs(poles) > MAX_POLE):
+        raise ParameterError(
+            f"{what} has a pole beyond {MAX_POLE:g} rad/s (or coefficients out of range): den "
+            f"{d.tolist()!r}"
+        )
+    check_stable(poles, what)
+    return n, d
+
+
 def derivative_model(
     num: ArrayLike, den: ArrayLike
 ) -> tuple[control.StateSpace, control.TransferFunction, int]:
@@ -196,15 +238,8 @@ def derivative_model(
     relative_degree
         ``deg den - deg num``.
     """
-    n = _trim(num, "actuator numerator num")
-    d = _trim(den, "actuator denominator den")
-    if n.size > d.size:
-        raise ParameterError(
-            f"actuator transfer function must be proper (deg num <= deg den); got num of degree "
-            f"{n.size - 1} and den of degree {d.size - 1}"
-        )
+    n, d = check_transfer_function(num, den)
     tf = control.tf(n, d, inputs="command", outputs="displacement")
-    check_stable(tf.poles(), "actuator transfer function")
     ss = control.tf2ss(tf)
     A, B, C, D = (np.asarray(m, dtype=float) for m in (ss.A, ss.B, ss.C, ss.D))
     if A.size:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
+from plants.actuator.linear import check_transfer_function
 from plants.actuator.parameters import (
     BENCHMARK,
     HEAVY_INERTIAL_LOAD,
@@ -14,19 +15,24 @@ from plants.actuator.parameters import (
 )
 from rths.core.errors import (
     ParameterError,
-    check_nonnegative,
+    check_in_range,
     check_positive,
     format_choices,
 )
 
-__all__ = ["ServoHydraulicOptions", "TransferFunctionOptions"]
+__all__ = ["MAX_DELAY", "ServoHydraulicOptions", "TransferFunctionOptions"]
 
 _SERVO_PRESETS = {"benchmark": BENCHMARK, "heavy_inertial_load": HEAVY_INERTIAL_LOAD}
 _TF_PRESETS = {"mts_identified": MTS_IDENTIFIED}
 
 
+#: Longest actuator transport delay [s]: no servo-hydraulic actuator lags by more (the MTS and
+#: benchmark actuators: a few to 30 ms).
+MAX_DELAY = 1.0
+
+
 def _check_common(delay: float, velocity_limit: float | None) -> None:
-    check_nonnegative(delay, "actuator delay")
+    check_in_range(delay, "actuator delay [s]", 0.0, MAX_DELAY)
     if velocity_limit is not None:
         check_positive(velocity_limit, "actuator velocity_limit")
 
@@ -60,6 +66,11 @@ class TransferFunctionOptions:
         if (self.nominal_num is None) != (self.nominal_den is None):
             raise ParameterError("nominal_num/nominal_den: give both, or neither")
         _check_common(self.delay, self.velocity_limit)
+        check_transfer_function(self.num, self.den, "actuator transfer function num/den")
+        if self.nominal_num is not None and self.nominal_den is not None:
+            check_transfer_function(
+                self.nominal_num, self.nominal_den, "nominal transfer function nominal_num/den"
+            )
 
     @staticmethod
     def presets() -> tuple[str, ...]:

@@ -45,7 +45,14 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from plants.cable.fe import MassKind, Tridiagonal, assemble, check_mesh, mesh_nodes
+from plants.cable.fe import (
+    MAX_ELEMENTS,
+    MassKind,
+    Tridiagonal,
+    assemble,
+    check_mesh,
+    mesh_nodes,
+)
 from plants.cable.properties import CableProperties, InterfaceDevice, RayleighDamping
 from rths.core.errors import (
     ParameterError,
@@ -162,9 +169,28 @@ def augmented_matrices(
 ) -> tuple[sp.csc_matrix, sp.csc_matrix, sp.csc_matrix]:
     """Sparse ``(K, M, C)`` with the flywheel appended as the last DOF (shape ``(n+1, n+1)``).
 
-    ``stiffness``, ``mass`` and ``damping`` are the cable's (with the rigid part of the device
-    already in ``mass``/``damping``) over ``n`` free nodes; ``index`` is the damper node.  The
-    spring adds ``k_s [[1, -1], [-1, 1]]`` on ``(index, n)``; ``m_s`` and ``c_s`` sit at ``(n, n)``.
+    The spring adds ``k_s [[1, -1], [-1, 1]]`` on ``(index, n)``; ``m_s`` and ``c_s`` sit at
+    ``(n, n)`` (S0 Eq.12 with the flywheel displacement ``x_i`` as DOF ``n``).
+
+    Parameters
+    ----------
+    stiffness : Tridiagonal
+        The cable's stiffness [N/m] over its ``n`` free nodes (with the device's grounded
+        spring, if any, already in it).
+    mass : Tridiagonal
+        The cable's mass [kg] over the free nodes, with the device's rigid inertance in it.
+    damping : Tridiagonal
+        The cable's damping [N s/m] over the free nodes, with the device's rigid dashpot in it.
+    index : int
+        Index of the damper node among the free nodes.
+    device : InterfaceDevice
+        The device; it must have a series branch (``series_stiffness`` ``k_s`` [N/m],
+        ``series_inertance`` ``m_s`` [kg], ``series_damping`` ``c_s`` [N s/m]).
+
+    Raises
+    ------
+    ParameterError
+        If ``device`` has no series branch.
     """
     if device.series_stiffness is None:
         raise ParameterError("the device has no series branch; got series_stiffness=None")
@@ -229,7 +255,14 @@ def elements_for(
     if series_stiffness is None:
         return n
     h_max = max_element_size(series_stiffness, properties)
-    n = max(n, math.floor(properties.length / h_max))  # no element shorter than L/N fits below
+    needed = properties.length / h_max
+    if needed > MAX_ELEMENTS:
+        raise ParameterError(
+            f"the device's series stiffness {series_stiffness:.6g} N/m needs elements shorter than "
+            f"4 T/k_s = {h_max:.3g} m: {needed:.3g} of them on {properties.length:g} m, more "
+            f"than {MAX_ELEMENTS} (check the model's stiffness and the scaling)"
+        )
+    n = max(n, math.floor(needed))  # no element shorter than L/N fits below
     while True:
         nodes, _ = mesh_nodes(properties.length, x_d, n)
         if np.max(np.diff(nodes)) < h_max:
@@ -244,6 +277,23 @@ class FEMatrices:
 
     Without a series device branch they are ``(N-1, N-1)``; with one the flywheel is appended
     as DOF ``flywheel_index = N-1`` and they are ``(N, N)``.
+
+    Attributes
+    ----------
+    positions : numpy.ndarray
+        Coordinates [m] of the ``N - 1`` free nodes from the left support, shape ``(N-1,)``
+        (the flywheel DOF has none).
+    damper_index : int
+        Index of the damper node (at ``x_d L``) among the free nodes.
+    stiffness : scipy.sparse.csc_matrix
+        Stiffness matrix ``K`` [N/m].
+    mass : scipy.sparse.csc_matrix
+        Mass matrix ``M`` [kg].
+    damping : scipy.sparse.csc_matrix
+        Damping matrix ``C`` [N s/m] (Rayleigh damping of the string plus the device's).
+    flywheel_index : int or None, default None
+        Index of the flywheel DOF (``x_i`` of S0 Eq.12) when the device has a series branch,
+        else None.
     """
 
     positions: NDArray[np.float64]

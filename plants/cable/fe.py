@@ -49,7 +49,15 @@ _MASS_WEIGHTS: dict[str, tuple[float, float]] = {
 
 @dataclass(frozen=True, slots=True)
 class Tridiagonal:
-    """Symmetric tridiagonal matrix: ``diag`` shape ``(n,)``, ``off`` shape ``(n-1,)``."""
+    """Symmetric tridiagonal matrix: ``diag`` shape ``(n,)``, ``off`` shape ``(n-1,)``.
+
+    Attributes
+    ----------
+    diag : numpy.ndarray
+        Main diagonal, shape ``(n,)``, in the matrix's unit (N/m, kg or N s/m).
+    off : numpy.ndarray
+        First off-diagonal (equal above and below), shape ``(n-1,)``, same unit.
+    """
 
     diag: NDArray[np.float64]
     off: NDArray[np.float64]
@@ -94,14 +102,34 @@ class Tridiagonal:
         return np.diag(self.diag) + np.diag(self.off, 1) + np.diag(self.off, -1)
 
 
+#: Most elements a cable mesh may have: far beyond what a string needs (the mesh rule of a stiff
+#: device asks for hundreds), and already a second of wall time per simulated second.
+MAX_ELEMENTS = 100_000
+
+
 def check_mesh(damper_position: float, elements: int) -> tuple[float, int]:
-    """Validated ``(x_d, N)``: damper position in (0, 1) and at least two elements."""
+    """Validated ``(x_d, N)``: damper position in (0, 1) and 2 to :data:`MAX_ELEMENTS` elements.
+
+    Parameters
+    ----------
+    damper_position : float
+        Normalised damper location ``x_d = xbar_d/L`` [-] (S0 Eq.23), in (0, 1).
+    elements : int
+        Number of linear elements ``N``, 2 to :data:`MAX_ELEMENTS`.
+
+    Raises
+    ------
+    ParameterError
+        If either is out of range.
+    """
     x_d = check_finite(damper_position, "damper position x_d")
     if not 0.0 < x_d < 1.0:
         raise ParameterError(f"damper position x_d must lie in (0, 1); got {damper_position!r}")
     n = check_positive_int(elements, "number of elements")
-    if n < 2:
-        raise ParameterError(f"number of elements must be at least 2; got {elements!r}")
+    if not 2 <= n <= MAX_ELEMENTS:
+        raise ParameterError(
+            f"number of elements must lie in [2, {MAX_ELEMENTS}]; got {elements!r}"
+        )
     return x_d, n
 
 
@@ -112,6 +140,16 @@ def mesh_nodes(
 
     The ``n_left = max(1, round(N x_d))`` elements left of the damper and the ``N - n_left``
     to its right are each uniform (capped so that both sides keep at least one element).
+
+    Parameters
+    ----------
+    length : float
+        Cable length ``L`` [m].
+    damper_position : float
+        Normalised damper location ``x_d`` [-] in (0, 1) (S0 Eq.23), already validated
+        (:func:`check_mesh`).
+    elements : int
+        Number of linear elements ``N`` >= 2, already validated.
 
     Returns
     -------
@@ -128,7 +166,20 @@ def mesh_nodes(
 
 
 def string_stiffness(nodes: NDArray[np.float64], tension: float) -> Tridiagonal:
-    """Stiffness [N/m] of the free nodes: element ``T/h [[1,-1],[-1,1]]`` assembled."""
+    """Stiffness [N/m] of the free nodes: element ``T/h [[1,-1],[-1,1]]`` assembled.
+
+    Parameters
+    ----------
+    nodes : numpy.ndarray
+        All node coordinates [m] including both fixed ends, shape ``(N + 1,)``, increasing.
+    tension : float
+        Cable tension ``T`` [N].
+
+    Returns
+    -------
+    Tridiagonal
+        The ``(N - 1) x (N - 1)`` stiffness over the free nodes [N/m].
+    """
     k = tension / np.diff(nodes)
     return Tridiagonal(k[:-1] + k[1:], -k[1:-1])
 
@@ -136,7 +187,22 @@ def string_stiffness(nodes: NDArray[np.float64], tension: float) -> Tridiagonal:
 def string_mass(
     nodes: NDArray[np.float64], mass_per_length: float, kind: MassKind = "average"
 ) -> Tridiagonal:
-    """Mass matrix [kg] of the free nodes for the element mass ``kind`` (see :data:`MassKind`)."""
+    """Mass matrix [kg] of the free nodes for the element mass ``kind`` (see :data:`MassKind`).
+
+    Parameters
+    ----------
+    nodes : numpy.ndarray
+        All node coordinates [m] including both fixed ends, shape ``(N + 1,)``, increasing.
+    mass_per_length : float
+        Cable mass per unit length ``m`` [kg/m].
+    kind : {"average", "consistent", "lumped"}, default "average"
+        Element mass matrix (:data:`MassKind`).
+
+    Returns
+    -------
+    Tridiagonal
+        The ``(N - 1) x (N - 1)`` mass over the free nodes [kg].
+    """
     d, o = _MASS_WEIGHTS[kind]
     mh = mass_per_length * np.diff(nodes)
     return Tridiagonal(d * (mh[:-1] + mh[1:]), o * mh[1:-1])
@@ -156,6 +222,19 @@ def sine_load_shape(nodes: NDArray[np.float64], wavenumber: float) -> NDArray[np
         \\qquad
         \\int_a^b \\frac{b-x}{h}\\sin kx\\,dx
             = \\frac{\\cos ka}{k} - \\frac{\\sin kb - \\sin ka}{k^2 h}.
+
+    Parameters
+    ----------
+    nodes : numpy.ndarray
+        All node coordinates [m] including both fixed ends, shape ``(N + 1,)``, increasing.
+    wavenumber : float
+        ``k`` [rad/m]; S0 Eq.22's ``sin(n pi x)`` in normalised ``x`` is ``k = n pi/L``.
+        0 gives zero loads.
+
+    Returns
+    -------
+    numpy.ndarray
+        Nodal load per unit load amplitude [m] at the ``N - 1`` free nodes, shape ``(N - 1,)``.
     """
     a, b = nodes[:-1], nodes[1:]
     h = b - a
@@ -174,13 +253,31 @@ def rayleigh_coefficients(ratio: float, omega_i: float, omega_j: float) -> tuple
     ``zeta(w) = a0/(2 w) + a1 w/2``; with equal ratios at both anchors
     ``a0 = 2 zeta wi wj/(wi + wj)`` and ``a1 = 2 zeta/(wi + wj)`` (Chopra, Dynamics of
     Structures, Eq. 11.4.9).
+
+    Parameters
+    ----------
+    ratio : float
+        Damping ratio ``zeta`` [-] wanted at both anchors.
+    omega_i, omega_j : float
+        Anchor circular frequencies ``wi``, ``wj`` [rad/s], > 0 (e.g. ``n omega0`` of two
+        string modes).
     """
     total = omega_i + omega_j
     return 2.0 * ratio * omega_i * omega_j / total, 2.0 * ratio / total
 
 
 def string_modal_frequency(mode: int, wave_speed: float, length: float) -> float:
-    """Natural circular frequency ``n pi c / L`` [rad/s] of mode ``n`` of the continuous string."""
+    """Natural circular frequency ``n pi c / L`` [rad/s] of mode ``n`` of the continuous string.
+
+    Parameters
+    ----------
+    mode : int
+        Mode number ``n`` >= 1.
+    wave_speed : float
+        Transverse wave speed ``c = sqrt(T/m)`` [m/s].
+    length : float
+        Cable length ``L`` [m].
+    """
     return mode * math.pi * wave_speed / length
 
 
@@ -194,7 +291,30 @@ def assemble(
 ) -> tuple[Tridiagonal, Tridiagonal, Tridiagonal]:
     """``(K, M, C)`` over the free nodes: string stiffness plus the device's grounded spring;
     string mass plus its rigid inertance; Rayleigh damping (of the string alone) plus its rigid
-    dashpot.  The series branch is not included."""
+    dashpot.  The series branch is not included.
+
+    Parameters
+    ----------
+    properties : CableProperties
+        The cable (``T`` [N], ``m`` [kg/m], ``omega0`` [rad/s] for the Rayleigh anchors).
+    nodes : numpy.ndarray
+        All node coordinates [m] including both fixed ends, shape ``(N + 1,)``
+        (:func:`mesh_nodes`).
+    damper_index : int
+        Index of the damper node among the ``N - 1`` free nodes.
+    intrinsic : RayleighDamping or None
+        The cable's intrinsic damping; None (or a zero ratio) for none.
+    device : InterfaceDevice or None
+        Nominal interface device whose rigid part (``stiffness`` [N/m], ``inertance`` [kg],
+        ``damping`` [N s/m]) is added at the damper node; None for none.
+    mass_kind : {"average", "consistent", "lumped"}
+        Element mass matrix (:data:`MassKind`).
+
+    Returns
+    -------
+    tuple of Tridiagonal
+        ``(K [N/m], M [kg], C [N s/m])``, each ``(N - 1) x (N - 1)``.
+    """
     p = properties
     stiffness = string_stiffness(nodes, p.tension)
     string_m = string_mass(nodes, p.mass_per_length, mass_kind)

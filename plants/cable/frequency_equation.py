@@ -69,6 +69,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from numpy.typing import ArrayLike, NDArray
 
+from plants.cable.fe import check_mesh
 from plants.cable.model import (
     CableProperties,
     InterfaceDevice,
@@ -157,6 +158,23 @@ def normalised_impedance(
 
     ``Z_0 = -m_e beta + i pi c_d`` (simplified S0 Eq.1) without ``k_e``; with the normalised
     series stiffness ``k_e`` (S0 Eq.12) ``Z = pi^2 k_e Z_0/(pi^2 k_e + beta Z_0)``.
+
+    Parameters
+    ----------
+    beta : array_like
+        Complex normalised wavenumber(s) ``beta = omega L/c`` [-], any shape.
+    m_e : float
+        Normalised inertance [-] (S0 Eq.23); not validated here.
+    c_d : float
+        Normalised viscous coefficient [-] (S0 Eq.23); not validated here.
+    k_e : float or None, default None
+        Normalised series stiffness ``kbar_e L/(pi^2 T)`` [-] (S0 Eq.12); None for the rigid
+        device.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``Z(beta)`` [-], complex, the shape of ``beta``.
     """
     b = np.asarray(beta, dtype=complex)
     z0 = -m_e * b + 1j * math.pi * c_d
@@ -170,7 +188,22 @@ def device_impedance(
     beta: ArrayLike, properties: CableProperties, device: InterfaceDevice
 ) -> NDArray[np.complex128]:
     """Normalised impedance ``Z = K(omega) L/(T beta)``, ``omega = beta c/L``, of any physical
-    device on a physical cable (``K``: :meth:`plants.cable.InterfaceDevice.dynamic_stiffness`)."""
+    device on a physical cable (``K``: :meth:`plants.cable.InterfaceDevice.dynamic_stiffness`).
+
+    Parameters
+    ----------
+    beta : array_like
+        Complex normalised wavenumber(s) ``beta = omega L/c`` [-], any shape, nonzero.
+    properties : CableProperties
+        The cable (``L`` [m], ``T`` [N], ``c = sqrt(T/m)`` [m/s]).
+    device : InterfaceDevice
+        The physical device (SI: kg, N s/m, N/m) at the damper node.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``Z(beta)`` [-], complex, the shape of ``beta``.
+    """
     b = np.asarray(beta, dtype=complex)
     p = properties
     return device.dynamic_stiffness(b * p.wave_speed / p.length) * p.length / (p.tension * b)
@@ -347,8 +380,39 @@ def fe_roots(
     flywheel is an extra DOF of the eigenproblem (S0 Eq.12) and the mesh rule of
     :func:`plants.cable.model.elements_for` (``N >= 4/(pi^2 k_e)`` here) decides whether the damper
     node radiates at the device's local frequency; roots near mode ``n`` converge either way.
+
+    Parameters
+    ----------
+    mode : int
+        String mode ``n`` >= 1; the window is ``(n - 1/2) pi <= Re beta < (n + 1/2) pi``.
+    x_d : float
+        Normalised damper position ``x_d = xbar_d/L`` [-] in (0, 1) (S0 Eq.23).
+    m_e : float
+        Normalised inertance ``m_e = mbar_e L omega0^2/(pi^2 T)`` [-], >= 0 (S0 Eq.23).
+    c_d : float
+        Normalised viscous coefficient ``c_d = cbar_d L omega0/(pi^2 T)`` [-], >= 0 (S0 Eq.23).
+    k_e : float or None, default None
+        Normalised series stiffness ``k_e = kbar_e L/(pi^2 T)`` [-], > 0, with ``(m_e, c_d)``
+        behind it (S0 Eq.12); None for the rigid device (S0 Eq.1).
+    elements : int, default 400
+        Number of linear elements ``N`` >= 2 of the FE mesh (average mass matrix).
+    intrinsic_damping : RayleighDamping or None, default None
+        The cable's Rayleigh damping; None for none (as in the frequency equation).
+    max_imag : float or None, default None
+        Upper edge of the window in ``Im beta`` [-], > 0; None means ``(n + 1/2) pi``.
+
+    Returns
+    -------
+    tuple of DamperRoot
+        The eigenvalues in the window as roots (``method="fe"``), ascending ``Re beta``.
     """
     n, x, m_e, c_d, k_e = _check_system(mode, x_d, m_e, c_d, k_e)
+    _, elements = check_mesh(x, elements)
+    if not n < elements:
+        raise ParameterError(
+            f"mode {n} needs more FE elements than {elements!r}: a mesh of N elements has "
+            "N - 1 modes (and resolves those well below N)"
+        )
     top = (n + 0.5) * math.pi if max_imag is None else check_positive(max_imag, "max_imag")
     unit = CableProperties(1.0, 1.0, 1.0)
     inertance, damping = physical_damper(unit, m_e, c_d)
@@ -403,6 +467,20 @@ def asymptotic_damping(
     ``alpha + i kappa = n pi x Z(n pi)`` with the impedance of :func:`normalised_impedance`
     (so ``k_e`` is accounted for at the string's frequency).  Accurate for small ``x`` away
     from the IMD optimum ``alpha -> -1``, where the exact equation has two roots.
+
+    Parameters
+    ----------
+    mode : int
+        String mode ``n`` >= 1.
+    x_d : float
+        Normalised damper position ``x_d = xbar_d/L`` [-] in (0, 1) (S0 Eq.23).
+    m_e : float
+        Normalised inertance ``m_e = mbar_e L omega0^2/(pi^2 T)`` [-], >= 0 (S0 Eq.23).
+    c_d : float
+        Normalised viscous coefficient ``c_d = cbar_d L omega0/(pi^2 T)`` [-], >= 0 (S0 Eq.23).
+    k_e : float or None, default None
+        Normalised series stiffness ``k_e = kbar_e L/(pi^2 T)`` [-], > 0, with ``(m_e, c_d)``
+        behind it (S0 Eq.12); None for the rigid device (S0 Eq.1).
     """
     n, x, m_e, c_d, k_e = _check_system(mode, x_d, m_e, c_d, k_e)
     eta = n * math.pi * x * complex(normalised_impedance(n * math.pi, m_e, c_d, k_e=k_e))

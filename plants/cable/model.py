@@ -175,10 +175,17 @@ class Cable(Substructure):
     ) -> None:
         super().__init__(dt)
         x_d, n = check_mesh(damper_position, elements)
+        load = load if load is not None else DistributedLoad()
+        omega = load.mode * properties.omega0 if load.frequency is None else load.frequency
+        if load.amplitude and omega * self.dt >= math.pi:
+            raise ParameterError(
+                f"load frequency {omega / (2 * math.pi):.6g} Hz (mode {load.mode}) must lie below "
+                f"the Nyquist frequency {0.5 / self.dt:g} Hz of the loop rate"
+            )
         self.properties = properties
         self.damper_position = x_d
         self.device = damper
-        self.load = load if load is not None else DistributedLoad()
+        self.load = load
         self.use_numba = bool(use_numba)
         self._nodes, self._index = mesh_nodes(properties.length, x_d, n)
         self._stiffness, self._mass, self._damping = assemble(

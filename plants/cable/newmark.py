@@ -32,8 +32,18 @@ __all__ = ["NewmarkOperator", "newmark_operator", "step_kernel", "step_reference
 class NewmarkOperator:
     """Matrices of one fixed-step Newmark-AA integrator and the factor of its effective matrix.
 
-    ``factor`` is the lower banded Cholesky factor of ``K + 2/h C + 4/h^2 M`` in the storage of
-    :func:`scipy.linalg.cholesky_banded`: row 0 the diagonal, row 1 the sub-diagonal.
+    Attributes
+    ----------
+    dt : float
+        Time step ``h`` [s].
+    mass : Tridiagonal
+        Mass matrix ``M`` [kg] over the free nodes (needed for the right-hand side).
+    damping : Tridiagonal
+        Damping matrix ``C`` [N s/m] over the free nodes.
+    factor : numpy.ndarray
+        Lower banded Cholesky factor of the effective matrix ``K + 2/h C + 4/h^2 M`` [N/m] in the
+        storage of :func:`scipy.linalg.cholesky_banded`, shape ``(2, n)``: row 0 the diagonal,
+        row 1 the sub-diagonal (units sqrt(N/m)).
     """
 
     dt: float
@@ -45,7 +55,25 @@ class NewmarkOperator:
 def newmark_operator(
     stiffness: Tridiagonal, mass: Tridiagonal, damping: Tridiagonal, dt: float
 ) -> NewmarkOperator:
-    """Factorise the effective matrix ``K + (2/h) C + (4/h^2) M`` once for step ``dt`` [s]."""
+    """Factorise the effective matrix ``K + (2/h) C + (4/h^2) M`` once for step ``dt`` [s].
+
+    Parameters
+    ----------
+    stiffness : Tridiagonal
+        Stiffness ``K`` [N/m] (including any constant added to the damper node's diagonal, e.g.
+        a condensed series branch).
+    mass : Tridiagonal
+        Mass ``M`` [kg].
+    damping : Tridiagonal
+        Damping ``C`` [N s/m].
+    dt : float
+        Time step ``h`` [s], > 0 (not checked here; the cable model validates it).
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        If the effective matrix is not positive definite.
+    """
     effective = stiffness + damping.scaled(2.0 / dt) + mass.scaled(4.0 / dt**2)
     factor = sla.cholesky_banded(effective.banded_lower(), lower=True)
     return NewmarkOperator(dt, mass, damping, factor)
@@ -58,7 +86,23 @@ def step_reference(
     a: NDArray[np.float64],
     force: NDArray[np.float64],
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """One Newmark-AA step with nodal force ``force`` [N] at ``t_{k+1}``; returns ``(u, v, a)``."""
+    """One Newmark-AA step with nodal force ``force`` [N] at ``t_{k+1}``; returns ``(u, v, a)``.
+
+    Parameters
+    ----------
+    op : NewmarkOperator
+        The factorised integrator.
+    u, v, a : numpy.ndarray
+        Nodal displacement [m], velocity [m/s] and acceleration [m/s^2] at ``t_k``, shape
+        ``(n,)``.
+    force : numpy.ndarray
+        Nodal force [N] at ``t_{k+1}``, shape ``(n,)``.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(u, v, a)`` at ``t_{k+1}`` [m, m/s, m/s^2], new arrays of shape ``(n,)``.
+    """
     h = op.dt
     rhs = force + op.mass.matvec(4.0 / h**2 * u + 4.0 / h * v + a)
     rhs += op.damping.matvec(2.0 / h * u + v)

@@ -84,6 +84,13 @@ class CableOptions:
                 f'elements must be an integer >= 2 or "auto"; got {self.elements!r}'
             )
         check_in_range(self.intrinsic_damping, "intrinsic_damping", 0.0, 0.99)
+        slope = self.load.amplitude * self.length / self.tension
+        if not slope <= 1.0:
+            raise ParameterError(
+                f"load amplitude {self.load.amplitude!r} N/m is too large for a taut string: "
+                f"amplitude x length / tension = {slope:.3g} (the scale of the cable's slope) "
+                "must stay below 1"
+            )
 
     @property
     def excitation_period(self) -> float:

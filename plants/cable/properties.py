@@ -40,7 +40,20 @@ def _store(instance: object, name: str, value: object) -> None:
 
 @dataclass(frozen=True, slots=True)
 class CableProperties:
-    """A taut cable: ``length`` [m], ``tension`` [N] and ``mass_per_length`` [kg/m]."""
+    """A taut cable: ``length`` [m], ``tension`` [N] and ``mass_per_length`` [kg/m].
+
+    The cable is a taut string (no bending stiffness, no sag), the numerical substructure of
+    S0 §5.1; the symbols are those of S0 Eq.23.
+
+    Attributes
+    ----------
+    length : float
+        Cable length ``L`` [m], > 0 (S0 Eq.23).
+    tension : float
+        Cable tension ``T`` [N], > 0 (S0 Eq.23).
+    mass_per_length : float
+        Mass per unit length ``m`` [kg/m], > 0.
+    """
 
     length: float
     tension: float
@@ -100,7 +113,21 @@ def normalised_damper(
 
 
 def physical_damper(properties: CableProperties, m_e: float, c_d: float) -> tuple[float, float]:
-    """Physical ``(inertance [kg], damping [N s/m])`` from normalised ``(m_e, c_d)`` (S0 Eq.23)."""
+    """Physical ``(inertance [kg], damping [N s/m])`` from normalised ``(m_e, c_d)`` (S0 Eq.23).
+
+    The inverse of :func:`normalised_damper`:
+    ``mbar_e = m_e pi^2 T/(L omega0^2)``, ``cbar_d = c_d pi^2 T/(L omega0)``.
+
+    Parameters
+    ----------
+    properties : CableProperties
+        The cable (``L`` [m], ``T`` [N] and, through ``omega0``, ``m`` [kg/m]).
+    m_e : float
+        Normalised inertance ``m_e`` [-], >= 0 (S0 Eq.23; the S0 optimum is 0.53).
+    c_d : float
+        Normalised damping coefficient ``c_d`` [-], >= 0 (S0 Eq.23; note S0 quotes the product
+        ``c_d x_d``, e.g. 0.015 at ``x_d = 0.02``).
+    """
     m_e = check_nonnegative(m_e, "normalised inertance m_e")
     c_d = check_nonnegative(c_d, "normalised damping c_d")
     p, w0 = properties, properties.omega0
@@ -114,6 +141,13 @@ def normalised_stiffness(properties: CableProperties, stiffness: float) -> float
     The S0 Eq.23 scaling of a dynamic stiffness (``m_e`` is ``mbar_e omega0^2`` scaled the same
     way), so a device with inertance ``m_e`` behind a spring ``k_e`` has its own frequency
     ``sqrt(k_e/m_e) omega0``, i.e. the normalised wavenumber ``pi sqrt(k_e/m_e)``.
+
+    Parameters
+    ----------
+    properties : CableProperties
+        The cable (``L`` [m], ``T`` [N]).
+    stiffness : float
+        Physical stiffness ``kbar`` [N/m], > 0 (e.g. the IMD's ``k0`` of S0 Eq.5).
     """
     k_bar = check_positive(stiffness, "series stiffness")
     return k_bar * properties.length / (math.pi**2 * properties.tension)
@@ -121,7 +155,15 @@ def normalised_stiffness(properties: CableProperties, stiffness: float) -> float
 
 def physical_stiffness(properties: CableProperties, k_e: float) -> float:
     """Physical stiffness ``kbar = pi^2 T k_e/L`` [N/m] from the normalised ``k_e`` (inverse of
-    :func:`normalised_stiffness`)."""
+    :func:`normalised_stiffness`).
+
+    Parameters
+    ----------
+    properties : CableProperties
+        The cable (``L`` [m], ``T`` [N]).
+    k_e : float
+        Normalised stiffness ``k_e = kbar L/(pi^2 T)`` [-], > 0.
+    """
     k_e = check_positive(k_e, "normalised series stiffness k_e")
     return math.pi**2 * properties.tension * k_e / properties.length
 
@@ -158,7 +200,22 @@ class DistributedLoad:
 
 @dataclass(frozen=True, slots=True)
 class RayleighDamping:
-    """Intrinsic damping ``ratio`` [-] at the string modes ``modes`` (Rayleigh, ``a0 M + a1 K``)."""
+    """Intrinsic damping ``ratio`` [-] at the string modes ``modes`` (Rayleigh, ``a0 M + a1 K``).
+
+    The cable's own damping (S0 §5.1, "cable element with distributed mass and intrinsic
+    damping"), applied to the string alone; the coefficients follow from
+    :func:`plants.cable.fe.rayleigh_coefficients` at the two anchors ``n omega0``.  Between the
+    anchors the ratio is below ``ratio``, outside them above it.
+
+    Attributes
+    ----------
+    ratio : float, default 0.001
+        Damping ratio ``zeta`` [-] at both anchor modes, in [0, 1); 0 gives no intrinsic
+        damping.  The default 0.1 % is the order S0 §1 quotes for stay cables.
+    modes : tuple of (int, int), default (1, 3)
+        The two distinct anchor mode numbers ``(i, j)`` >= 1 of the taut string (the default
+        brackets mode 3, the mode S0 §5.3 excites).
+    """
 
     ratio: float = 0.001
     modes: tuple[int, int] = (1, 3)

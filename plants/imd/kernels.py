@@ -27,7 +27,24 @@ __all__ = ["advance_flywheel", "advance_flywheel_jit", "regularised_sign"]
 
 
 def regularised_sign(velocity: float, velocity_scale: float) -> float:
-    """``tanh(v/v_eps)``: a smooth stand-in for ``sign(v)`` in Coulomb friction [-]."""
+    """``tanh(v/v_eps)``: a smooth stand-in for ``sign(v)`` in Coulomb friction [-].
+
+    Used for the friction term ``F_r sign(u')`` of S0 Eq.1.
+
+    Parameters
+    ----------
+    velocity : float
+        Velocity ``v`` [m/s] whose sign is wanted.
+    velocity_scale : float
+        Regularisation velocity ``v_eps`` [m/s], > 0 (not checked here: this is the hot path;
+        ``IMDParameters.friction_velocity`` validates it): below it the friction acts like a
+        viscous damper of coefficient ``F_r / v_eps``.
+
+    Returns
+    -------
+    float
+        ``tanh(v / v_eps)`` in ``(-1, 1)`` [-].
+    """
     return math.tanh(velocity / velocity_scale)
 
 

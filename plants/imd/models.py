@@ -373,6 +373,12 @@ def imd(options: IMDParameters, **_: object) -> Specimen:
 
     :class:`InternalStiffnessIMD` when there is a series element (internal stiffness, backlash),
     else :class:`SimplifiedIMD`.
+
+    Parameters
+    ----------
+    options : IMDParameters
+        The damper (``[specimen]`` table of a ``kind = "imd"`` scenario, SI units) with its
+        switched-on effects.  Registry context (``rng``) is accepted and ignored.
     """
     cls = InternalStiffnessIMD if options.has_series_element else SimplifiedIMD
     return cls.from_parameters(options)

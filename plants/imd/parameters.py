@@ -175,6 +175,11 @@ class AmplitudeDamping:
         return self.ratio_mm(1e3 * amplitude)
 
 
+#: Largest inertance [kg], damping [N s/m], stiffness [N/m] or friction [N] of an IMD: beyond
+#: it the model's sub-steps (stiffness over inertance) no longer fit in an integer.
+MAX_VALUE = 1e12
+
+
 @dataclass(frozen=True, slots=True)
 class IMDParameters:
     """One parameter set for every IMD model; each effect is switched on or off here.
@@ -245,6 +250,12 @@ class IMDParameters:
     friction_velocity: float = 1e-3
 
     def __post_init__(self) -> None:
+        for name in ("inertance", "damping", "stiffness", "contact_stiffness", "friction"):
+            value = getattr(self, name)
+            if value is not None and abs(value) > MAX_VALUE:
+                raise ParameterError(
+                    f"IMD {name} {value!r} is beyond any damper's (at most {MAX_VALUE:g} SI)"
+                )
         check_positive(self.inertance, "inertance m_e")
         check_nonnegative(self.damping, "damping c_d")
         if self.stiffness is not None:

@@ -33,7 +33,28 @@ _PRESETS: dict[str, HDRB] = {
 
 class BearingOptions(HDRB):
     """Options of the ``hdrb`` specimen kind: the fields of :class:`plants.tmdi.hdrb.HDRB`
-    (``k1``, ``k2``, ``k3``, ``c``, ``damping_law``), or a preset of S1 §4.2 with overrides."""
+    (``k1``, ``k2``, ``k3``, ``c``, ``damping_law``), or a preset of S1 §4.2 with overrides.
+
+    The bearing force is ``F = k1 u + k2 u^2 sign(u) + k3 u^3 + c v`` (S1 Eq.8), with ``u`` [m]
+    the deformation and ``v`` [m/s] its rate.  S1 §4.2 identifies, for the primary bearing,
+    ``k1 = 3.94e4 N/m``, ``k2 = -6.46e5 N/m^2``, ``k3 = 4.52e6 N/m^3``, ``c = 538.13 N s/m``
+    (preset ``s1_primary``, see :meth:`presets`).
+
+    Parameters
+    ----------
+    k1 : float
+        Linear stiffness coefficient ``k_1`` [N/m], > 0 (S1 Eq.8).
+    k2 : float, default 0.0
+        Coefficient ``k_2`` [N/m^2] of ``u^2 sign(u)`` (S1 Eq.8); negative softens.
+    k3 : float, default 0.0
+        Cubic coefficient ``k_3`` [N/m^3] (S1 Eq.8); positive stiffens.
+    c : float, default 0.0
+        Dashpot coefficient [N s/m], >= 0 (S1 Eq.8); with a ``damping_law``, its value at the
+        law's reference amplitude.
+    damping_law : AmplitudeDamping or None, default None
+        Amplitude-dependent dashpot ``c(A)`` (:class:`plants.tmdi.hdrb.AmplitudeDamping`);
+        None keeps the constant ``c`` of S1.
+    """
 
     __slots__ = ()
 

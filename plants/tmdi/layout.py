@@ -158,11 +158,27 @@ def pack_parameters(
 ) -> np.ndarray:
     """The kernel's parameter vector from validated parameter objects.
 
-    ``structure`` is a :class:`plants.tmdi.structure.TMDIParameters` (None for the inerter alone,
-    which gets a placeholder primary mass), ``inertance`` the ideal inerter's ``b`` [kg], ``device``
-    a :class:`plants.tmdi.inerter.RackPinionParameters` or None and ``grounded_damping`` a viscous
-    coefficient [N s/m] between ``u_T`` and the ground (the nominal interface device of
-    :class:`plants.tmdi.structure.TMDISubstructure`).
+    Parameters
+    ----------
+    structure : TMDIParameters or None, default None
+        The S1 Eq.12 structure (masses ``m_I``, ``m_T`` [kg] and the S1 Eq.8 isolators
+        ``k1`` [N/m], ``k2`` [N/m^2], ``k3`` [N/m^3], ``c`` [N s/m] with their damping laws);
+        None for the inerter alone, which gets a placeholder primary mass of 1 kg.
+    inertance : float, default 0.0
+        Rigid inertance ``b`` [kg] between ``u_T`` and the ground: the ideal inerter, or the
+        nominal device of :class:`plants.tmdi.structure.TMDISubstructure`.  Not validated here.
+    device : RackPinionParameters or None, default None
+        The rack-and-pinion inerter of S1 Eq.9-11 (``r_P`` [m], ``J_B`` [kg m^2], ``k_S``
+        [N m/rad], ``c_S``, ``c_B`` [N m s/rad], ``ε1``, ``ε2`` [rad], ``f_y`` [N], ``v_eps``
+        [m/s]); None for none.
+    grounded_damping : float, default 0.0
+        Viscous coefficient ``c_G`` [N s/m] between ``u_T`` and the ground (the nominal
+        interface device of :class:`plants.tmdi.structure.TMDISubstructure`).
+
+    Returns
+    -------
+    numpy.ndarray
+        The parameter vector, shape ``(N_PARAM,)``, laid out as the ``P_*`` indices say.
     """
     p = np.zeros(N_PARAM)
     p[P_M_I] = 1.0

@@ -104,6 +104,15 @@ def linearised_frequencies(parameters: TMDIParameters, inertance: float) -> tupl
     Returns ``(f0,)`` for the uncontrolled PS and ``(f1, f2)`` (ascending) with the TMDI,
     from the generalised eigenproblem ``K φ = ω² M φ`` with ``M = diag(m_I, m_T + b)``
     (``scipy.linalg.eigh``).  S1 §3.1 observes ``f1 < f0 < f2``.
+
+    Parameters
+    ----------
+    parameters : TMDIParameters
+        The structure; only ``m_I``, ``m_T`` [kg] and each isolator's ``k1`` [N/m] (S1 Eq.8)
+        are used.
+    inertance : float
+        Inertance ``b`` [kg] of the ideal grounded inerter, >= 0 (0 for a plain TMD; ignored
+        for the uncontrolled PS).
     """
     b = check_nonnegative(inertance, "inertance b")
     k_i = parameters.primary_isolator.k1

@@ -200,6 +200,17 @@ def rack_pinion_preset(flywheel: str = "IF") -> RackPinionParameters:
 
     Only the IF device was identified (S1 §4.2); NF and LF scale ``J_B`` by the ratio of
     nominal inertances (0.1 / 47.9 and 95.6 / 47.9), keeping the transmission parameters.
+
+    Parameters
+    ----------
+    flywheel : {"IF", "NF", "LF"}, default "IF"
+        The flywheel variant of S1 Table 1: none (NF, nominal ``b = 0.1 kg``), intermediate
+        (IF, 47.9 kg) or large (LF, 95.6 kg).
+
+    Raises
+    ------
+    ParameterError
+        If ``flywheel`` is not one of the three.
     """
     return replace(
         S1_RACK_PINION, flywheel_inertia=S1_RACK_PINION.flywheel_inertia * _check_flywheel(flywheel)
@@ -210,5 +221,16 @@ def ideal_inerter_preset(flywheel: str = "IF") -> float:
     """Inertance [kg] of the ideal-inerter model for an S1 flywheel variant.
 
     48.7 kg for IF (S1 §4.2), scaled by the nominal ratio of S1 Table 1 for NF and LF.
+
+    Parameters
+    ----------
+    flywheel : {"IF", "NF", "LF"}, default "IF"
+        The flywheel variant of S1 Table 1: none (NF, nominal ``b = 0.1 kg``), intermediate
+        (IF, 47.9 kg) or large (LF, 95.6 kg).
+
+    Raises
+    ------
+    ParameterError
+        If ``flywheel`` is not one of the three.
     """
     return S1_IDEAL_INERTANCE * _check_flywheel(flywheel)

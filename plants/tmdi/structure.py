@@ -94,6 +94,56 @@ class TMDIResponse:
     ``c_I``, ``c_T`` [N s/m] in force at each sample (constant unless a bearing has an
     :class:`~plants.tmdi.hdrb.AmplitudeDamping` law).  For the uncontrolled PS the secondary
     kinematics are NaN and ``F_T = F_B = 0``.
+
+    Sample ``k`` of every array is the state at ``t = k dt``; sample 0 is rest.  Displacements
+    and velocities are relative to the ground (the shaking table), as in S1 Eq.12.
+
+    Attributes
+    ----------
+    time : numpy.ndarray
+        Sample times ``k dt`` [s].
+    ground_acceleration : numpy.ndarray
+        The base (shaking-table) acceleration ``ü_G`` [m/s²] that drove the model.
+    u_I : numpy.ndarray
+        Primary-mass displacement ``u_I`` [m] (the primary isolator's deformation).
+    a_I_tot : numpy.ndarray
+        Primary-mass total acceleration ``ü_I^(tot) = ü_I + ü_G`` [m/s²] (S1 Eq.1).
+    F_I : numpy.ndarray
+        Primary isolator force ``F_I = F_EI + F_DI`` [N] (S1 Eq.8, Eq.12; measured by S1 Eq.6).
+    u_TI : numpy.ndarray
+        TMDI stroke ``u_TI = u_T - u_I`` [m] (the secondary isolator's deformation, S1 Eq.3).
+    a_T_tot : numpy.ndarray
+        Secondary-mass total acceleration ``ü_T^(tot) = ü_T + ü_G`` [m/s²].
+    F_T : numpy.ndarray
+        Secondary isolator force ``F_T = F_ET + F_DT`` [N] (S1 Eq.8, Eq.12; S1 Eq.5).
+    u_T : numpy.ndarray
+        Secondary-mass displacement ``u_T`` [m] (the inerter's stroke, S1 Eq.3).
+    a_T : numpy.ndarray
+        Secondary-mass relative acceleration ``ü_T`` [m/s²] (the inerter's, S1 Eq.2).
+    F_B : numpy.ndarray
+        Inerter restoring force ``F_B`` [N] (S1 Eq.10 for the rack-and-pinion device, ``b ü_T``
+        for the ideal inerter; measured by S1 Eq.4); 0 without an inerter.
+    v_I : numpy.ndarray
+        Primary-mass velocity ``u̇_I`` [m/s].
+    v_T : numpy.ndarray
+        Secondary-mass velocity ``u̇_T`` [m/s].
+    theta_S : numpy.ndarray
+        Angle ``θ_S`` [rad] of the node between the series visco-elastic element and the
+        backlash gap (S1 Eq.9, Fig.16); 0 without the rack-and-pinion inerter.
+    theta_G : numpy.ndarray
+        Flywheel angle ``θ_G`` [rad] (S1 Eq.9); 0 without the rack-and-pinion inerter.
+    omega_G : numpy.ndarray
+        Flywheel angular velocity ``θ̇_G`` [rad/s]; 0 without the rack-and-pinion inerter.
+    torque : numpy.ndarray
+        Torque ``T_P = T_G`` [N m] transmitted across the gap (S1 Eq.9, Eq.11); 0 while the gap
+        is open or without the rack-and-pinion inerter.
+    contact : numpy.ndarray
+        Contact mode of the gap (S1 Eq.11) [-]: +1 forward contact (``T >= 0``), -1 backward
+        contact (``T <= 0``), 0 open (and without the rack-and-pinion inerter).
+    c_I : numpy.ndarray
+        Primary dashpot coefficient ``c_I`` [N s/m] in force at each sample (S1 Eq.8).
+    c_T : numpy.ndarray
+        Secondary dashpot coefficient ``c_T`` [N s/m] in force at each sample (S1 Eq.8).
     """
 
     time: NDArray[np.float64]

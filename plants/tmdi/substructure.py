@@ -127,6 +127,12 @@ class TMDISubstructure(S1Structure):
     ) -> TMDISubstructure:
         """The ``tmdi`` kind: the S1 Table 1 structure under the stepped sine, carrying
         ``device``."""
+        top = max(options.excitation.frequencies)
+        if top >= 0.5 / dt:
+            raise ParameterError(
+                f"excitation frequency {top:g} Hz must lie below the Nyquist frequency "
+                f"{0.5 / dt:g} Hz of the loop rate"
+            )
         params, _inerter = s1_configuration(
             options.mass, options.flywheel, options.isolators, hdrb=options.hdrb
         )

@@ -16,13 +16,14 @@ enough.  The steady-state window for the figures is the last ``--cycles`` cycles
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from rths.core.errors import DataError
-from rths.log.reader import read_metadata, read_topic
+from rths.core.errors import ConfigError, DataError, RTHSWarning
+from rths.log.reader import read_loop, read_metadata
 from rths.metrics import normalised_rms_error, summarize
 
 __all__ = ["write_report"]
@@ -33,13 +34,24 @@ def _window(t: np.ndarray, period: float, cycles: float) -> np.ndarray:
     return t >= t[-1] - cycles * period
 
 
-def _scenario(meta: dict[str, dict[str, str]]) -> Any:
+def _scenario(meta: dict[str, dict[str, str]], log: Path) -> Any:
+    """The scenario stored in the log, or None (with a warning when it no longer parses)."""
     from rths.config.scenario import parse_scenario
 
     text = meta.get("scenario", {}).get("text")
     if not text:
         return None
-    return parse_scenario(text, meta["scenario"].get("path", "<log>"))
+    try:
+        return parse_scenario(text, meta["scenario"].get("path", "<log>"))
+    except ConfigError as exc:
+        warnings.warn(
+            RTHSWarning(
+                f"the scenario stored in '{log}' cannot be rebuilt ({exc}): no window from its "
+                "load period and no RTHS-vs-mock figure"
+            ),
+            stacklevel=2,
+        )
+        return None
 
 
 def _load_period(scn: Any) -> float:
@@ -57,22 +69,21 @@ def write_report(log: Path, out: Path, cycles: float = 3.0, mock: bool = True) -
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    loop = read_topic(log, "rths/loop")
-    for name in ("t", "target", "command", "measured", "force"):
-        if name not in loop:
-            raise DataError(f"'{log}': rths/loop has no field {name!r}; not an 'rths run' log")
+    loop = read_loop(log)
     meta = read_metadata(log)
-    scn = _scenario(meta)
-    out.mkdir(parents=True, exist_ok=True)
+    scn = _scenario(meta, log)
     names = ("t", "target", "command", "measured", "force")
     t, target, command, measured, force = (loop[k] for k in names)
     if t.size < 16:
         raise DataError(f"'{log}': only {t.size} loop samples; nothing to report")
     dt = float(np.median(np.diff(t)))
     doc: dict[str, Any] = {"log": str(log), "samples": int(t.size), "dt": dt}
-    doc["tracking"] = summarize(
-        target, measured, force, dt, max_delay=min(0.1, 0.25 * t.size * dt)
-    ).to_dict()
+    try:
+        tracking = summarize(target, measured, force, dt, max_delay=min(0.1, 0.25 * t.size * dt))
+    except DataError as exc:
+        raise DataError(f"'{log}': {exc}") from None
+    doc["tracking"] = tracking.to_dict()
+    out.mkdir(parents=True, exist_ok=True)
     doc["summary"] = meta.get("rths.summary", {})
     doc["recording"] = meta.get("rths.recording", {})
     doc["scaling"] = meta.get("scaling", {})

@@ -52,19 +52,15 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from rths.core.errors import DataError
-    from rths.log.reader import is_complete, read_metadata, read_topic
+    from rths.log.reader import is_complete, read_loop, read_metadata
     from rths.metrics import sync_subspace_rmse
 
     if not (math.isfinite(args.max_rmse) and args.max_rmse > 0):
         raise DataError(f"--max-rmse must be a positive percentage; got {args.max_rmse!r}")
-    loop = read_topic(args.log, "rths/loop")
+    if not math.isfinite(args.start):
+        raise DataError(f"--from must be a time in seconds; got {args.start!r}")
+    loop = read_loop(args.log, ("t", "target", "measured"))
     meta = read_metadata(args.log)
-    for name in ("t", "target", "measured"):
-        if name not in loop:
-            raise DataError(
-                f"'{args.log}': topic rths/loop has no field {name!r}; "
-                "is this a log written by 'rths run'?"
-            )
     seq = loop["sequence"]
     gaps = int(np.sum(np.diff(seq) - 1)) if seq.size > 1 else 0
     keep = loop["t"] >= args.start

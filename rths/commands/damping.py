@@ -146,8 +146,8 @@ def run(args: argparse.Namespace) -> int:
     )
 
     m_e, c_d, k_e = _normalised_parameters(args)
-    exact = exact_roots(args.mode, args.xd, m_e, c_d, k_e=k_e)
     fe = fe_roots(args.mode, args.xd, m_e, c_d, k_e=k_e, elements=args.elements)
+    exact = exact_roots(args.mode, args.xd, m_e, c_d, k_e=k_e)
     rows = [r for pair in _pairs(exact, fe) for r in pair if r is not None]
     asymptotic = asymptotic_damping(args.mode, args.xd, m_e, c_d, k_e=k_e)
     device_beta, device_note = _device_mode(args.mode, m_e, k_e)

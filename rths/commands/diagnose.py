@@ -74,18 +74,18 @@ def run(args: argparse.Namespace) -> int:
     from rths.diagnose.effects import EFFECTS
     from rths.diagnose.report import table, write_figures
 
-    nominal = load_nominal(args.nominal)
-    records = [load_record(path) for path in args.data]
     effects = (
         tuple(EFFECTS)
         if args.effects is None
         else tuple(e.strip() for e in args.effects.split(",") if e.strip())
     )
-    options = Options(
+    options = Options(  # the options first: an argument error is named before the data's
         cutoff=DEFAULT_CUTOFF if args.cutoff is None else args.cutoff,
         effects=effects,
         drive=args.drive,
     )
+    nominal = load_nominal(args.nominal)
+    records = [load_record(path) for path in args.data]
     result = diagnose(records, nominal, options)
     text = table(result)
     print(text.splitlines()[-2] if args.quiet else text)

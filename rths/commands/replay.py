@@ -56,14 +56,20 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 def run(args: argparse.Namespace) -> int:
     """Republish the log; returns 0."""
+    import math
+
     from rths.core.errors import DataError
-    from rths.log.replay import replay
+    from rths.log.replay import prepare, replay
+    from rths.wire.keys import check_run_id
     from rths.wire.transport import ZenohEndpoints
 
     if not args.speed > 0:
         raise DataError(f"--speed must be positive; got {args.speed!r}")
-    if not args.wait >= 0:
-        raise DataError(f"--wait must be >= 0; got {args.wait!r}")
+    if not (args.wait >= 0 and math.isfinite(args.wait)):
+        raise DataError(f"--wait must be a number of seconds >= 0; got {args.wait!r}")
+    if args.run_id is not None:
+        check_run_id(args.run_id)
+    prepare(args.log, args.topic)  # the log is checked before any endpoint is opened
     listen = tuple(args.listen) or (() if args.connect else (DEFAULT_LISTEN,))
     endpoints = ZenohEndpoints(listen=listen, connect=tuple(args.connect))
     count = replay(

@@ -88,6 +88,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         help="how long to wait for the specimen process [s]",
     )
     p.add_argument(
+        "--step-timeout",
+        type=float,
+        default=1.0,
+        metavar="S",
+        help="lockstep: how long a silent specimen process may take for one step before the run "
+        "is aborted as hung [s] (a step takes ~0.5 ms)",
+    )
+    p.add_argument(
         "--secret-file",
         type=Path,
         metavar="FILE",
@@ -114,7 +122,13 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the scenario (or its Monte Carlo); 0 when it ran to the end, 1 if stopped early."""
+    """Run the scenario (or its Monte Carlo).
+
+    Exit codes: 0 it ran to the end; 3 an interlock, a diverging model, a lost specimen or a
+    full disk stopped it (:class:`rths.core.errors.RunFault`); 128 + N a signal N stopped it
+    (SIGINT 130, SIGTERM 143, SIGHUP 129) -- in every case after the log was finished with its
+    summary.
+    """
     from rths.config.scenario import load_scenario
 
     scn = load_scenario(args.scenario)
@@ -122,7 +136,7 @@ def run(args: argparse.Namespace) -> int:
         return _monte_carlo(scn, args)
     from tqdm import tqdm
 
-    from rths.session.runner import RunOptions, run_scenario
+    from rths.session.runner import RunOptions, StopRequest, run_scenario
 
     # disable=None: no bar when stderr is not a terminal (CI logs stay free of carriage returns)
     bar = (
@@ -142,6 +156,7 @@ def run(args: argparse.Namespace) -> int:
         if bar is not None:
             bar.update(done - bar.n)
 
+    stop = StopRequest()
     options = RunOptions(
         clock=args.clock,
         out=args.out,
@@ -156,11 +171,14 @@ def run(args: argparse.Namespace) -> int:
         secret_file=args.secret_file,
         live=args.live,
         on_waiting=lambda cmd: print(
-            f"waiting for the specimen; start it with:\n  {cmd}", file=sys.stderr, flush=True
+            f"waiting for the specimen; start it with:  {cmd}", file=sys.stderr, flush=True
         ),
+        step_timeout=args.step_timeout,
+        stop=stop,
     )
     try:
-        outcome = run_scenario(scn, options)
+        with stop.installed():
+            outcome = run_scenario(scn, options)
     finally:
         if bar is not None:
             bar.close()
@@ -180,7 +198,11 @@ def run(args: argparse.Namespace) -> int:
         print(outcome.line())
     if outcome.result.stopped:
         print(f"rths run: stopped early: {outcome.result.stopped}", file=sys.stderr)
-        return 1
+        if stop.signum is not None and not stop.fault:
+            return 128 + stop.signum
+        return 3
+    if stop.signum is not None:  # a signal during the teardown: the run itself was complete
+        return 128 + stop.signum
     return 0
 
 
@@ -191,7 +213,9 @@ def _monte_carlo(scn: Scenario, args: argparse.Namespace) -> int:
     from controllers.factory import kinds
     from rths.analysis.montecarlo import j2_figure, run_draws
     from rths.campaign import ResultTable
+    from rths.config import build
     from rths.core.errors import format_choices
+    from rths.session.budget import check_budget, step_cost
 
     draws = args.monte_carlo or scn.monte_carlo_draws
     if draws < 1:
@@ -204,6 +228,10 @@ def _monte_carlo(scn: Scenario, args: argparse.Namespace) -> int:
         )
     chosen = known if kind == "all" else [kind]
     seed = scn.run.seed if args.seed is None else args.seed
+    if seed < 0:
+        raise ConfigError(f"--seed must be >= 0; got {seed}")
+    cost = step_cost(build.substructure(scn), build.compensator(scn, chosen[0]), build.lab(scn))
+    check_budget(scn, "fast", cost, runs=draws * len(chosen))
     where = cluster(args)
     path = args.table or Path("runs") / f"{scn.run.name}-mc{draws}-seed{seed}.parquet"
     table = ResultTable(path)

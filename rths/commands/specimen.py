@@ -16,7 +16,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         description="The specimen process. 'rths run' starts it on loopback by default; start it "
         "yourself with --connect (or --listen) to put the lab on another host.",
     )
-    p.add_argument("scenario", type=Path, help="scenario TOML file (the same as the coordinator's)")
+    p.add_argument(
+        "scenario",
+        type=Path,
+        help="scenario TOML file (the same as the coordinator's); '-' reads it from stdin",
+    )
     p.add_argument("--run-id", required=True, help="the coordinator's run id")
     p.add_argument(
         "--connect",
@@ -54,20 +58,37 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 def run(args: argparse.Namespace) -> int:
-    """Serve the lab until the coordinator stops; returns 0."""
-    from rths.config.scenario import load_scenario
-    from rths.core.errors import ConfigError
+    """Serve the lab until the coordinator stops; returns 0.
+
+    SIGTERM and SIGHUP end it as Ctrl-C does (:class:`rths.core.errors.Interrupted`: its zenoh
+    session closes, the coordinator sees it leave)."""
+    import signal
+    import sys
+
+    from rths.config.scenario import load_scenario, parse_scenario
+    from rths.core.errors import ConfigError, Interrupted
     from rths.session.specimen import serve
     from rths.wire.auth import read_secret
+    from rths.wire.keys import check_run_id
     from rths.wire.transport import ZenohEndpoints
 
+    def interrupted(signum: int, frame: object) -> None:
+        raise Interrupted(signum)
+
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, interrupted)
     if not args.connect and not args.listen:
         raise ConfigError("give the coordinator's endpoint with --connect (or --listen)")
-    scn = load_scenario(args.scenario)
-    endpoints = ZenohEndpoints(listen=tuple(args.listen), connect=tuple(args.connect))
+    check_run_id(args.run_id)
     if args.seed is not None and args.seed < 0:
         raise ConfigError(f"--seed must be >= 0; got {args.seed}")
+    # stdin holds the secret's line first, then (scenario '-') the scenario text
     secret = read_secret(args.secret_file, stdin=args.secret_stdin)
+    if str(args.scenario) == "-":
+        scn = parse_scenario(sys.stdin.read(), "<scenario on stdin>")
+    else:
+        scn = load_scenario(args.scenario)
+    endpoints = ZenohEndpoints(listen=tuple(args.listen), connect=tuple(args.connect))
     serve(
         scn,
         args.run_id,

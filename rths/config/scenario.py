@@ -45,6 +45,8 @@ from rths.core.scaling import Scaling
 
 __all__ = [
     "CLOCKS",
+    "MAX_DURATION",
+    "MAX_RATE",
     "MODEL_KINDS",
     "Component",
     "LabSpec",
@@ -56,6 +58,14 @@ __all__ = [
 ]
 
 CLOCKS = ("lockstep", "realtime", "fast")
+#: Fastest loop rate [Hz] a scenario may ask for: an order of magnitude above any RTHS loop
+#: (the vRTHS benchmark runs at 4096 Hz; real-time Python at 2 kHz).
+MAX_RATE = 100e3
+#: Longest run [s]: a day (split longer tests into several runs).
+MAX_DURATION = 86400.0
+#: Largest displacement range [m] and force range [N] of the lab's converters (the
+#: calibration times the full scale): beyond them no actuator or load cell exists.
+MAX_RANGE = {"displacement_per_volt": 10.0, "force_per_volt": 1e9}
 #: Kinds of ``[model]`` (what the numerical side believes about the specimen).
 MODEL_KINDS = ("imd", "linear", "inerter", "none")
 
@@ -100,6 +110,12 @@ class LabSpec:
     command_noise: float = 0.0
     displacement_noise: float = 5e-4
     force_noise: float = 1e-3
+
+
+#: Largest ``[loop] max_velocity`` [m/s]: a guard above it guards nothing.
+MAX_VELOCITY = 10.0
+#: Longest measurement age the watchdog may allow, ``max_lag * dt`` [s].
+MAX_LAG_TIME = 1.0
 
 
 @dataclass(frozen=True)
@@ -209,10 +225,12 @@ def _override(data: dict[str, Any], key: str, value: Any, source: str) -> None:
 def _parse(doc: Table, text: str) -> Scenario:
     run = _run(doc.table("run"))
     t = doc.table("scaling", {})
-    scaling = Scaling(
-        t.number("displacement", 1.0, positive=True), t.number("force", 1.0, positive=True)
-    )
+    factors = (t.number("displacement", 1.0, positive=True), t.number("force", 1.0, positive=True))
     t.finish()
+    try:
+        scaling = Scaling(*factors)
+    except ParameterError as exc:
+        raise ConfigError(f"{t.source}: [scaling] {exc}") from None
     sub = _component(doc.table("substructure"), "substructure")
     specimen = _component(doc.table("specimen"), "specimen")
     actuator = _component(doc.table("actuator"), "actuator")
@@ -229,6 +247,18 @@ def _parse(doc: Table, text: str) -> Scenario:
     )
     if loop.ramp_velocity > loop.max_velocity:
         raise t.error("ramp_velocity", f"must not exceed max_velocity {loop.max_velocity!r} m/s")
+    if loop.max_velocity > MAX_VELOCITY:
+        raise t.error(
+            "max_velocity",
+            f"must be <= {MAX_VELOCITY:g} m/s (beyond any servo-hydraulic actuator: no guard at "
+            f"all); got {loop.max_velocity!r}",
+        )
+    if loop.max_lag * run.dt > MAX_LAG_TIME:
+        raise t.error(
+            "max_lag",
+            f"{loop.max_lag} steps is {loop.max_lag * run.dt:.3g} s at {run.rate:g} Hz; the "
+            f"watchdog must trip within {MAX_LAG_TIME:g} s",
+        )
     t.finish()
     t = doc.table("monte_carlo", {})
     draws = t.integer("draws", 0, minimum=0)
@@ -269,6 +299,21 @@ def _run(t: Table) -> RunSpec:
         seed=t.integer("seed", 0, minimum=0),
     )
     t.finish()
+    if spec.rate > MAX_RATE:
+        raise t.error(
+            "rate", f"must be at most {MAX_RATE:g} Hz (a loop step of 10 µs); got {spec.rate!r}"
+        )
+    if spec.duration > MAX_DURATION:
+        raise t.error(
+            "duration",
+            f"must be at most {MAX_DURATION:g} s (a day: split longer tests); got "
+            f"{spec.duration!r}",
+        )
+    if spec.duration * spec.rate < 1.0:
+        raise t.error(
+            "duration",
+            f"{spec.duration!r} s is shorter than one loop step (1/rate = {1 / spec.rate:g} s)",
+        )
     return spec
 
 
@@ -293,6 +338,21 @@ def _lab(t: Table) -> LabSpec:
         force_noise=t.number("force_noise", d.force_noise, nonnegative=True),
     )
     t.finish()
+    for key in ("command_noise", "displacement_noise", "force_noise"):
+        if getattr(spec, key) > spec.full_scale:
+            raise t.error(
+                key,
+                f"{getattr(spec, key)!r} V RMS exceeds the converters' full scale "
+                f"{spec.full_scale!r} V",
+            )
+    for key, largest in MAX_RANGE.items():
+        span = getattr(spec, key) * spec.full_scale
+        if span > largest:
+            raise t.error(
+                key,
+                f"{getattr(spec, key)!r} per volt x full scale {spec.full_scale!r} V = a range of "
+                f"{span:.3g}, beyond any sensor (at most {largest:g} SI units)",
+            )
     return spec
 
 

@@ -14,6 +14,7 @@ Used by the scenario and nominal-model readers::
 
 from __future__ import annotations
 
+import difflib
 import math
 import tomllib
 from collections.abc import Sequence
@@ -56,8 +57,14 @@ class Table:
         if key in self._data:
             return self._data[key]
         if default is _MISSING:
-            raise self.error(key, "missing (required)")
+            raise self.error(key, "missing (required)" + self._typo_of(key))
         return default
+
+    def _typo_of(self, key: str) -> str:
+        """``"; is 'durration' a typo of it?"`` when an unknown key of the table is close."""
+        unknown = [k for k in self._data if k not in self._seen]
+        close = difflib.get_close_matches(key, unknown, n=1, cutoff=0.6)
+        return f"; is {close[0]!r} a typo of it?" if close else ""
 
     # -- typed getters -------------------------------------------------------------------------
     def raw(self, key: str, default: Any = _MISSING) -> Any:
@@ -91,7 +98,10 @@ class Table:
         if nonnegative and x < 0:
             raise self.error(key, f"must be non-negative; got {value!r}")
         if lo is not None and x < lo or hi is not None and x > hi:
-            raise self.error(key, f"must lie in [{lo}, {hi}]; got {value!r}")
+            if lo is None or hi is None:
+                bound = f">= {lo:g}" if hi is None else f"<= {hi:g}"
+                raise self.error(key, f"must be {bound}; got {value!r}")
+            raise self.error(key, f"must lie in [{lo:g}, {hi:g}]; got {value!r}")
         return x
 
     def integer(self, key: str, default: Any = _MISSING, *, minimum: int | None = None) -> Any:
@@ -174,6 +184,8 @@ def parse_toml(text: str, source: str) -> Table:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{source}: invalid TOML: {exc}") from None
+    except RecursionError:  # tomllib recurses once per nesting level
+        raise ConfigError(f"{source}: invalid TOML: arrays or tables nested too deeply") from None
     return Table(data, "", source)
 
 
@@ -184,6 +196,10 @@ def load_toml(path: str | Path) -> tuple[Table, str]:
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ConfigError(f"{p}: no such file") from None
-    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{p}: cannot read: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(
+            f"{p}: not a UTF-8 text file (byte {exc.start} is {exc.object[exc.start]:#04x})"
+        ) from None
+    except OSError as exc:
+        raise ConfigError(f"{p}: cannot read: {exc.strerror or exc}") from None
     return parse_toml(text, str(p)), text

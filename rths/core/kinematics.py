@@ -10,7 +10,17 @@ __all__ = ["Kinematics"]
 
 @dataclass(frozen=True, slots=True)
 class Kinematics:
-    """Displacement [m], velocity [m/s] and acceleration [m/s^2] of one point."""
+    """Displacement [m], velocity [m/s] and acceleration [m/s^2] of one point.
+
+    Attributes
+    ----------
+    displacement : float
+        Displacement [m] (at the interface: the target or measured stroke).
+    velocity : float
+        Velocity [m/s].
+    acceleration : float
+        Acceleration [m/s^2].
+    """
 
     displacement: float
     velocity: float

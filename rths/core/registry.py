@@ -205,7 +205,16 @@ class Registry:
 
 
 def first_sentence(text: str) -> str:
-    """``text`` up to the first full stop that ends a sentence."""
+    """``text`` up to the first full stop that ends a sentence.
+
+    A full stop ends a sentence when it ends ``text`` or is followed by white space and a capital
+    letter or ``(``; so ``"e.g. the"`` and ``"1.5 m"`` do not end one.
+
+    Parameters
+    ----------
+    text : str
+        One paragraph, white space already collapsed (e.g. a docstring's first paragraph).
+    """
     match = re.search(r"\.(?=\s+[A-Z(]|$)", text)
     return text if match is None else text[: match.end()]
 

@@ -4,9 +4,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from rths.core.errors import check_positive
+from rths.core.errors import check_in_range
 
-__all__ = ["Scaling"]
+__all__ = ["MAX_SCALE", "Scaling"]
+
+#: Largest scale factor (and smallest: its inverse).  Real tests scale by 1:100 at most; beyond
+#: 1:10^6 the specimen's force cannot reach the prototype in floating point.
+MAX_SCALE = 1e6
 
 
 @dataclass(frozen=True)
@@ -25,8 +29,8 @@ class Scaling:
     force: float = 1.0
 
     def __post_init__(self) -> None:
-        check_positive(self.displacement, "displacement scale factor")
-        check_positive(self.force, "force scale factor")
+        check_in_range(self.displacement, "displacement scale factor", 1 / MAX_SCALE, MAX_SCALE)
+        check_in_range(self.force, "force scale factor", 1 / MAX_SCALE, MAX_SCALE)
 
     @property
     def impedance(self) -> float:

@@ -8,7 +8,7 @@ the convention of the MCAP topic ``rths/loop`` (``t`` is the end of the step), s
 mean the same thing.  A lab record sampled simultaneously differs from this by at most half a
 sample, which the diagnosis sees as part of the actuator delay.
 
-MCAP logs written by ``rths run`` are read through :func:`rths.log.reader.read_topic` (topic
+MCAP logs written by ``rths run`` are read through :func:`rths.log.reader.read_loop` (topic
 ``rths/loop``: ``t``, ``target``, ``command``, ``measured``, ``force``); the scenario text in the
 log's metadata is kept for the structure channel.
 """
@@ -44,8 +44,11 @@ COLUMNS: tuple[str, ...] = ("time", "command", "measured", "force")
 SAMPLING_TOLERANCE: float = 0.01
 #: Shortest usable record [s]: a few cycles of the slowest structural mode of interest.
 MIN_DURATION: float = 2.0
-
-_LOOP_TOPIC = "rths/loop"
+#: Largest magnitude of a value in a record: beyond it a number is not an SI measurement.
+MAX_MAGNITUDE: float = 1e12
+#: Smallest peak-to-peak swing [m, m, N] of command, measured and force: below it a column is
+#: constant to any sensor (a nanometre, a micronewton) and there is nothing to diagnose.
+MIN_SWING: dict[str, float] = {"command": 1e-9, "measured": 1e-9, "force": 1e-6}
 
 
 @dataclass(frozen=True)
@@ -106,6 +109,12 @@ def _check_arrays(name: str, time: NDArray, columns: dict[str, NDArray]) -> floa
                 f"{name}: column '{column}' must be finite; got {float(values[bad[0]])!r} at "
                 f"sample {bad[0]} ({bad.size} non-finite values)"
             )
+        big = np.flatnonzero(np.abs(values) > MAX_MAGNITUDE)
+        if big.size:
+            raise DataError(
+                f"{name}: column '{column}' holds {float(values[big[0]])!r} at sample {big[0]}: "
+                f"beyond any SI measurement (|x| <= {MAX_MAGNITUDE:g}); wrong units?"
+            )
     if time.size < 3:
         raise DataError(f"{name}: needs at least 3 samples; got {time.size}")
     steps = np.diff(time)
@@ -124,6 +133,13 @@ def _check_arrays(name: str, time: NDArray, columns: dict[str, NDArray]) -> floa
             f"{name}: record too short for a diagnosis: {time.size * dt:.3g} s; need at least "
             f"{MIN_DURATION} s"
         )
+    for column, values in columns.items():
+        swing = float(np.ptp(values))
+        if column in MIN_SWING and swing < MIN_SWING[column]:
+            raise DataError(
+                f"{name}: column '{column}' is constant (swing {swing:.3g}, first value "
+                f"{float(values[0])!r}): nothing moves there to diagnose"
+            )
     return dt
 
 
@@ -189,16 +205,18 @@ def read_mcap(path: str | os.PathLike[str]) -> Record:
     DataError
         Unreadable log, no ``rths/loop`` topic, a missing field, or bad sampling.
     """
-    from rths.log.reader import read_metadata, read_topic
+    from rths.log.reader import read_loop, read_metadata
 
     p = Path(path)
-    loop = read_topic(p, _LOOP_TOPIC)
-    for column in ("t", "command", "measured", "force"):
-        if column not in loop:
-            raise DataError(f"{p}: topic '{_LOOP_TOPIC}' has no field '{column}'")
+    loop = read_loop(p, ("t", "command", "measured", "force"))
     cols = {c: np.asarray(loop[c], dtype=float) for c in ("t", "command", "measured", "force")}
     dt = _check_arrays(str(p), cols["t"], {c: cols[c] for c in ("command", "measured", "force")})
-    target = np.asarray(loop["target"], dtype=float) if "target" in loop else None
+    target = loop.get("target")
+    target = (
+        np.asarray(target, dtype=float)
+        if target is not None and target.dtype.kind in "fi"
+        else None
+    )
     scenario = read_metadata(p).get("scenario", {}).get("text")
     return Record(
         p.name, dt, cols["t"], cols["command"], cols["measured"], cols["force"], target, scenario

@@ -91,10 +91,16 @@ class NominalModel:
     source: str = "<nominal>"
 
 
+#: Longest nominal transport delay [s]: no servo-hydraulic actuator lags by more.
+MAX_DELAY = 1.0
+#: Largest magnitude of a specimen parameter (SI): beyond it a number is not a device's.
+MAX_VALUE = 1e12
+
+
 def _actuator(t: Table) -> ActuatorNominal:
     num = t.numbers("num")
     den = t.numbers("den")
-    delay = t.number("delay", 0.0, nonnegative=True)
+    delay = t.number("delay", 0.0, nonnegative=True, hi=MAX_DELAY)
     t.finish()
     while len(num) > 1 and num[0] == 0.0:
         num = num[1:]
@@ -108,18 +114,23 @@ def _actuator(t: Table) -> ActuatorNominal:
             f"transfer function must be proper (len(num) <= len(den)); got num={num!r}, "
             f"den={den!r}",
         )
-    poles = np.roots(den) if len(den) > 1 else np.array([])
+    with np.errstate(all="ignore"):
+        poles = np.roots(den) if len(den) > 1 else np.array([])
+        gain = num[-1] / den[-1] if den[-1] else np.inf
+    if not (np.all(np.isfinite(poles)) and np.isfinite(gain)):
+        raise t.error("den", f"coefficients out of range: poles or gain not finite for {den!r}")
     if np.any(poles.real >= 0.0):
-        raise t.error("den", f"transfer function must be stable; poles {np.round(poles, 6)!r}")
+        listed = ", ".join(f"{p:.6g}" for p in poles)
+        raise t.error("den", f"transfer function must be stable; poles [{listed}] rad/s")
     return ActuatorNominal(tuple(num), tuple(den), delay)
 
 
 def _specimen(t: Table) -> SpecimenNominal:
     s = SpecimenNominal(
-        inertance=t.number("inertance", nonnegative=True),
-        damping=t.number("damping", 0.0, nonnegative=True),
-        stiffness=t.number("stiffness", 0.0),
-        friction=t.number("friction", 0.0, nonnegative=True),
+        inertance=t.number("inertance", nonnegative=True, hi=MAX_VALUE),
+        damping=t.number("damping", 0.0, nonnegative=True, hi=MAX_VALUE),
+        stiffness=t.number("stiffness", 0.0, lo=-MAX_VALUE, hi=MAX_VALUE),
+        friction=t.number("friction", 0.0, nonnegative=True, hi=MAX_VALUE),
     )
     t.finish()
     return s

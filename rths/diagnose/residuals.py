@@ -101,7 +101,9 @@ class Decomposition:
 def _welch(parts: list[NDArray], dt: float) -> tuple[NDArray, NDArray, float]:
     """Length-weighted Welch PSD over records and the number of averaged segments."""
     parts = [p for p in parts if p.size >= 64] or parts
-    nper = max(64, min(int(round(1.0 / (_RESOLUTION * dt))), min(p.size for p in parts)))
+    # at least 64 samples per segment, at most the shortest part (else welch shortens the
+    # segments of the short parts only and their spectra no longer add up)
+    nper = min(max(64, int(round(1.0 / (_RESOLUTION * dt)))), min(p.size for p in parts))
     acc, count, f = None, 0.0, None
     for p in parts:
         f, s = signal.welch(p, fs=1.0 / dt, nperseg=nper, detrend="constant")

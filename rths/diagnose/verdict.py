@@ -89,6 +89,10 @@ class Options:
             raise ParameterError(
                 f"drive must be one of {format_choices(DRIVES)}; got {self.drive!r}"
             )
+        if not self.effects:
+            raise ParameterError(
+                f"effects: give at least one; choose among {format_choices(sorted(EFFECTS))}"
+            )
         unknown = [e for e in self.effects if e not in EFFECTS]
         if unknown:
             raise ParameterError(

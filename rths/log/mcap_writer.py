@@ -10,6 +10,13 @@ tagged tuples from a :class:`queue.SimpleQueue`:
 * ``("b", topic, row_block)`` -- a :class:`rths.core.channels.RowBlock`, one message per row;
 * ``("e", log_time_ns, event_dict)`` -- an event (sequence numbers assigned here);
 * :data:`STOP` -- finish the file and end.
+
+When something endangers the log -- the disk space reserve can no longer be renewed (the disk
+is nearly full) or a write failed -- the thread calls ``on_fault(message)`` once, so the run can
+be stopped while the log is whole.  After a failure it keeps draining the queue until
+:data:`STOP` (producers never block or fail), counts the messages it could not write as ``lost``
+and ends the file readably (:meth:`rths.log.logfile.LogFile.close_salvaged`) with the metadata
+queued meanwhile -- the run's summary among them.
 """
 
 from __future__ import annotations
@@ -17,17 +24,19 @@ from __future__ import annotations
 import json
 import math
 import queue
+import shutil
 import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 from mcap.writer import CompressionType, Writer
 
 from rths import __version__
 from rths.core.errors import DataError
+from rths.log.logfile import LogFile
 from rths.wire.codec import LogRecord
 
 __all__ = [
@@ -89,17 +98,29 @@ class TopicStats:
 
 @dataclass(frozen=True, slots=True)
 class RecordingSummary:
-    """Returned by :meth:`Recorder.close`: per-topic counts, events, largest queue backlog."""
+    """Returned by :meth:`Recorder.close`: per-topic counts, events, largest queue backlog,
+    messages lost after a failed write and what endangered the log (None: nothing)."""
 
     path: Path
     topics: Mapping[str, TopicStats]
     events: int
     max_backlog: int
+    lost: int = 0
+    fault: str | None = None
 
     @property
     def complete(self) -> bool:
         """True if every topic is complete (no sample lost, repeated or rejected)."""
-        return all(s.complete for s in self.topics.values())
+        return self.lost == 0 and all(s.complete for s in self.topics.values())
+
+
+def _messages(item: tuple[Any, ...]) -> int:
+    """How many messages a queued item carries (events and metadata: none)."""
+    if item[0] in ("m", "r"):
+        return 1
+    if item[0] == "b":
+        return int(item[2].count)
+    return 0
 
 
 def open_schema(topic: str) -> bytes:
@@ -195,26 +216,53 @@ class WriterThread(threading.Thread):
 
     After :data:`STOP` it writes the ``rths.recording`` metadata record and finishes the file
     (footer and summary), also if something failed on the way; the first failure is kept in
-    :attr:`error` and the counts in :meth:`counts`.
+    :attr:`error` and the counts in :meth:`stats`.
+
+    Parameters
+    ----------
+    stream
+        The output file (:class:`rths.log.logfile.LogFile`).
+    inbox
+        The queue the producers fill (module docstring).
+    metadata
+        Metadata records written first.
+    compression
+        ``"zstd"``, ``"lz4"`` or ``"none"``.
+    chunk_size
+        Uncompressed bytes per chunk [B].
+    flush_interval
+        Wall time [s] between two flushes of the current chunk.
+    on_fault
+        Called once with a message when the log is in danger (module docstring).
     """
 
     def __init__(
         self,
-        stream: IO[bytes],
+        stream: LogFile,
         inbox: queue.SimpleQueue[Any],
         metadata: Mapping[str, Mapping[str, str]],
         compression: str,
         chunk_size: int,
         flush_interval: float,
+        on_fault: Callable[[str], None] | None = None,
     ) -> None:
         super().__init__(name="rths-recorder", daemon=True)
         self.error: BaseException | None = None
+        self.fault: str | None = None
+        self.lost = 0
         self.max_backlog = 0
         self.events = 0
+        self._on_fault = on_fault
+        self._late_metadata: dict[str, dict[str, str]] = {}
+        self._rows_done = 0
         self._stream = stream
         self._inbox = inbox
         self._metadata = metadata
-        self._writer = Writer(stream, chunk_size=chunk_size, compression=_COMPRESSION[compression])
+        self._writer = Writer(
+            stream,  # type: ignore[arg-type]  # a binary stream: write, tell, flush
+            chunk_size=chunk_size,
+            compression=_COMPRESSION[compression],
+        )
         self._flush_interval = flush_interval
         self._topics: dict[str, _Topic] = {}
         self._templates: dict[tuple[str, ...], str] = {}
@@ -238,22 +286,63 @@ class WriterThread(threading.Thread):
             self._drain()
         except BaseException as exc:  # kept and re-raised by Recorder on the caller's thread
             self.error = exc
+            self._notify(f"recording to '{self._stream.path}' failed: {exc!r}")
+            self._drain_failed()
         finally:
             self._finish()
 
+    def _notify(self, message: str) -> None:
+        """Tell the run (once) that the log is in danger."""
+        if self.fault is not None:
+            return
+        self.fault = message
+        if self._on_fault is not None:
+            try:
+                self._on_fault(message)
+            except Exception:  # the callback's problem must not cost the log
+                pass
+
+    def _drain_failed(self) -> None:
+        """After a failure: consume the queue until :data:`STOP`, keep metadata, count the rest."""
+        while True:
+            time.sleep(POLL)
+            while True:
+                try:
+                    item = self._inbox.get_nowait()
+                except queue.Empty:
+                    break
+                if item is STOP:
+                    return
+                if item[0] == "md":
+                    self._late_metadata[item[1]] = dict(item[2])
+                else:
+                    self.lost += _messages(item)
+
     def _finish(self) -> None:
-        try:
-            summary = {"complete": "true", "max_backlog": str(self.max_backlog)}
-            for name, stats in self.stats().items():
-                summary.update({f"{name}.{c}": str(getattr(stats, c)) for c in _COUNTS})
-                if not stats.complete:
-                    summary["complete"] = "false"
-            self._writer.add_metadata("rths.recording", summary)
-            self._writer.finish()
-        except BaseException as exc:
-            self.error = self.error or exc
-        finally:
-            self._stream.close()
+        summary = {"complete": "true", "max_backlog": str(self.max_backlog)}
+        for name, stats in self.stats().items():
+            summary.update({f"{name}.{c}": str(getattr(stats, c)) for c in _COUNTS})
+            if not stats.complete:
+                summary["complete"] = "false"
+        if self.error is not None:
+            summary.update(complete="false", failed=repr(self.error), lost=str(self.lost))
+        if self.fault is not None:
+            summary["fault"] = self.fault
+        if self._stream.error is None:
+            try:
+                for name, data in self._late_metadata.items():
+                    self._writer.add_metadata(name, data)
+                self._writer.add_metadata("rths.recording", summary)
+                self._writer.finish()
+            except BaseException as exc:
+                self.error = self.error or exc
+            else:
+                try:
+                    self._stream.close_finished()
+                except OSError as exc:
+                    self.error = self.error or exc
+                return
+        self._stream.close_salvaged({**self._late_metadata, "rths.recording": summary})
 
     def _drain(self) -> None:
         """Poll the queue every :data:`POLL` seconds and write everything waiting.
@@ -274,14 +363,29 @@ class WriterThread(threading.Thread):
                     break
                 if item is STOP:
                     return
-                self._handle(item)
+                try:
+                    self._handle(item)
+                except BaseException:
+                    self.lost += _messages(item) - self._rows_done  # those not written
+                    raise
                 handled += 1
+                # after every item, not only when the queue is empty: a producer that keeps it
+                # full (the fast clock) must still be stopped while the reserve holds
+                self._renew()
             if self._dirty and time.monotonic() - self._last_flush >= interval:
                 self._writer.flush()
                 self._dirty = False
                 self._last_flush = time.monotonic()
+            self._renew()
+
+    def _renew(self) -> None:
+        """Keep the disk-space reserve ahead of the data; ask for a stop when it cannot be."""
+        if not self._stream.renew() and self.fault is None:
+            free = shutil.disk_usage(self._stream.path.parent).free
+            self._notify(f"disk nearly full: {free / 2**20:.1f} MiB free for '{self._stream.path}'")
 
     def _handle(self, item: tuple[Any, ...]) -> None:
+        self._rows_done = 0  # rows of a block written so far (for the lost count on failure)
         tag = item[0]
         if tag == "m":
             _, topic, seq, log_time, publish_time, message = item
@@ -355,10 +459,12 @@ class WriterThread(threading.Thread):
     def _block(self, topic: str, block: Any) -> None:
         """Write the rows of a :class:`rths.core.channels.RowBlock` (:func:`block_messages`)."""
         entry = self._topics[topic]
+        self._rows_done = 0
         for k, t, data, finite in block_messages(block, self._templates):
             if not finite:
                 entry.nonfinite += 1
             self._add(topic, k, t, t, data)
+            self._rows_done += 1
 
     def _record(self, topic: str, payload: bytes) -> None:
         """Write a record from another process; its JSON is written as received unless it

@@ -28,11 +28,12 @@ writer thread too.  This module does not import zenoh.
 
 from __future__ import annotations
 
+import errno
 import json
 import operator
 import os
 import queue
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal
 
@@ -41,9 +42,11 @@ from rths.core.channels import RowBlock, json_schema
 from rths.core.errors import (
     DataError,
     ParameterError,
+    RunFault,
     check_positive,
     check_positive_int,
 )
+from rths.log.logfile import RESERVE, LogFile
 from rths.log.mcap_writer import (
     EVENTS_TOPIC,
     STOP,
@@ -57,7 +60,9 @@ __all__ = [
     "EVENTS_TOPIC",
     "LOOP_SCHEMA",
     "LOOP_TOPIC",
+    "RESERVE",
     "Recorder",
+    "RecordingFailed",
     "RecordingSummary",
     "TopicStats",
     "object_schema",
@@ -153,6 +158,11 @@ EVENTS_SCHEMA: dict[str, Any] = {
 }
 
 
+class RecordingFailed(RunFault):
+    """The log could not be written to the end (a full disk, an I/O error); the file holds
+    everything written before the failure and is readable."""
+
+
 class Recorder:
     """Write an MCAP log from a background thread; the loop only enqueues.
 
@@ -174,6 +184,12 @@ class Recorder:
     flush_interval
         Wall time [s] after which the writer finishes the current chunk and flushes the file,
         bounding what a crashed process loses.
+    reserve
+        Disk space [B] kept allocated past the data (:mod:`rths.log.logfile`); 0: none.
+    on_fault
+        Called once, from the writer thread, with a message when the log is in danger: the
+        disk is nearly full (the reserve can no longer be renewed) or a write failed.  A run
+        stops on it, so that its log stays whole.
 
     Examples
     --------
@@ -193,8 +209,12 @@ class Recorder:
         compression: _Compression = "zstd",
         chunk_size: int = 1 << 20,
         flush_interval: float = 1.0,
+        reserve: int = RESERVE,
+        on_fault: Callable[[str], None] | None = None,
     ) -> None:
         self.path = Path(path)
+        self._reserve = int(reserve)
+        self._on_fault = on_fault
         if compression not in ("zstd", "lz4", "none"):
             raise ParameterError(
                 f"compression must be 'zstd', 'lz4' or 'none'; got {compression!r}"
@@ -221,13 +241,17 @@ class Recorder:
         Raises
         ------
         DataError
-            If the file cannot be created.
+            If the file cannot be created (a bad path).
+        RecordingFailed
+            If the disk has no room for the log's reserve.
         """
         if self._writer is not None:
             raise DataError(f"recorder for '{self.path}' was already started")
         try:
-            stream = open(self.path, "wb")
+            stream = LogFile(self.path, self._reserve)
         except OSError as exc:
+            if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+                raise RecordingFailed(f"cannot create MCAP log '{self.path}': {exc}") from None
             raise DataError(f"cannot create MCAP log '{self.path}': {exc}") from None
         self._writer = WriterThread(
             stream,
@@ -236,6 +260,7 @@ class Recorder:
             self._compression,
             self._chunk_size,
             self._flush_interval,
+            self._on_fault,
         )
         self._writer.start()
         return self
@@ -247,8 +272,8 @@ class Recorder:
 
         Raises
         ------
-        DataError
-            If the writer thread failed (the file is finished as far as possible).
+        RecordingFailed
+            If a write failed: the file ends readably after the last whole write.
         """
         if self.summary is not None:
             return self.summary
@@ -258,23 +283,29 @@ class Recorder:
         self._queue.put(STOP)
         writer.join()
         self.summary = RecordingSummary(
-            self.path, writer.stats(), writer.events, writer.max_backlog
+            self.path, writer.stats(), writer.events, writer.max_backlog, writer.lost, writer.fault
         )
         if writer.error is not None:
-            raise DataError(
-                f"recording to '{self.path}' failed: {writer.error!r}"
+            raise RecordingFailed(
+                f"recording to '{self.path}' failed: {writer.error!r}; the log is readable up "
+                f"to the failure ({writer.lost} messages not written)"
             ) from writer.error
         return self.summary
+
+    @property
+    def fault(self) -> str | None:
+        """What endangered the log (disk nearly full, a failed write), or None."""
+        return None if self._writer is None else self._writer.fault
 
     def __enter__(self) -> Recorder:
         return self.start()
 
     def __exit__(self, exc_type: object, exc: BaseException | None, tb: object) -> None:
-        if exc is not None and self._writer is not None and self._writer.is_alive():
+        if exc is not None and self._writer is not None and self.summary is None:
             self.event(self._last_time_ns, "error", f"run ended by {exc!r}")
         try:
             self.close()
-        except DataError as failure:
+        except RecordingFailed as failure:
             if exc is None:
                 raise
             exc.add_note(str(failure))  # keep the body's exception; mention the log's
@@ -333,7 +364,8 @@ class Recorder:
         ParameterError
             If the topic is not registered or a time/sequence is not a non-negative integer.
         DataError
-            If the writer thread has failed (e.g. disk full).
+            If the recorder is not started or already closed.  After a failed write messages
+            are still accepted, and counted as lost.
         """
         if topic not in self._schemas or topic == EVENTS_TOPIC:
             known = sorted(set(self._schemas) - {EVENTS_TOPIC})
@@ -431,11 +463,8 @@ class Recorder:
         self._queue.put(("e", int(log_time_ns), {"kind": kind, "message": message, **details}))
 
     def _check_alive(self) -> None:
-        writer = self._writer
-        if writer is None or writer.error is not None or self.summary is not None:
+        if self._writer is None or self.summary is not None:
             state = "closed" if self.summary is not None else "not started"
-            if writer is not None and writer.error is not None:
-                state = f"failed: {writer.error!r}"
             raise DataError(f"recorder for '{self.path}' is {state}")
 
 

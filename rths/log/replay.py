@@ -15,21 +15,61 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 
 from rths.core.errors import DataError
-from rths.log.reader import iter_messages, list_topics, read_metadata
+from rths.log.reader import iter_messages, list_topics, read_loop, read_metadata
 from rths.wire.codec import LogRecord
 from rths.wire.transport import RunKeys, ZenohEndpoints, new_run_id, open_session
 
-__all__ = ["paced", "replay", "replay_records"]
+__all__ = ["paced", "prepare", "replay", "replay_records"]
 
 DEFAULT_TOPICS = ("rths/loop", "rths/specimen")
 
 
 def replay_records(path: Path, topics: Sequence[str]) -> list[tuple[str, int, dict]]:
     """``(topic, log_time_ns, message)`` of ``topics`` in log-time order (a truncated log is read
-    up to its cut)."""
-    records = [(t, log_time, json.loads(data)) for t, log_time, data in iter_messages(path, topics)]
+    up to its cut).
+
+    Raises
+    ------
+    DataError
+        If a message is not a JSON object.
+    """
+    records = []
+    for topic, log_time, data in iter_messages(path, topics):
+        try:
+            message = json.loads(data)
+        except ValueError:
+            message = None
+        if not isinstance(message, dict):
+            raise DataError(f"'{path}': a message on {topic!r} is not a JSON object")
+        records.append((topic, log_time, message))
     records.sort(key=lambda r: r[1])  # stable: streams stay in their own order at equal times
     return records
+
+
+def prepare(
+    path: Path, topics: Sequence[str] | None = None
+) -> tuple[list[str], list[tuple[str, int, dict]], str | None]:
+    """Check a log before anything is published: the topics to replay (default ``rths/loop``
+    and ``rths/specimen`` when present), their records (:func:`replay_records`; ``rths/loop``
+    must also keep the log contract, :func:`rths.log.reader.read_loop`) and the recorded run id.
+
+    Raises
+    ------
+    DataError
+        If a topic is missing or a record is unusable.
+    """
+    available = list_topics(path)
+    wanted = list(topics) if topics else [t for t in DEFAULT_TOPICS if t in available]
+    missing = [t for t in wanted if t not in available]
+    if missing or not wanted:
+        raise DataError(
+            f"'{path}' has no topic {missing[0] if missing else 'rths/loop'!r}; "
+            f"it has {sorted(available)}"
+        )
+    if "rths/loop" in wanted:
+        read_loop(path)
+    recorded = read_metadata(path).get("rths", {}).get("run_id")
+    return wanted, replay_records(path, wanted), recorded
 
 
 def paced(
@@ -79,15 +119,7 @@ def replay(
     """
     if not (speed > 0 and wait >= 0):
         raise DataError(f"replay needs speed > 0 and wait >= 0; got speed={speed!r}, wait={wait!r}")
-    available = list_topics(path)
-    wanted = list(topics) if topics else [t for t in DEFAULT_TOPICS if t in available]
-    missing = [t for t in wanted if t not in available]
-    if missing or not wanted:
-        raise DataError(
-            f"'{path}' has no topic {missing[0] if missing else 'rths/loop'!r}; "
-            f"it has {sorted(available)}"
-        )
-    recorded = read_metadata(path).get("rths", {}).get("run_id")
+    wanted, records, recorded = prepare(path, topics)
     keys = RunKeys(run_id or recorded or new_run_id())
     count = 0
     with open_session(endpoints) as session:
@@ -99,7 +131,7 @@ def replay(
         }
         seqs = dict.fromkeys(wanted, 0)
         time.sleep(wait)
-        for topic, log_time, message in paced(replay_records(path, wanted), speed):
+        for topic, log_time, message in paced(records, speed):
             publishers[topic].put(LogRecord(seqs[topic], log_time, message).encode())
             seqs[topic] += 1
             count += 1

@@ -47,4 +47,9 @@ def _pair(
 
 
 def _rms(x: NDArray[np.float64]) -> float:
-    return float(np.sqrt(np.mean(x * x)))
+    """RMS computed on ``x`` scaled by its peak, so that neither 1e-300 nor 1e300 under- or
+    overflows in the square."""
+    peak = float(np.max(np.abs(x))) if x.size else 0.0
+    if peak == 0.0 or not np.isfinite(peak):
+        return peak
+    return peak * float(np.sqrt(np.mean((x / peak) ** 2)))

@@ -17,34 +17,30 @@ are counted and written to the summary.
 
 A crashed or vanished specimen ends the run with a :class:`rths.core.errors.TransportError`; the log
 is finished, carries an ``error`` event with the specimen's last words (its stderr), and the summary
-of what was recorded.
+of what was recorded.  So does every other way a run can end (:mod:`rths.session.outcome`):
+SIGINT, SIGTERM and SIGHUP stop the loop after its step (:mod:`rths.session.stopping`), as does a
+nearly full disk; an exception is named in the summary's ``stopped``.  Everything a run can be
+refused for -- bad options, plants that cannot be built (the lab included, also when a specimen
+process will build it), a budget beyond the machine (:mod:`rths.session.budget`) -- is checked
+before any file is opened or process started.
 """
 
 from __future__ import annotations
 
 import sys
 import threading
-import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from rths import __version__
 from rths.config import build
 from rths.config.scenario import Scenario
 from rths.core.channels import RowBlock
-from rths.core.errors import ConfigError, DataError, ParameterError, check_positive
-from rths.log.recorder import (
-    LOOP_TOPIC,
-    Recorder,
-    RecordingSummary,
-    block_schema,
-)
-from rths.metrics import TrackingSummary, summarize
+from rths.core.errors import ConfigError, check_positive
+from rths.log.live import parse_where
+from rths.log.recorder import LOOP_TOPIC, Recorder, block_schema
 from rths.runtime.clocks import (
     SWITCH_INTERVAL,
     FreeRunning,
@@ -56,9 +52,13 @@ from rths.runtime.clocks import (
 )
 from rths.runtime.guard import CommandGuard
 from rths.runtime.loop import InProcessLink, LinkSample, Loop, LoopResult
+from rths.session.budget import check_budget, step_cost
+from rths.session.outcome import Collector, RunOutcome, finish_record, run_metadata
+from rths.session.stopping import StopRequest
+from rths.wire.auth import read_secret
 from rths.wire.keys import check_run_id, new_run_id
 
-__all__ = ["RunOptions", "RunOutcome", "run_scenario"]
+__all__ = ["RunOptions", "RunOutcome", "StopRequest", "run_scenario"]
 
 SPECIMEN_TOPIC = "rths/specimen"
 
@@ -86,7 +86,8 @@ class RunOptions:
     external_specimen
         Do not start ``rths specimen``; wait for one started elsewhere.
     ready_timeout, step_timeout
-        Handshake and per-step (lockstep) timeouts [s].
+        Handshake and per-step (lockstep) timeouts [s]: a lockstep round trip takes half a
+        millisecond, so a specimen silent for a second has hung.
     progress
         Called from a display thread with (steps done, total).
     seed
@@ -100,6 +101,9 @@ class RunOptions:
         written to ``<log>.secret`` (mode 600) when the specimen is external.
     live
         Serve the run to Foxglove over WebSocket while it runs (``host:port``; None: no).
+    stop
+        The run's stop request (the CLI routes SIGINT, SIGTERM and SIGHUP to it); default: one
+        of its own (the recorder still stops the run through it when the disk fills up).
     """
 
     clock: str | None = None
@@ -109,78 +113,14 @@ class RunOptions:
     connect: tuple[str, ...] = ()
     external_specimen: bool = False
     ready_timeout: float = 30.0
-    step_timeout: float = 5.0
+    step_timeout: float = 1.0
     progress: Callable[[int, int], None] | None = None
     seed: int | None = None
     run_id: str | None = None
     on_waiting: Callable[[str], None] | None = None
     secret_file: Path | None = None
     live: str | None = None
-
-
-@dataclass
-class RunOutcome:
-    """What a run produced: the log, the loop result, metrics and the recording's counts."""
-
-    path: Path
-    run_id: str
-    clock: str
-    result: LoopResult
-    metrics: TrackingSummary | None
-    recording: RecordingSummary | None = None
-    events: list[str] = field(default_factory=list)
-    saturated: dict[str, int] = field(default_factory=dict)
-    age_p99: float = 0.0
-    priority: int = 0
-    gc: tuple[int, float] = (0, 0.0)
-    security: dict[str, int] = field(default_factory=dict)
-
-    def line(self) -> str:
-        """The one-line summary the CLI prints."""
-        m, t = self.metrics, self.result.timing
-        parts = [f"{self.result.steps} steps"]
-        if m is not None:
-            parts += [
-                f"J1 {1e3 * m.j1_delay:.3f} ms",
-                f"J2 {100 * m.j2:.3f} %",
-                f"J3 {100 * m.j3:.3f} %",
-                f"sync RMSE {100 * m.sync_rmse:.3f} %",
-            ]
-        else:
-            parts.append("metrics n/a")
-        parts.append(f"overruns {t.overruns}/{t.steps}")
-        if self.clock == "realtime":
-            parts.append(f"misses {self.result.misses}/{t.steps}")
-            parts.append(f"p99 jitter {1e6 * t.jitter_p99:.0f} us")
-            parts.append(f"p99 age {1e6 * self.age_p99:.0f} us")
-        if self.security:
-            dropped = self.security.get("forged", 0) + self.security.get("replayed", 0)
-            parts.append(f"forged/replayed dropped {dropped}")
-        gaps = sum(s.missing for s in self.recording.topics.values()) if self.recording else 0
-        parts.append(f"gaps {gaps}")
-        clipped = {k: v for k, v in self.saturated.items() if v}
-        if clipped:
-            parts.append("SATURATED " + ", ".join(f"{k} {v}" for k, v in clipped.items()))
-        return ", ".join(parts) + f" -> {self.path}"
-
-
-class _Collector:
-    """Keeps target, measured, force and age per step for the summary (preallocated; a block's
-    columns are copied when the block is handed over, not per step)."""
-
-    def __init__(self, n: int) -> None:
-        self.target, self.measured, self.force = np.zeros(n), np.zeros(n), np.zeros(n)
-        self.age = np.zeros(n)
-        self.count = 0
-
-    def __call__(self, block: RowBlock) -> None:
-        n = block.count
-        if not n:
-            return
-        k0 = int(block.seq[0])
-        for name in ("target", "measured", "force", "age"):
-            getattr(self, name)[k0 : k0 + n] = block.column(name)
-        self.count = k0 + n
+    stop: StopRequest | None = None
 
 
 class _Progress(threading.Thread):
@@ -237,56 +177,44 @@ class _TruthLink(InProcessLink):
         return super().safe_stop(reason)
 
 
-def _metadata(
-    scn: Scenario, run_id: str, clock: str, comp_kind: str, seed: int
-) -> dict[str, dict[str, str]]:
-    s = scn.scaling
-    return {
-        "scenario": {
-            "path": scn.source,
-            "text": scn.text,
-            "name": scn.run.name,
-            **({"overrides": repr(dict(scn.overrides))} if scn.overrides else {}),
-        },
-        "rths": {"version": __version__, "run_id": run_id, "python": sys.version.split()[0]},
-        "run": {
-            "clock": clock,
-            "rate_hz": repr(scn.run.rate),
-            "dt_s": repr(scn.run.dt),
-            "steps": str(scn.run.steps),
-            "seed": str(seed),
-            "compensator": comp_kind,
-            "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-        },
-        "scaling": {
-            "displacement": repr(s.displacement),
-            "force": repr(s.force),
-            "impedance": repr(s.impedance),
-            "meaning": "specimen displacement = displacement * prototype displacement; "
-            "prototype force = force * specimen force",
-        },
-        "units": {
-            "t": "s",
-            "target": "m",
-            "command": "m",
-            "measured": "m",
-            "force": "N",
-            "correction": "N (prototype scale)",
-            "age": "s",
-            "lag": "steps",
-            "late": "s",
-            "scale": "target/command/measured/force are at specimen scale",
-        },
-    }
-
-
 def _new_run_id(name: str) -> str:
     safe = "".join(c if c.isalnum() or c in "-_." else "-" for c in name)[:32].strip("-.") or "run"
     return f"{safe}-{new_run_id()}"[:64]
 
 
+def _check_out(path: Path) -> None:
+    """The log path must name a file that can be created, in a folder that exists or can be
+    made (ConfigError); nothing is left behind by the check."""
+    if path.is_dir():
+        raise ConfigError(f"--out '{path}' is a directory; give the log's file name")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"cannot make the log's folder '{path.parent}': {exc.strerror}") from None
+    existed = path.exists()
+    try:
+        with open(path, "ab"):
+            pass
+    except OSError as exc:
+        raise ConfigError(f"cannot create the log '{path}': {exc.strerror}") from None
+    if not existed:
+        path.unlink()
+
+
 def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome:
-    """Run ``scn`` (see the module docstring); the MCAP log is always finished."""
+    """Run ``scn`` (see the module docstring); the MCAP log is always finished.
+
+    Raises
+    ------
+    ConfigError
+        Bad options, a scenario whose plants cannot be built, or a run beyond the machine's
+        budget (:mod:`rths.session.budget`) -- all before any process starts or file is opened.
+    rths.core.errors.RunFault
+        The specimen process failed or vanished, or the log could not be written.
+    rths.core.errors.Interrupted
+        A stop signal arrived before the loop started (a signal during the loop stops it
+        gracefully instead: the outcome's ``result.stopped`` says so).
+    """
     opts = options or RunOptions()
     clock = opts.clock or scn.run.clock
     comp_kind = opts.compensator or scn.compensator_kind
@@ -297,24 +225,44 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
         raise ConfigError(f"seed must be an integer >= 0; got {seed!r}")
     check_positive(opts.ready_timeout, "ready timeout")
     check_positive(opts.step_timeout, "step timeout")
+    if opts.live:
+        parse_where(opts.live)
+    if opts.secret_file is not None:
+        read_secret(opts.secret_file)  # unreadable, shared with others or not a secret: now
     path = opts.out or Path("runs") / f"{run_id}.mcap"
-    path.parent.mkdir(parents=True, exist_ok=True)
+    _check_out(path)
     n, dt = scn.run.steps, scn.run.dt
     substructure = build.substructure(scn)
     compensator = build.compensator(scn, opts.compensator)
+    # built on every clock: what the specimen process would refuse is refused before it starts
+    lab = build.lab(scn, seed)
     substructure.predict(0.0)  # compile kernels before the clock starts
+    check_budget(scn, clock, step_cost(substructure, compensator, lab), log_dir=path.parent)
+    stop = opts.stop or StopRequest()
     quiet = QuietGC() if clock == "realtime" else None
     priority = realtime_priority() if clock == "realtime" else 0  # opt-in: RTHS_RT_PRIORITY
     pacer: Pacer = WallClock(dt, n) if clock == "realtime" else FreeRunning(dt, n)
     if quiet is not None:
         pacer.idle = quiet.idle
-    collector = _Collector(n)
+    collector = Collector(n)
     progress = _Progress(opts.progress, n) if opts.progress else None
     outcome = RunOutcome(path, run_id, clock, LoopResult(0, pacer.stats()), None)
     outcome.priority = priority
-    with Recorder(path, topics={}, metadata=_metadata(scn, run_id, clock, comp_kind, seed)) as rec:
+    # bound before the log is opened: a port in use is refused with nothing left behind
+    live = _live_server(opts.live) if opts.live else None
+    with (
+        _closing(live),
+        Recorder(
+            path,
+            topics={},
+            metadata=run_metadata(scn, run_id, clock, comp_kind, seed),
+            on_fault=lambda message: stop.request(f"recording: {message}", fault=True),
+        ) as rec,
+    ):
         rec.event(0, "start", f"run {run_id}: {scn.run.name}, clock {clock}, {n} steps")
-        live = _live_server(opts.live, rec) if opts.live else None
+        if live is not None:
+            host = opts.live.rpartition(":")[0] if opts.live else ""
+            rec.event(0, "live", f"serving the run to Foxglove on ws://{host}:{live.port}")
 
         def make_loop(link: Any, extra_sink: Callable[[RowBlock], None] | None = None) -> Loop:
             def sink(block: RowBlock) -> None:
@@ -341,6 +289,7 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
             rec.add_topic(LOOP_TOPIC, schema)
             if live is not None:
                 live.add_topic(LOOP_TOPIC, schema)
+            stop.attach(loop)
             return loop
 
         def on_progress(k: int) -> None:
@@ -352,9 +301,9 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
         switch = sys.getswitchinterval()
         if clock != "fast":  # see rths.runtime.clocks.SWITCH_INTERVAL
             sys.setswitchinterval(SWITCH_INTERVAL)
+        error: BaseException | None = None
         try:
             if clock == "fast":
-                lab = build.lab(scn, seed)
                 guard = CommandGuard(build.guard_limits(scn), dt)
                 loop = make_loop(_TruthLink(lab, guard, rec, 256, live))
                 outcome.result = loop.run(on_progress)
@@ -369,6 +318,7 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
             else:
                 from rths.session.zenoh_run import run_over_zenoh  # zenoh is imported only here
 
+                del lab  # the specimen process builds its own
                 realtime_thread()
                 with quiet if quiet is not None else _nothing():
                     outcome.result, outcome.security = run_over_zenoh(
@@ -379,45 +329,21 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
                         rec,
                         make_loop,
                         on_progress,
-                        path.with_suffix(".specimen.log"),
                         lambda: round(collector.count * dt * 1e9),
                         seed,
                         live,
                     )
                 if quiet is not None:
                     outcome.gc = (quiet.collections, quiet.longest)
+        except BaseException as exc:
+            error = exc
+            raise
         finally:
+            stop.detach()
             sys.setswitchinterval(switch)
             if progress is not None:
                 progress.finish()
-            if live is not None:
-                live.close()
-        t_end = round(max(outcome.result.steps, collector.count) * dt * 1e9)
-        if outcome.result.stopped:
-            rec.event(t_end, "stopped", outcome.result.stopped)
-        k = collector.count
-        if k:
-            outcome.age_p99 = float(np.percentile(collector.age[:k], 99))
-        try:
-            outcome.metrics = summarize(
-                collector.target[:k],
-                collector.measured[:k],
-                collector.force[:k],
-                dt,
-                max_delay=min(0.1, 0.25 * k * dt),
-            )
-        except (DataError, ParameterError) as exc:  # too short or too quiet a record
-            outcome.events.append(f"metrics not computed: {exc}")
-        outcome.saturated = _saturations(scn, collector.measured[:k], collector.force[:k])
-        for channel, count in outcome.saturated.items():
-            if count:
-                rec.event(
-                    t_end,
-                    "saturation",
-                    f"{count} {channel} samples at the ADC's full scale: clipped",
-                )
-        rec.add_metadata("rths.summary", _summary(outcome))
-        rec.event(t_end, "end", f"{outcome.result.steps} steps")
+            finish_record(rec, scn, outcome, collector, error)
     outcome.recording = rec.summary
     return outcome
 
@@ -427,61 +353,18 @@ def _nothing() -> Iterator[None]:
     yield
 
 
-def _live_server(where: str, rec: Recorder) -> Any:
-    """The Foxglove WebSocket server of ``--live HOST:PORT`` (imported only when asked); its
-    address goes into the log's events."""
+@contextmanager
+def _closing(live: Any) -> Iterator[None]:
+    """Close the live server (if any) when the block ends, however it ends."""
+    try:
+        yield
+    finally:
+        if live is not None:
+            live.close()
+
+
+def _live_server(where: str) -> Any:
+    """The Foxglove WebSocket server of ``--live HOST:PORT`` (imported only when asked)."""
     from rths.log.live import LiveServer
 
-    server = LiveServer.start(where)
-    host = where.rpartition(":")[0]
-    rec.event(0, "live", f"serving the run to Foxglove on ws://{host}:{server.port}")
-    return server
-
-
-def _saturations(scn: Scenario, measured: np.ndarray, force: np.ndarray) -> dict[str, int]:
-    """Samples at an ADC's extreme code (the converter clipped them), per channel."""
-    conv = build.converters(scn)
-    out = {}
-    for name, values, c in (
-        ("displacement", measured, conv.displacement),
-        ("force", force, conv.force),
-    ):
-        top = 2 ** (c.bits - 1)
-        high, low = (top - 1) * c.resolution, -top * c.resolution
-        out[name] = int(
-            np.count_nonzero((values >= high * (1 - 1e-12)) | (values <= low * (1 - 1e-12)))
-        )
-    return out
-
-
-def _summary(outcome: RunOutcome) -> dict[str, str]:
-    t = outcome.result.timing
-    out = {
-        "steps": str(outcome.result.steps),
-        "stopped": outcome.result.stopped or "",
-        "overruns": str(t.overruns),
-        "jitter_p99_s": repr(t.jitter_p99),
-        "busy_mean_s": repr(t.busy_mean),
-        "busy_max_s": repr(t.busy_max),
-    }
-    if outcome.metrics is not None:
-        out.update({k: repr(v) for k, v in outcome.metrics.to_dict().items()})
-    if outcome.clock == "realtime":
-        out.update(
-            {
-                "deadline_misses": str(outcome.result.misses),
-                "longest_lag_steps": str(outcome.result.longest_lag),
-                "jitter_p50_s": repr(t.jitter_p50),
-                "jitter_max_s": repr(t.jitter_max),
-                "age_p99_s": repr(outcome.age_p99),
-                "gc_collections_in_loop": str(outcome.gc[0]),
-                "gc_longest_s": repr(outcome.gc[1]),
-                "loop_ended_monotonic_ns": str(outcome.result.ended_ns),
-                "sched_fifo_priority": str(outcome.priority),
-            }
-        )
-    out.update({f"auth_{k}": str(v) for k, v in outcome.security.items()})
-    if outcome.events:
-        out["notes"] = "; ".join(outcome.events)
-    out.update({f"saturated_{k}": str(v) for k, v in outcome.saturated.items()})
-    return out
+    return LiveServer.start(where)

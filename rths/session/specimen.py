@@ -25,6 +25,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+import threading
 import time
 import traceback
 from typing import Any
@@ -60,6 +61,9 @@ __all__ = ["serve"]
 BLOCK_ROWS = 64
 #: Resolution [s] of the command watchdog (the inbox's wake-up tick).
 WATCHDOG_TICK = 0.002
+#: Longest wait [s] for a command before a stop request is looked at: a long command watchdog
+#: (``max_lag * dt``) must not delay the ramp-down after a stop.
+STOP_SLICE = 0.005
 
 
 def _warm_up(lab: EmulatedLab) -> None:
@@ -216,7 +220,7 @@ class _Server:
         last_seq = -1
         while not presence.stop.is_set():
             wait = timeout if realtime and 0 <= last_seq < self.steps - 1 else 0.05
-            command = link.receive(wait)
+            command = _receive(link, presence.stop, wait)
             if command is None:
                 if realtime and 0 <= last_seq < self.steps - 1 and not presence.stop.is_set():
                     guard.trip(
@@ -233,7 +237,7 @@ class _Server:
                 self.late_commands += 1
                 command = newer
             if presence.stop.is_set():
-                return
+                break  # its reason is recorded below
             self._step(command, reply=link)
             last_seq = command.seq
             if guard.tripped:
@@ -295,3 +299,16 @@ class _Server:
         if not math.isfinite(out["gc_longest_s"]):
             out["gc_longest_s"] = 0.0
         return out
+
+
+def _receive(link: LockstepServer, stop: threading.Event, wait: float) -> Command | None:
+    """The next command within ``wait`` [s], or None -- at once (within :data:`STOP_SLICE`)
+    when ``stop`` is set meanwhile."""
+    if wait <= STOP_SLICE:
+        return link.receive(wait)
+    deadline = time.monotonic() + wait
+    while True:
+        left = deadline - time.monotonic()
+        command = link.receive(max(min(left, STOP_SLICE), 0.0))
+        if command is not None or stop.is_set() or left <= STOP_SLICE:
+            return command

@@ -10,21 +10,31 @@ zero (its :class:`rths.runtime.guard.CommandGuard`).
 
 ``realtime`` is synchronous: command ``k`` goes out, the specimen steps once and answers at once,
 and the loop waits for that answer until the step's deadline (:class:`rths.wire.links.SyncClient`).
+
+The spawned specimen reads the secret and then the scenario text from its stdin (no file is left
+behind on any path) and runs in its own session, so a Ctrl-C in the terminal reaches the
+coordinator only: the coordinator stops the loop and then tells the specimen to stop, in that
+order.  A specimen that dies is noticed at once (its liveliness token, or its exit status), and a
+lockstep wait for its measurement is woken rather than left to time out.  At the end the
+specimen gets :data:`GRACE` seconds to exit after the stop request, then SIGTERM, then SIGKILL;
+its stderr is read into memory and its lines written into the log as an event.
 """
 
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from rths.config.scenario import Scenario
-from rths.core.errors import RTHSError, TransportError
+from rths.core.errors import ConfigError, RTHSError, TransportError
 from rths.log.recorder import Recorder
 from rths.runtime.loop import LinkSample, Loop, LoopResult
 from rths.wire.auth import RunSecret, read_secret, write_secret_file
@@ -41,7 +51,16 @@ from rths.wire.transport import (
     open_session,
 )
 
-__all__ = ["run_over_zenoh"]
+__all__ = ["GRACE", "run_over_zenoh"]
+
+#: Seconds a specimen process gets to exit after the stop request before SIGTERM (and as long
+#: again before SIGKILL); after a failure, :data:`FAILED_GRACE`.
+GRACE = 2.0
+FAILED_GRACE = 0.3
+#: Lines of the spawned specimen's stderr kept (the last is quoted when it fails).
+STDERR_LINES = 50
+#: How often [s] the watcher checks that a spawned specimen process is still running.
+_WATCH = 0.05
 
 
 class _LockstepLink:
@@ -116,38 +135,58 @@ def _wait_for_specimen(
                 raise
 
 
-def _spawn_specimen(
-    scn: Scenario, run_id: str, endpoint: str, clock: str, log: Path, seed: int, secret: RunSecret
-) -> subprocess.Popen[bytes]:
-    # the exact text the coordinator parsed, so an edit to the file mid-run cannot split them
-    scenario = log.with_suffix(".scenario.toml")
-    scenario.write_text(scn.text, encoding="utf-8")
-    args = [
-        sys.executable,
-        "-m",
-        "rths",
-        "specimen",
-        str(scenario),
-        "--run-id",
-        run_id,
-        "--connect",
-        endpoint,
-        "--clock",
-        clock,
-        "--seed",
-        str(seed),
-        "--secret-stdin",
-    ]
-    env = dict(os.environ, PYTHONUNBUFFERED="1")
-    env.pop("RTHS_RUN_SECRET", None)
-    with log.open("wb") as stderr:  # the child keeps its own descriptor
-        process = subprocess.Popen(
-            args, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=stderr, env=env
+class _SpecimenProcess:
+    """The spawned ``rths specimen``: the process, and the last lines of its stderr, read by a
+    thread into memory -- no file is left behind, even when the coordinator is killed."""
+
+    def __init__(
+        self, scn: Scenario, run_id: str, endpoint: str, clock: str, seed: int, secret: RunSecret
+    ) -> None:
+        args = [
+            sys.executable, "-m", "rths", "specimen",
+            "-",  # the text the coordinator parsed, on stdin: an edit mid-run cannot split them
+            "--run-id", run_id, "--connect", endpoint, "--clock", clock, "--seed", str(seed),
+            "--secret-stdin",
+        ]  # fmt: skip
+        env = dict(os.environ, PYTHONUNBUFFERED="1")
+        env.pop("RTHS_RUN_SECRET", None)
+        self.process = subprocess.Popen(
+            args,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            env=env,
+            start_new_session=True,  # terminal signals reach the coordinator, which stops it
         )
-    assert process.stdin is not None
-    process.stdin.write((secret.hex() + "\n").encode())  # off argv: ps shows argv to everyone
-    process.stdin.close()
-    return process
+        self.lines: deque[str] = deque(maxlen=STDERR_LINES)
+        self._reader = threading.Thread(target=self._read, name="rths-specimen-stderr", daemon=True)
+        self._reader.start()
+        assert self.process.stdin is not None
+        try:  # off argv (ps shows argv to everyone): the secret's line, then the scenario
+            self.process.stdin.write((secret.hex() + "\n" + scn.text).encode("utf-8"))
+            self.process.stdin.close()
+        except OSError:  # it died at once: the handshake reports its exit code
+            pass
+
+    def _read(self) -> None:
+        assert self.process.stderr is not None
+        with self.process.stderr:
+            for raw in self.process.stderr:
+                line = raw.decode("utf-8", errors="replace").rstrip()
+                if line:
+                    self.lines.append(line)
+
+    def stop(self, grace: float) -> int:
+        """Stop it (:func:`_stop_process`) and collect the rest of its stderr; its exit code."""
+        code = _stop_process(self.process, grace)
+        self._reader.join(timeout=1.0)
+        return code
+
+    def last_words(self) -> str:
+        """Its last stderr line (after :meth:`stop`), or its exit code."""
+        if self.lines:
+            return self.lines[-1][:300]
+        return f"exited with code {self.process.returncode}"
 
 
 def _secret(opts: Any, out: Path) -> tuple[RunSecret, Path | None]:
@@ -168,7 +207,6 @@ def run_over_zenoh(
     rec: Recorder,
     make_loop: Callable[..., Loop],
     on_progress: Callable[[int], None],
-    stderr_log: Path,
     now_ns: Callable[[], int],
     seed: int,
     live: Any = None,
@@ -176,16 +214,16 @@ def run_over_zenoh(
     """Run the loop against a specimen process over zenoh; see the module docstring.
 
     ``opts`` is the run's :class:`rths.session.runner.RunOptions`; ``make_loop(link, sink)`` builds
-    the loop; ``stderr_log`` receives the spawned specimen's stderr; ``now_ns()`` gives the
-    simulated time of the last recorded step for error events; ``seed`` seeds the lab's noise;
+    the loop; ``now_ns()`` gives the simulated time of the last recorded step for error events;
+    ``seed`` seeds the lab's noise;
     ``live`` (a Foxglove server, or None) also receives the specimen's rows.  Returns the loop's
     result and the authentication counts (messages accepted, dropped as forged or replayed).
     """
     keys = RunKeys(run_id)
     listen = opts.listen or (() if opts.connect else (loopback_endpoint(),))
     endpoints = ZenohEndpoints(listen=tuple(listen), connect=tuple(opts.connect))
-    secret, secret_path = _secret(opts, stderr_log.with_suffix("").with_suffix(".mcap"))
-    process = None
+    secret, secret_path = _secret(opts, rec.path)
+    specimen: _SpecimenProcess | None = None
     tee = _Tee(rec, live)
     with (
         open_session(endpoints) as session,
@@ -203,15 +241,17 @@ def run_over_zenoh(
         ):
             if not opts.external_specimen:
                 if not listen:
-                    raise TransportError("starting the specimen here needs a --listen endpoint")
-                process = _spawn_specimen(scn, run_id, listen[0], clock, stderr_log, seed, secret)
+                    raise ConfigError("starting the specimen here needs a --listen endpoint")
+                specimen = _SpecimenProcess(scn, run_id, listen[0], clock, seed, secret)
             elif opts.on_waiting is not None:
                 where = f"--connect {listen[0]}" if listen else "--listen <endpoint>"
                 opts.on_waiting(
                     f"rths specimen {scn.source} --run-id {run_id} {where} "
                     f"--clock {clock} --seed {seed} --secret-file {secret_path}"
                 )
+            watcher: _PeerWatch | None = None
             try:
+                process = specimen.process if specimen else None
                 _wait_for_specimen(presence, [client.publisher], opts.ready_timeout, process)
                 link: Any
                 if isinstance(client, SyncClient):
@@ -221,29 +261,42 @@ def run_over_zenoh(
                 else:
                     link = _LockstepLink(client, opts.step_timeout, presence)
                 loop = make_loop(link, live_copy.put_block)
-                watcher = threading.Thread(
-                    target=_stop_on_peer_loss, args=(presence, loop), daemon=True
-                )
+                abort = getattr(client, "abort", lambda: None)
+                watcher = _PeerWatch(presence, loop, abort, process)
                 watcher.start()
-                result = loop.run(on_progress)
+                try:
+                    result = loop.run(on_progress)
+                finally:
+                    watcher.finish()
                 return result, _security(client, presence, bridge)
             except RTHSError as exc:
-                last = _last_words(process, stderr_log)
-                why = presence.stop_reason or (
-                    "the specimen process stopped answering (crashed or stuck?)"
-                    if isinstance(exc, TransportError)
-                    else ""
-                )
-                message = (
-                    str(exc)
-                    + (f"; {why}" if why else "")
-                    + (f"; specimen process said: {last}" if last else "")
-                )
-                rec.event(now_ns(), "error", message)
                 presence.request_stop(f"coordinator failed: {exc}")
+                last = ""
+                if specimen is not None:
+                    specimen.stop(FAILED_GRACE)
+                    last = specimen.last_words()
+                why = (
+                    (watcher.reason if watcher else "")
+                    or presence.stop_reason
+                    or (
+                        "the specimen process stopped answering (crashed or stuck?)"
+                        if isinstance(exc, TransportError)
+                        else ""
+                    )
+                )
+                if watcher is not None and watcher.reason and isinstance(exc, TransportError):
+                    # the link was woken because the specimen is gone: that is the news
+                    head = f"lost the specimen at t = {now_ns() * 1e-9:.4f} s: {watcher.reason}"
+                else:
+                    head = str(exc) + (f"; {why}" if why else "")
+                message = head + (f"; specimen process said: {last}" if last else "")
+                rec.event(now_ns(), "error", message)
                 raise TransportError(message) if isinstance(exc, TransportError) else exc from None
+            except BaseException:  # Ctrl-C before the loop, or a bug: the specimen stops too
+                presence.request_stop("coordinator interrupted")
+                raise
             finally:
-                _reap(process, rec)
+                _reap(specimen, rec)
                 counts = _security(client, presence, bridge)
                 if counts.get("forged") or counts.get("replayed"):
                     rec.event(
@@ -283,36 +336,69 @@ def _security(client: Any, presence: Presence, bridge: LogBridge) -> dict[str, i
     return out
 
 
-def _stop_on_peer_loss(presence: Any, loop: Loop) -> None:
-    presence.stop.wait()
-    loop.stop(presence.stop_reason or "specimen stopped")
+class _PeerWatch(threading.Thread):
+    """Stops the loop -- and wakes its wait for a measurement -- as soon as the specimen is gone:
+    its liveliness token withdrawn, a stop request from it, or (spawned here) its exit."""
+
+    def __init__(
+        self,
+        presence: Any,
+        loop: Loop,
+        abort: Callable[[], None],
+        process: subprocess.Popen[bytes] | None,
+    ) -> None:
+        super().__init__(name="rths-peer-watch", daemon=True)
+        self.presence, self.loop, self.abort, self.process = presence, loop, abort, process
+        self.reason = ""
+        self._done = threading.Event()
+
+    def run(self) -> None:
+        while not self.presence.stop.wait(_WATCH):
+            if self._done.is_set():
+                return
+            if self.process is not None and self.process.poll() is not None:
+                self.reason = f"specimen process exited with code {self.process.returncode}"
+                break
+        if self._done.is_set():
+            return
+        self.reason = self.reason or self.presence.stop_reason or "specimen stopped"
+        self.loop.stop(self.reason)
+        try:
+            self.abort()
+        except Exception:  # the link is closing anyway
+            pass
+
+    def finish(self) -> None:
+        """The loop has returned: stand down."""
+        self._done.set()
+        self.join(timeout=1.0)
 
 
-def _last_words(process: subprocess.Popen[bytes] | None, log: Path) -> str:
-    if process is None:
-        return ""
+def _stop_process(process: subprocess.Popen[bytes], grace: float) -> int:
+    """Wait ``grace`` seconds for the process to exit, then SIGTERM (and SIGCONT, should it be
+    stopped), as long again, then SIGKILL; return its exit code."""
     try:
-        process.wait(timeout=2.0)
+        return process.wait(timeout=grace)
     except subprocess.TimeoutExpired:
-        return ""
+        pass
+    for sig in (signal.SIGTERM, signal.SIGCONT):
+        try:
+            process.send_signal(sig)
+        except OSError:
+            pass
     try:
-        lines = [ln for ln in log.read_text(errors="replace").splitlines() if ln.strip()]
-    except OSError:
-        return ""
-    return lines[-1][:300] if lines else f"exited with code {process.returncode}"
-
-
-def _reap(process: subprocess.Popen[bytes] | None, rec: Recorder) -> None:
-    """Wait for the spawned specimen (killing it after 10 s), note a failure, remove its copy
-    of the scenario."""
-    if process is None:
-        return
-    try:
-        code = process.wait(timeout=10.0)
+        return process.wait(timeout=max(grace, 0.5))
     except subprocess.TimeoutExpired:
         process.kill()
-        code = process.wait()
+        return process.wait()
+
+
+def _reap(specimen: _SpecimenProcess | None, rec: Recorder) -> None:
+    """Stop the spawned specimen (:data:`GRACE`); log a failure and what it wrote on stderr."""
+    if specimen is None:
+        return
+    code = specimen.stop(GRACE)
     if code not in (0, None):
         rec.event(0, "specimen", f"specimen process exited with code {code}")
-    args: Any = process.args
-    Path(args[4]).unlink(missing_ok=True)  # the copy written by _spawn_specimen
+    if specimen.lines:
+        rec.event(0, "specimen_stderr", "\n".join(specimen.lines))

@@ -142,6 +142,12 @@ class LockstepClient(_Link):
         self.send(command)
         return self.receive(command.seq, timeout)
 
+    def abort(self) -> None:
+        """Wake a waiting :meth:`receive` at once (it raises :class:`TransportError`) and refuse
+        later ones: the peer is known to be gone.  Thread-safe; the publisher stays until
+        :meth:`close`."""
+        self._receiver.close()
+
 
 class LockstepServer(_Link):
     """Specimen end of the lockstep link: take each command in order, publish its measurement.

@@ -144,6 +144,9 @@ class ZenohEndpoints:
                     raise ParameterError(
                         f"{name} endpoint must look like 'tcp/127.0.0.1:7447'; got {ep!r}"
                     )
+                port = re.search(r":(\d+)$", ep)
+                if port and int(port.group(1)) > 65535:
+                    raise ParameterError(f"{name} endpoint {ep!r}: a port is at most 65535")
             object.__setattr__(self, name, tuple(value))
         if not self.listen and not self.connect:
             raise ParameterError("endpoints need at least one listen or connect locator; got none")

@@ -64,7 +64,26 @@ AMPLITUDES: Final[tuple[str, ...]] = ("peak", "harmonic")
 
 @dataclass(frozen=True)
 class GridSpec:
-    """``[sweep.grid]``: range [Hz], steps [Hz] and the near-resonance band (factors)."""
+    """``[sweep.grid]``: range [Hz], steps [Hz] and the near-resonance band (factors).
+
+    The defaults are the S1 §2.3 sine sweep: 1-10 Hz in steps of 0.1 Hz away from resonance
+    and 0.05 Hz near it (:func:`plants.excitation.stepped_sine.frequency_grid`).
+
+    Attributes
+    ----------
+    f_start : float, default 1.0
+        Lowest step frequency [Hz], > 0.
+    f_stop : float, default 10.0
+        Highest step frequency [Hz], > ``f_start``.
+    coarse_step : float, default 0.1
+        Frequency step [Hz], > 0, away from resonance.
+    fine_step : float, default 0.05
+        Frequency step [Hz], > 0, near resonance.
+    fine_band : tuple of (float, float), default (0.75, 1.15)
+        ``(lo, hi)`` factors [-], ``0 < lo <= 1 <= hi``: "near resonance" is
+        ``[lo f_c, hi f_c]`` around each small-amplitude natural frequency ``f_c`` (``f0``,
+        ``f1``, ``f2``) of the models swept; wider below because the HDRBs soften (S1 §3.1).
+    """
 
     f_start: float = 1.0
     f_stop: float = 10.0
@@ -80,6 +99,24 @@ class TableSpec:
     ``kind`` is ``"transfer_function"`` (``num``/``den`` in descending powers of ``s``, command
     [m] → table displacement [m]) or ``"ideal"``; ``amplitude_correction`` divides each step's
     command amplitude by the model's steady acceleration gain.
+
+    Attributes
+    ----------
+    kind : {"transfer_function", "ideal"}, default "transfer_function"
+        Table model: a command→displacement transfer function
+        (:class:`rths.experiments.s1_shake_table.shake_table.TransferFunctionTable`) or perfect
+        tracking (``IdealTable``).
+    num : tuple of float, default ()
+        Numerator coefficients of the command→displacement ``G(s)`` (dimensionless, m/m;
+        ``s`` in rad/s), descending powers of ``s``; the preset ``"mts_identified"`` fills
+        it.  Empty for ``"ideal"``.
+    den : tuple of float, default ()
+        Denominator coefficients of ``G(s)``, descending powers of ``s``; relative degree
+        ``len(den) - len(num) >= 3``.  Empty for ``"ideal"``.
+    amplitude_correction : bool, default True
+        Divide each step's command amplitude by the table's steady acceleration gain so that
+        the measured table acceleration amplitude is the target PGA (what the drive iteration
+        of S1's table controller achieves); False commands ``PGA / ω²`` (S1 §2.3).
     """
 
     kind: str = "transfer_function"
@@ -236,11 +273,24 @@ def parse_sweep(text: str, source: str = "<string>") -> SweepConfig:
     """Parse a shake-table scenario from TOML text.
 
     Raises :class:`rths.core.errors.ConfigError` naming ``source``, the table and the key.
+
+    Parameters
+    ----------
+    text : str
+        The scenario as TOML (schema in the module docstring).
+    source : str, default "<string>"
+        Where the text came from (e.g. a file name), used in error messages.
     """
     return _config(parse_toml(text, source))
 
 
 def load_sweep(path: str | Path) -> SweepConfig:
-    """Read a shake-table scenario file (:class:`rths.core.errors.ConfigError` on any problem)."""
+    """Read a shake-table scenario file (:class:`rths.core.errors.ConfigError` on any problem).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The TOML scenario file (schema in the module docstring).
+    """
     doc, _ = load_toml(path)
     return _config(doc)

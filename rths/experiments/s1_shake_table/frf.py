@@ -94,7 +94,16 @@ class FRF:
 
 @dataclass(frozen=True, slots=True)
 class Resonance:
-    """A peak of a normalised FRF: frequency [Hz] and ordinate (units of the channel)."""
+    """A peak of a normalised FRF: frequency [Hz] and ordinate (units of the channel).
+
+    Attributes
+    ----------
+    frequency : float
+        Step frequency [Hz] of the peak.
+    value : float
+        The normalised FRF ``Ĥ_p = H_p / H_üG`` (S1 Eq.7) there, in the unit of the channel
+        (``s²`` for displacements, ``-`` for accelerations, ``kg`` for forces).
+    """
 
     frequency: float
     value: float

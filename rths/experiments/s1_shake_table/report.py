@@ -106,6 +106,11 @@ def frf_table(result: SweepResult) -> tuple[list[str], list[list[str]]]:
     Columns: ``pga [g]``, ``model``, ``direction``, ``frequency [Hz]``, ``a_G [m/s^2]`` (the
     measured table amplitude ``H_üG``) and the normalised FRF ``Ĥ_p`` of each S1 Eq.7 quantity
     (unit in the header; empty for quantities a model lacks).
+
+    Parameters
+    ----------
+    result : SweepResult
+        The sweep (:func:`rths.experiments.s1_shake_table.sweep.run_sweep`).
     """
     header = ["pga [g]", "model", "direction", "frequency [Hz]", "a_G [m/s^2]"]
     header += [f"{name} [{unit}]" for name, unit in FRF_UNITS.items()]
@@ -126,6 +131,11 @@ def frf_records(result: SweepResult) -> dict[str, Any]:
     ``{"units": FRF_UNITS, "runs": [{"pga", "model", "direction", "frequency_hz", "a_G",
     "frf": {quantity: [Ĥ_p ...]}}]}``: frequencies [Hz], measured table amplitude ``H_üG``
     [m/s²] and the normalised FRFs (S1 Eq.7) in the units of :data:`FRF_UNITS`.
+
+    Parameters
+    ----------
+    result : SweepResult
+        The sweep (:func:`rths.experiments.s1_shake_table.sweep.run_sweep`).
     """
     runs = []
     for run in result.runs:
@@ -169,6 +179,11 @@ def summarise(result: SweepResult) -> dict[str, Any]:
     {model: {direction: {...}}}, "ps_peak_change": {model: {direction: x}},
     "nrmse_ideal_vs_rack_pinion": {direction: {channel: {"full": x, "near_f1": x}}},
     "s1": {...}}}}`` with ``"s1"`` the :data:`S1_REPORTED` numbers at that PGA (empty if none).
+
+    Parameters
+    ----------
+    result : SweepResult
+        The sweep (:func:`rths.experiments.s1_shake_table.sweep.run_sweep`).
     """
     cfg = result.config
     per_pga: dict[str, Any] = {}
@@ -247,7 +262,16 @@ def _plot_frf(ax: Any, frf: FRF, channel: str, model: str, direction: str) -> No
 
 def frf_figure(result: SweepResult, pga: float) -> Any:
     """The 3x3 S1 Eq.7 FRFs of ``result`` at ``pga`` [g] (S1 Fig.17/18 layout); returns the
-    matplotlib Figure."""
+    matplotlib Figure.
+
+    Parameters
+    ----------
+    result : SweepResult
+        The sweep (:func:`rths.experiments.s1_shake_table.sweep.run_sweep`).
+    pga : float
+        PGA [g] of the runs shown; must equal a run's PGA exactly (one of ``result.pgas``),
+        otherwise the panels are empty.
+    """
     plt = _pyplot()
     fig, axes = plt.subplots(3, 3, figsize=(13, 10), sharex=True, constrained_layout=True)
     for ax, (channel, title) in zip(axes.flat, _PANELS):
@@ -286,7 +310,13 @@ def _mark_s1(ax: Any, pga: float) -> None:
 
 
 def ps_displacement_figure(result: SweepResult) -> Any:
-    """``Ĥ_uI`` of ``result``, up vs down, per PGA and model (S1 Fig.5); returns the Figure."""
+    """``Ĥ_uI`` of ``result``, up vs down, per PGA and model (S1 Fig.5); returns the Figure.
+
+    Parameters
+    ----------
+    result : SweepResult
+        The sweep (:func:`rths.experiments.s1_shake_table.sweep.run_sweep`).
+    """
     plt = _pyplot()
     models = [m for m in result.config.models]
     pgas = result.pgas
@@ -379,7 +409,16 @@ def loops_figure(result: SweepResult, pga: float, direction: str = "down") -> An
 
 def write_figures(result: SweepResult, out_dir: str | Path) -> list[Path]:
     """Write every figure of the module docstring for ``result`` into the directory ``out_dir``
-    (created if needed); returns their paths."""
+    (created if needed); returns their paths.
+
+    Parameters
+    ----------
+    result : SweepResult
+        The sweep (:func:`rths.experiments.s1_shake_table.sweep.run_sweep`).
+    out_dir : str or pathlib.Path
+        Directory for the PNG files (created with its parents if needed; files of the same
+        name are overwritten).
+    """
     plt = _pyplot()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

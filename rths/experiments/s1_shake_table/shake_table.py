@@ -40,7 +40,22 @@ __all__ = ["IdealTable", "ShakeTable", "TableMotion", "TransferFunctionTable"]
 
 @dataclass(frozen=True)
 class TableMotion:
-    """Sampled table motion at ``t_n = n dt``, arrays of shape ``(N,)`` [s, m, m, m/s, m/s²]."""
+    """Sampled table motion at ``t_n = n dt``, arrays of shape ``(N,)`` [s, m, m, m/s, m/s²].
+
+    Attributes
+    ----------
+    time : numpy.ndarray
+        Sample times ``t_n`` [s].
+    command : numpy.ndarray
+        Displacement command [m] (held over ``[t_n, t_{n+1})``).
+    displacement : numpy.ndarray
+        Table displacement ``u_G`` [m].
+    velocity : numpy.ndarray
+        Table velocity ``u̇_G`` [m/s].
+    acceleration : numpy.ndarray
+        Table acceleration ``ü_G`` [m/s²]: what the specimen feels and what S1 Eq.7 normalises
+        by.
+    """
 
     time: NDArray[np.float64]
     command: NDArray[np.float64]
@@ -50,7 +65,15 @@ class TableMotion:
 
 
 class ShakeTable(Protocol):
-    """What :mod:`rths.experiments.s1_shake_table.sweep` needs from a table model."""
+    """What :mod:`rths.experiments.s1_shake_table.sweep` needs from a table model.
+
+    Parameters
+    ----------
+    *args, **kwargs
+        None: a protocol is not instantiated (``ShakeTable()`` raises ``TypeError``); these are
+        the placeholders :class:`typing.Protocol` gives every protocol's constructor.  See
+        :class:`IdealTable` and :class:`TransferFunctionTable` for the implementations.
+    """
 
     def acceleration_gain(self, frequency: ArrayLike, dt: float) -> NDArray[np.float64]:
         """Steady table acceleration amplitude per unit command amplitude [1/s²]."""

@@ -229,7 +229,20 @@ class SweepRun:
 
 @dataclass(frozen=True)
 class SweepResult:
-    """All runs of a scenario, the frequency grid [Hz] and the wall time [s] they took."""
+    """All runs of a scenario, the frequency grid [Hz] and the wall time [s] they took.
+
+    Attributes
+    ----------
+    config : SweepConfig
+        The scenario that was run.
+    grid : numpy.ndarray
+        Ascending step frequencies [Hz] of every run (:func:`step_frequencies`).
+    runs : tuple of SweepRun
+        One run per PGA, direction and model, in that nesting order.
+    wall_time : float
+        Wall-clock time [s] the whole sweep took (``time.perf_counter``; depends on the
+        machine and its load).
+    """
 
     config: SweepConfig
     grid: NDArray[np.float64]
