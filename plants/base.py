@@ -17,6 +17,18 @@ to receives ``-F``.  All quantities are SI: m, m/s, m/s^2, N, s.
 The public ``step`` methods follow the template of ``scipy.integrate.OdeSolver``: the base class
 counts steps, owns time, checks that inputs and results are finite and hands off to ``_step_impl``
 that subclasses implement; ``reset`` is concrete and calls ``_reset_impl``.
+
+Hot-path convention (the loop runs at up to 4096 Hz; every Python call per step counts): a plant
+whose step is more than a few float operations runs it as **one compiled call per step** -- a
+``numba.njit(cache=True)`` kernel in a private ``kernel.py`` beside the model (e.g.
+:mod:`plants.cable.kernel`, :mod:`plants.actuator.kernel`, :mod:`plants.imd.kernels`,
+:mod:`controllers._lqg_kernel`) working on flat float64 arrays the model owns (constants, state,
+outputs).  The kernel writes everything read per step -- the interface kinematics, forces and
+the logged channels -- into an output array, so ``step``, ``device_force`` and
+``write_channels`` only copy from it.  The readable NumPy/Python path stays as the reference
+(``use_numba=False`` / ``use_jit=False``) and a test compares the two step for step: bit for bit
+where the arithmetic is the same, else within a stated round-off tolerance.  The base classes
+check finiteness once per step on the results (no tuples, no generators).
 """
 
 from __future__ import annotations
@@ -49,15 +61,15 @@ def _check_force(value: float, what: str) -> float:
 
 
 def _check_output(kinematics: Kinematics, force: float | None, who: object, t: float) -> None:
-    """Raise :class:`NumericalError` naming the plant if a result is not finite."""
-    values: tuple[float, ...] = (
-        kinematics.displacement,
-        kinematics.velocity,
-        kinematics.acceleration,
-    )
-    if force is not None:
-        values += (force,)
-    if not all(math.isfinite(x) for x in values):
+    """Raise :class:`NumericalError` naming the plant if a result is not finite (inline tests,
+    no tuple or generator: this runs on every step)."""
+    isfinite = math.isfinite
+    if not (
+        isfinite(kinematics.displacement)
+        and isfinite(kinematics.velocity)
+        and isfinite(kinematics.acceleration)
+        and (force is None or isfinite(force))
+    ):
         raise NumericalError(
             f"{type(who).__name__} produced a non-finite result at t = {t:.6g} s: "
             f"{kinematics!r}" + ("" if force is None else f", force {force!r}")

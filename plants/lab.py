@@ -31,7 +31,7 @@ from rths.core.errors import (
     check_positive_int,
 )
 
-__all__ = ["LAB_CHANNELS", "Converter", "EmulatedLab", "LabConverters"]
+__all__ = ["LAB_CHANNELS", "Converter", "EmulatedLab", "LabConverters", "convert"]
 
 _CHANNELS = ("command", "displacement", "force")
 
@@ -107,13 +107,12 @@ class Converter:
         tuple
             The converted value [engineering units] and whether it saturated.
         """
-        code = math.floor((value / self.units_per_volt + noise) / self.lsb + 0.5)
-        top = 2 ** (self.bits - 1)
-        if code >= top:
-            return (top - 1) * self.resolution, True
-        if code < -top:
-            return -top * self.resolution, True
-        return code * self.resolution, False
+        return convert(value, noise, *self.constants)
+
+    @property
+    def constants(self) -> tuple[float, float, int, float]:
+        """``(units_per_volt, lsb, 2**(bits-1), resolution)``: what :func:`convert` needs."""
+        return self.units_per_volt, self.lsb, 2 ** (self.bits - 1), self.resolution
 
     def quantise(self, values: ArrayLike) -> NDArray[np.float64]:
         """Noise-free conversion of an array (same rounding and clipping as :meth:`convert`)."""
@@ -121,6 +120,35 @@ class Converter:
         top = 2 ** (self.bits - 1)
         codes = np.clip(np.floor(v / self.units_per_volt / self.lsb + 0.5), -top, top - 1)
         return codes * self.resolution
+
+
+def convert(
+    value: float, noise: float, units_per_volt: float, lsb: float, top: int, resolution: float
+) -> tuple[float, bool]:
+    """:meth:`Converter.convert` on the converter's :attr:`Converter.constants` (the lab's
+    per-step path: no property look-ups).
+
+    Parameters
+    ----------
+    value
+        The value [engineering units].
+    noise
+        Noise [V] added before quantisation.
+    units_per_volt, lsb, top, resolution
+        :attr:`Converter.constants`: calibration, code width [V], ``2**(bits-1)``, code width in
+        engineering units.
+
+    Returns
+    -------
+    tuple
+        The converted value [engineering units] and whether it saturated.
+    """
+    code = math.floor((value / units_per_volt + noise) / lsb + 0.5)
+    if code >= top:
+        return (top - 1) * resolution, True
+    if code < -top:
+        return -top * resolution, True
+    return code * resolution, False
 
 
 #: Default displacement calibration [m/V]: +/-3.8 V spans +/-76 mm, the +/-75.2 mm stroke of the
@@ -190,6 +218,7 @@ class EmulatedLab:
         self._noise_rms = np.array(
             [c.command.noise_rms, c.displacement.noise_rms, c.force.noise_rms]
         )
+        self._constants = (c.command.constants, c.displacement.constants, c.force.constants)
         self.reset()
 
     #: Steps of noise drawn at once; the sequence equals per-step draws (tested), only faster.
@@ -218,7 +247,7 @@ class EmulatedLab:
     @property
     def saturation_counts(self) -> dict[str, int]:
         """Number of saturated conversions per channel since :meth:`reset`."""
-        return dict(self._saturations)
+        return dict(zip(_CHANNELS, self._saturations))
 
     def reset(self) -> None:
         """Back to rest at ``t = 0``; the noise generator restarts from :attr:`seed`."""
@@ -226,7 +255,7 @@ class EmulatedLab:
         self._rng = np.random.default_rng(self._seed_sequence)
         self._noise_block: list[list[float]] = []
         self._noise_next = 0
-        self._saturations = dict.fromkeys(_CHANNELS, 0)
+        self._saturations = [0, 0, 0]  # per channel of _CHANNELS
         self._steps = 0
         self._kinematics = Kinematics(0.0, 0.0, 0.0)
         self._force = 0.0
@@ -243,19 +272,21 @@ class EmulatedLab:
             Measured displacement [m] and measured force [N] at the end of the step.
         """
         command = check_finite(command, "lab command")
-        c = self.converters
+        dac, adc_x, adc_f = self._constants
         if self._noise_next == len(self._noise_block):
             draws = self._rng.standard_normal((self.NOISE_BLOCK, 3)) * self._noise_rms
             self._noise_block, self._noise_next = draws.tolist(), 0
         noise = self._noise_block[self._noise_next]
         self._noise_next += 1
-        command_dac, sat_u = c.command.convert(command, noise[0])
+        command_dac, sat_u = convert(command, noise[0], *dac)
         kinematics, force = self.actuator.step(command_dac)
-        displacement, sat_x = c.displacement.convert(kinematics.displacement, noise[1])
-        measured_force, sat_f = c.force.convert(force, noise[2])
-        self._saturations["command"] += sat_u
-        self._saturations["displacement"] += sat_x
-        self._saturations["force"] += sat_f
+        displacement, sat_x = convert(kinematics.displacement, noise[1], *adc_x)
+        measured_force, sat_f = convert(force, noise[2], *adc_f)
+        if sat_u or sat_x or sat_f:
+            saturations = self._saturations
+            saturations[0] += sat_u
+            saturations[1] += sat_x
+            saturations[2] += sat_f
         self._steps += 1
         self._kinematics, self._force = kinematics, force
         self._command, self._command_dac = command, command_dac

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import select
 import subprocess
 import sys
 import threading
@@ -52,6 +53,35 @@ def plain_facts(path: Path) -> LogFacts:
     with open(path, "rb") as f:
         metadata = {m.name: dict(m.metadata) for m in make_reader(f).iter_metadata()}
     return LogFacts(summary is not None, counts, metadata, events, specimen)
+
+
+def wait_exited(pids: list[int], timeout: float) -> bool:
+    """Block until every process in ``pids`` has exited (or ``timeout`` [s] passes), woken by
+    the kernel: a pidfd becomes readable when its process exits (Linux >= 5.3)."""
+    poll = select.poll()
+    fds = []
+    try:
+        for pid in pids:
+            try:
+                fd = os.pidfd_open(pid)
+            except ProcessLookupError:
+                continue  # gone already
+            fds.append(fd)
+            poll.register(fd, select.POLLIN)
+        deadline = time.monotonic() + timeout
+        pending = len(fds)
+        while pending:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return False
+            ready = poll.poll(left * 1e3)
+            for fd, _ in ready:
+                poll.unregister(fd)
+                pending -= 1
+        return True
+    finally:
+        for fd in fds:
+            os.close(fd)
 
 
 def processes_of(run_id: str) -> list[int]:

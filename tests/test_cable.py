@@ -797,3 +797,47 @@ def test_fe_matrices_append_the_flywheel_dof():
     assert k[fe.damper_index, 29] == k[29, fe.damper_index] == -SERIES.series_stiffness
     assert (fe.mass[29, 29], fe.damping[29, 29]) == (SERIES.series_inertance, SERIES.series_damping)
     assert fe_matrices(PROPS, 0.02, 30, damper=PointDamper(1.0)).flywheel_index is None
+
+
+def test_compiled_step_outputs_equal_the_python_formulas_bit_for_bit():
+    """The kernel's per-step outputs (interface, midspan, device force, flywheel) against
+    plants.cable.kernel.outputs_reference on the same state, and the interface/device force
+    against the public properties computed from the nodal state."""
+    from plants.cable.kernel import outputs_reference
+
+    device = InterfaceDevice(
+        300.0, 500.0, series_stiffness=2e6, series_inertance=2650.0, series_damping=900.0
+    )
+    cable = Cable(
+        PROPS, 0.02, 2e-3, elements=61, load=DistributedLoad(200.0, mode=3), damper=device
+    )
+    expected = np.zeros(7)
+    for k in range(200):
+        kin = cable.step(5e3 * math.sin(7.0 * k * 2e-3))
+        fly = cable.flywheel
+        assert fly is not None
+        outputs_reference(
+            cable.displacement,
+            cable.velocity,
+            cable.acceleration,
+            np.array([fly.displacement, fly.velocity, fly.acceleration]),
+            cable._params,
+            cable.damper_index,
+            expected,
+        )
+        assert (kin.displacement, kin.velocity, kin.acceleration) == tuple(expected[:3])
+        assert cable.outputs() == dict(
+            zip(
+                (
+                    "midspan_displacement",
+                    "device_force",
+                    "flywheel_displacement",
+                    "flywheel_velocity",
+                ),
+                expected[3:].tolist(),
+            )
+        )
+    # midspan against the interpolation of the public displacement field
+    assert cable.outputs()["midspan_displacement"] == pytest.approx(
+        cable.displacement_at(0.5), rel=1e-12
+    )

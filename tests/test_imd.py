@@ -456,6 +456,30 @@ def test_substep_rule_keeps_the_phase_per_substep_small():
     assert damped.substeps(1e-3) == math.ceil(1e6 / 100.0 * 1e-3 / MAX_STEP_PHASE)
 
 
+def test_cached_substep_count_follows_the_rule_as_the_damping_law_changes_c_d():
+    """With constant k0 the model keeps its sub-step count until dt or c_d changes (the amplitude
+    law changes c_d at reversals); the count it uses equals substeps() at every step, also with
+    a light flywheel that needs several sub-steps, and the forces equal a model that recounts."""
+    law = IMDParameters.preset("type_ii")  # xi_e(A) of S0 Eq.18: c_d changes at reversals
+    light = replace(law, inertance=1.0)  # sqrt(k0/m_e) dt = 0.85 rad: 5 sub-steps
+
+    class Recomputing(InternalStiffnessIMD):  # the rule applied afresh every step
+        def _step_impl(self, u, v, a, dt):
+            self._substep_key = (dt, float("nan"))  # never equal: forces a recount
+            return super()._step_impl(u, v, a, dt)
+
+    for p in (law, light):
+        cached, fresh = InternalStiffnessIMD(p), Recomputing(p)
+        t, u, v, a = SmoothSine(2.0, 3e-3, ramp=0.3).samples(1.5)
+        dampings = set()
+        for k in range(t.size):
+            assert cached.step(u[k], v[k], a[k], DT) == fresh.step(u[k], v[k], a[k], DT)
+            assert cached._substep_count == cached.substeps(DT)
+            dampings.add(cached.damping)
+        assert len(dampings) > 2  # the law did change c_d along the way
+    assert InternalStiffnessIMD(light).substeps(DT) > 1
+
+
 def test_step_size_independence():
     """1 kHz and 8 kHz drives give the same force at common instants (RK4 + Hermite)."""
     p = replace(TYPE_II.with_damping_ratio(0.05), friction=20.0)

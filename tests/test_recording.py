@@ -11,7 +11,6 @@ import json
 import math
 import struct
 import threading
-import time
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +36,7 @@ from rths.wire.transport import (
     RunKeys,
     ZenohEndpoints,
     open_session,
+    wait_matched,
 )
 
 PATIENCE = 10.0  # upper bound for asynchronous deliveries; reached only if the code is broken
@@ -370,15 +370,9 @@ def test_crashed_writer_leaves_a_readable_log(tmp_path: Path) -> None:
     rec = Recorder(path, chunk_size=1 << 20, flush_interval=0.01).start()
     for k in range(300):
         rec.put(LOOP_TOPIC, k, k * DT_NS, loop_row(k))
-    deadline = time.monotonic() + PATIENCE
-    seen = 0
-    while seen < 300 and time.monotonic() < deadline:  # wait for the periodic flush
-        time.sleep(0.01)
-        snap.write_bytes(path.read_bytes())  # what is on disk if the process died now
-        try:
-            seen = read_topic(snap, LOOP_TOPIC)["sequence"].size
-        except DataError:  # nothing flushed yet
-            seen = 0
+    assert rec.wait_flushed(PATIENCE)  # the periodic flush, although the chunk is not full
+    snap.write_bytes(path.read_bytes())  # what is on disk if the process died now
+    seen = read_topic(snap, LOOP_TOPIC)["sequence"].size
     rec.close()
     assert seen == 300 and not is_complete(snap)  # all messages, although the chunk was not full
 
@@ -393,21 +387,16 @@ def test_log_bridge_records_another_sessions_stream(tmp_path: Path) -> None:
     with open_session(ep) as co, open_session(ep.peer()) as sp:
         rec = Recorder(path).start()
         with LogBridge(co, keys, rec) as bridge, LogPublisher(sp, keys, "specimen") as pub:
-            deadline = time.monotonic() + PATIENCE
-            while not pub._publisher.matching_status.matching:
-                assert time.monotonic() < deadline
-                time.sleep(0.001)
+            assert wait_matched(pub._publisher, PATIENCE)
             for k in range(100):
                 if k == 40:
                     pub.seq += 1  # a record lost on the way: must show up as a gap
                 pub.put(k * DT_NS, {"x_i": k * 1e-4, "force_spring": -k * 2.0})
             sp.put(keys.log("specimen"), b"not json")
-            while bridge.received < 101 and time.monotonic() < deadline:
-                time.sleep(0.001)
+            assert bridge.wait_for(lambda b: b.received >= 101, PATIENCE)
             rec.close()
             pub.put(0, {"x_i": 0.0})  # after the recorder closed: refused, and counted
-            while bridge.dropped < 1 and time.monotonic() < deadline:
-                time.sleep(0.001)
+            assert bridge.wait_for(lambda b: b.dropped >= 1, PATIENCE)
             assert bridge.dropped == 1
     stats = rec.summary.topics["rths/specimen"]
     assert (stats.written, stats.missing, stats.rejected) == (100, 1, 1)
@@ -451,3 +440,35 @@ def test_records_from_another_process_are_written_as_received_unless_non_finite(
     assert messages == [b'{"a":1.25,"b":"x"}', b'{"a":null}']  # raw bytes; NaN cleaned
     stats = rec.summary.topics["rths/side"]
     assert (stats.written, stats.nonfinite, stats.rejected) == (2, 1, 1)
+
+
+def test_block_messages_are_the_rows_as_json_exactly():
+    """Each message parsed by the standard library's json equals its row: every float
+    round-trips exactly (shortest form), non-finite values become null, seq and order kept."""
+    import json as stdlib_json
+
+    from rths.core.channels import Channel, RowBlock
+    from rths.log.mcap_writer import block_messages
+
+    names = ("a", "b.c", "d_e")
+    block = RowBlock([Channel(n) for n in names], 8)
+    rng = np.random.default_rng(3)
+    block.values[:7] = rng.standard_normal((7, 3)) * 10.0 ** rng.integers(-300, 300, (7, 3))
+    block.values[1] = (-0.0, 1e-5, 5e-324)
+    block.values[2, 1] = np.nan
+    block.values[3, 2] = -np.inf
+    block.seq[:7] = np.arange(100, 107)
+    block.t_ns[:7] = np.arange(7) * 244_141
+    block.count = 7
+    messages = block_messages(block)
+    assert [m[0] for m in messages] == list(range(100, 107))
+    assert [m[1] for m in messages] == [t * 244_141 for t in range(7)]
+    assert [m[3] for m in messages] == [True, True, False, False, True, True, True]
+    for (k, _t, data, _ok), row in zip(messages, block.values[:7].tolist()):
+        expected = {"seq": k} | {n: (v if np.isfinite(v) else None) for n, v in zip(names, row)}
+        parsed = stdlib_json.loads(data)
+        assert list(parsed) == ["seq", *names]
+        assert parsed == expected
+    empty = RowBlock([], 2)
+    empty.count = 1
+    assert block_messages(empty)[0][2] == b'{"seq":0}'

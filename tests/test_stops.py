@@ -14,10 +14,9 @@ from __future__ import annotations
 
 import os
 import signal
-import time
 
 import pytest
-from _faults import PATIENCE, Run, plain_facts, processes_of
+from _faults import PATIENCE, Run, plain_facts, processes_of, wait_exited
 from _scenarios import short
 from mcap.reader import make_reader
 
@@ -31,10 +30,8 @@ def _no_leftovers(run: Run) -> None:
     """Only the scenario and the log are left in the run's folder, and no process of the run."""
     names = sorted(p.name for p in run.scenario.parent.iterdir())
     assert names == sorted([run.scenario.name, run.log.name]), names
-    deadline = time.monotonic() + PATIENCE
-    while processes_of(run.run_id):  # the specimen exits on its own once the peer is gone
-        assert time.monotonic() < deadline, processes_of(run.run_id)
-        time.sleep(0.05)
+    # the specimen exits on its own once the peer is gone
+    assert wait_exited(processes_of(run.run_id), PATIENCE), processes_of(run.run_id)
 
 
 @pytest.mark.parametrize(
@@ -117,10 +114,8 @@ def test_sigkill_of_the_coordinator_leaves_a_log_recover_makes_whole(tmp_path):
 
 
 def _wait_gone(run: Run) -> bool:
-    deadline = time.monotonic() + PATIENCE
-    while processes_of(run.run_id):
-        assert time.monotonic() < deadline, "the orphaned specimen did not exit by itself"
-        time.sleep(0.05)
+    gone = wait_exited(processes_of(run.run_id), PATIENCE)
+    assert gone, "the orphaned specimen did not exit by itself"
     return True
 
 

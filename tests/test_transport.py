@@ -38,6 +38,7 @@ from rths.wire.transport import (
     new_run_id,
     open_session,
     session_config,
+    wait_matched,
 )
 
 # Generous bound for anything that should happen within milliseconds on loopback; only reached
@@ -196,10 +197,7 @@ def pair() -> Iterator[tuple[zenoh.Session, zenoh.Session, ZenohEndpoints]]:
 
 
 def _wait_matched(publisher: zenoh.Publisher) -> None:
-    deadline = time.monotonic() + PATIENCE
-    while not publisher.matching_status.matching:
-        assert time.monotonic() < deadline, f"no subscriber matched {publisher.key_expr}"
-        time.sleep(0.001)
+    assert wait_matched(publisher, PATIENCE), f"no subscriber matched {publisher.key_expr}"
 
 
 def _handshake(a: Presence, b: Presence, pa: list, pb: list) -> None:

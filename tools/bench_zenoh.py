@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import queue
 import statistics
 import subprocess
@@ -203,8 +204,10 @@ def run_echo(mechanism: str, endpoint: str, run_id: str) -> None:
 # --------------------------------------------------------------------------- coordinator side
 
 
-def round_trips(mechanism: str, steps: int) -> list[float]:
-    """Round-trip times [µs] of ``steps`` lockstep exchanges against a child echo specimen."""
+def round_trips(mechanism: str, steps: int) -> tuple[list[float], list[float]]:
+    """Round-trip times [µs] of ``steps`` lockstep exchanges against a child echo specimen, and
+    the CPU time [µs] each exchange cost the calling thread (``time.thread_time_ns``: what the
+    loop thread pays beyond the wait, independent of the machine's load)."""
     ep, keys = ZenohEndpoints.loopback(), RunKeys(f"bench-{mechanism}")
     child = subprocess.Popen(
         [sys.executable, __file__, "--echo", mechanism, ep.listen[0], keys.run_id]
@@ -268,16 +271,17 @@ def round_trips(mechanism: str, steps: int) -> list[float]:
             presence.wait_for_peer(30.0, [client.publisher])
             exchange = client.exchange
             stop = lambda: presence.request_stop("bench done")
-        times = []
-        clock = time.perf_counter_ns
+        times, cpu = [], []
+        clock, cpu_clock = time.perf_counter_ns, time.thread_time_ns
         with tempfile.TemporaryDirectory() as tmp:
             rec = Recorder(Path(tmp) / "rt.mcap").start() if "recording" in mechanism else None
             switch_interval = sys.getswitchinterval()
             if mechanism == "recording-si":
                 sys.setswitchinterval(1e-4)
             for k in range(WARMUP + steps):
-                t0 = clock()
+                t0, c0 = clock(), cpu_clock()
                 m = exchange(Command(k, k, 1e-3))
+                cpu.append((cpu_clock() - c0) / 1e3)
                 times.append((clock() - t0) / 1e3)
                 if m.seq != k:
                     raise RuntimeError(f"{mechanism}: got seq {m.seq} for command {k}")
@@ -299,7 +303,7 @@ def round_trips(mechanism: str, steps: int) -> list[float]:
                 rec.close()
         stop()
         child.wait(30)
-        return times[WARMUP:]
+        return times[WARMUP:], cpu[WARMUP:]
     finally:
         session.close()
         if child.poll() is None:
@@ -343,6 +347,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=3000, help="measured round trips per round")
     parser.add_argument("--rounds", type=int, default=3, help="interleaved rounds per mechanism")
     parser.add_argument("--messages", type=int, default=200_000, help="recorder messages")
+    parser.add_argument("--no-recorder", action="store_true", help="skip the recorder table")
     parser.add_argument("--only", nargs="*", choices=MECHANISMS, default=list(MECHANISMS))
     parser.add_argument(
         "--echo", nargs=3, metavar=("MECH", "ENDPOINT", "RUN"), help=argparse.SUPPRESS
@@ -352,18 +357,33 @@ def main() -> None:
         run_echo(*args.echo)
         return
     pooled: dict[str, list[float]] = {m: [] for m in args.only}
+    pooled_cpu: dict[str, list[float]] = {m: [] for m in args.only}
     for _ in range(args.rounds):
         for mechanism in args.only:
-            pooled[mechanism] += round_trips(mechanism, args.steps)
+            times, cpu = round_trips(mechanism, args.steps)
+            pooled[mechanism] += times
+            pooled_cpu[mechanism] += cpu
     print(
         f"cross-process lockstep round trip, {args.rounds} x {args.steps} steps, "
         "24 B out / 40 B back"
     )
-    print(f"{'mechanism':<16}{'p50 [us]':>10}{'p90 [us]':>10}{'p99 [us]':>10}{'max [us]':>10}")
+    print(
+        f"(load average {os.getloadavg()[0]:.2f}; CPU: the caller thread's CPU time per exchange)"
+    )
+    print(
+        f"{'mechanism':<16}{'p50 [us]':>10}{'p90 [us]':>10}{'p99 [us]':>10}{'max [us]':>10}"
+        f"{'CPU p50':>10}{'CPU mean':>10}"
+    )
     for mechanism, times in pooled.items():
         p50, p90, p99 = np.percentile(times, [50, 90, 99])
         star = "*" if mechanism in ("rths", "sync") else ""
-        print(f"{mechanism + star:<16}{p50:>10.1f}{p90:>10.1f}{p99:>10.1f}{max(times):>10.0f}")
+        cpu = pooled_cpu[mechanism]
+        print(
+            f"{mechanism + star:<16}{p50:>10.1f}{p90:>10.1f}{p99:>10.1f}{max(times):>10.0f}"
+            f"{statistics.median(cpu):>10.1f}{statistics.fmean(cpu):>10.1f}"
+        )
+    if args.no_recorder:
+        return
     print(f"\nRecorder, {args.messages} rths/loop messages")
     print(f"{'compression':<12}{'put() [us]':>12}{'throughput [msg/s]':>20}")
     for compression in ("zstd", "lz4", "none"):

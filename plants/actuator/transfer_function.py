@@ -9,6 +9,7 @@ import control
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from plants.actuator.kernel import state_space_step
 from plants.actuator.linear import (
     derivative_model,
     discretise,
@@ -51,6 +52,9 @@ class TransferFunctionActuator(Actuator):
         Pure delay [s] on the command path, >= 0 (:class:`DelayLine`).
     velocity_limit
         Rate limit ``v_max`` [m/s] on the displacement (:class:`RateLimiter`), ``None`` for none.
+    use_jit
+        Advance the state with the compiled kernel (:mod:`plants.actuator.kernel`, default) or
+        with the NumPy expressions (the reference path; equal to round-off).
     """
 
     def __init__(
@@ -62,13 +66,17 @@ class TransferFunctionActuator(Actuator):
         *,
         delay: float = 0.0,
         velocity_limit: float | None = None,
+        use_jit: bool = True,
     ) -> None:
         super().__init__(specimen, dt, delay=delay, velocity_limit=velocity_limit)
+        self.use_jit = bool(use_jit)
         model, self._tf, self.relative_degree = derivative_model(num, den)
         self._model = discretise(model, self.dt)
         m = self._model
         self._A, self._B = m.A, m.B[:, 0].copy()
-        self._C, self._D = m.C, m.D[:, 0].copy()
+        self._C, self._D = np.ascontiguousarray(m.C), m.D[:, 0].copy()
+        self._A = np.ascontiguousarray(self._A)
+        self._y = np.zeros(self._C.shape[0])  # (x, v, a) of the last step (compiled path)
         self.reset()
 
     @classmethod
@@ -104,8 +112,12 @@ class TransferFunctionActuator(Actuator):
 
     def _step_impl(self, command: float) -> tuple[Kinematics, float]:
         u = command
-        self._z = self._A @ self._z + self._B * u
-        x, v, a = (self._C @ self._z + self._D * u).tolist()
+        if self.use_jit:
+            state_space_step(self._A, self._B, self._C, self._D, self._z, u, self._y)
+            x, v, a = self._y.tolist()
+        else:
+            self._z = self._A @ self._z + self._B * u
+            x, v, a = (self._C @ self._z + self._D * u).tolist()
         self._linear = x
         x_old, v_old, _ = self._drive
         limiter = self.limiter

@@ -70,7 +70,8 @@ from plants.cable.device import (
     max_element_size,
 )
 from plants.cable.fe import assemble, check_mesh, mesh_nodes, sine_load_shape
-from plants.cable.newmark import newmark_operator, step_kernel, step_reference
+from plants.cable.kernel import cable_step, outputs_reference
+from plants.cable.newmark import newmark_operator, step_reference
 from plants.cable.options import CableOptions
 from plants.cable.properties import (
     CableProperties,
@@ -92,9 +93,6 @@ from rths.core.errors import (
     check_positive_int,
 )
 from rths.core.registry import SUBSTRUCTURES
-
-#: nodal displacement, velocity, acceleration and the flywheel's ``(x, x', x'')``
-_State = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
 
 __all__ = [
     "CABLE_CHANNELS",
@@ -192,30 +190,53 @@ class Cable(Substructure):
             properties, self._nodes, self._index, intrinsic_damping, damper, "average"
         )
         self._series: SeriesCondensation | None = None
-        self._series_args = np.zeros(4)  # (k_s, m_s, c_s, D) for the kernel; k_s = 0: none
+        # the kernel's constants (plants.cable.kernel.PARAMS); k_s = 0: no series branch
+        self._params = np.zeros(11)
+        self._params[0] = self.dt
+        if damper is not None:
+            self._params[5:9] = (damper.inertance, damper.damping, damper.stiffness, 1.0)
         effective_stiffness = self._stiffness
         if damper is not None and damper.has_series:
             self._series = cs = SeriesCondensation.of(damper, self.dt)
-            self._series_args[:] = (cs.stiffness, cs.inertance, cs.damping, cs.denominator)
+            self._params[1:5] = (cs.stiffness, cs.inertance, cs.damping, cs.denominator)
             # the condensed flywheel's constant k_s (1 - k_s/D) enters the effective matrix only
             effective_stiffness = self._stiffness.with_point(self._index, cs.diagonal)
         self._op = newmark_operator(effective_stiffness, self._mass, self._damping, self.dt)
-        self._l_diag = self._op.factor[0].copy()
-        self._l_sub = self._op.factor[1, :-1].copy()
         wavenumber = self.load.mode * math.pi / properties.length
         self._load_shape = self.load.amplitude * sine_load_shape(self._nodes, wavenumber)
         mid = int(np.searchsorted(self._nodes, 0.5 * properties.length, side="right")) - 1
         mid = min(mid, len(self._nodes) - 2)
         span = self._nodes[mid + 1] - self._nodes[mid]
         self._midspan = (mid, (0.5 * properties.length - self._nodes[mid]) / span)
+        self._params[9:11] = self._midspan
+        # the compiled step's operator (plants.cable.kernel): one array, one dispatch
+        size = n - 1
+        self._ops = np.zeros((7, size))
+        for row, values in enumerate(
+            (
+                self._mass.diag,
+                self._mass.off,
+                self._damping.diag,
+                self._damping.off,
+                self._op.factor[0],
+                self._op.factor[1, :-1],
+                self._load_shape,
+            )
+        ):
+            self._ops[row, : values.size] = values
         resonance = self.load.mode * properties.omega0
         frequency = self.load.frequency
         self._load_frequency = resonance if frequency is None else frequency
         self._load_end = math.inf if self.load.duration is None else self.load.duration
-        size = n - 1
-        self._u, self._v, self._a = np.zeros(size), np.zeros(size), np.zeros(size)
-        self._fly = np.zeros(3)  # flywheel (x [m], x' [m/s], x'' [m/s^2]); zero without a branch
-        self._next = (np.zeros(size), np.zeros(size), np.zeros(size), np.zeros(3))
+        # two state buffers (u, v, a, flywheel (x [m], x' [m/s], x'' [m/s^2]) in row 3), the
+        # current one by parity; the flywheel is zero without a series branch
+        self._state = np.zeros((2, 4, size))
+        self._views = tuple(
+            (buf[0], buf[1], buf[2], buf[3, :3]) for buf in (self._state[0], self._state[1])
+        )
+        self._parity = 0
+        self._u, self._v, self._a, self._fly = self._views[0]
+        self._out = np.zeros(7)  # plants.cable.kernel.OUTPUTS of the current state
 
     @classmethod
     def from_options(
@@ -274,8 +295,10 @@ class Cable(Substructure):
     # ------------------------------------------------------------------ Substructure contract
     def _reset_impl(self) -> None:
         """Return to rest at ``t = 0``."""
-        for x in (self._u, self._v, self._a, self._fly):
-            x[:] = 0.0
+        self._state[:] = 0.0
+        self._out[:] = 0.0
+        self._parity = 0
+        self._u, self._v, self._a, self._fly = self._views[0]
 
     @property
     def interface(self) -> Kinematics:
@@ -288,41 +311,26 @@ class Cable(Substructure):
         """Restoring force [N] of the nominal device at the current time (0 without one):
         ``m_r a_d + c_r v_d + k_r u_d + k_s (u_d - x)`` (S0 Eq.1 and Eq.12); the cable receives
         minus it."""
-        if self.device is None:
-            return 0.0
-        i, dev = self._index, self.device
-        force = dev.inertance * self._a[i] + dev.damping * self._v[i]
-        force += dev.stiffness * self._u[i]
-        if self._series is not None:
-            force += self._series.stiffness * (self._u[i] - self._fly[0])
-        return float(force)
+        return float(self._out[4])
 
     def _step_impl(self, restoring_force: float) -> Kinematics:
-        state = self._advance(restoring_force, self._next)
-        self._next = (self._u, self._v, self._a, self._fly)
-        self._u, self._v, self._a, self._fly = state
-        return self.interface
+        self._advance(restoring_force, self._state, self._parity, self._out)
+        self._parity ^= 1
+        self._u, self._v, self._a, self._fly = self._views[self._parity]
+        return Kinematics(*self._out[:3].tolist())
 
     def predict(self, restoring_force: float) -> Kinematics:
         """The damper node's kinematics at ``t_{k+1}`` for force ``F`` [N], state unchanged."""
         force = check_finite(restoring_force, "restoring force")
-        size = self._u.size
-        scratch: _State = (np.zeros(size), np.zeros(size), np.zeros(size), np.zeros(3))
-        u1, v1, a1, _ = self._advance(force, scratch)
-        i = self._index
-        return Kinematics(float(u1[i]), float(v1[i]), float(a1[i]))
+        scratch, out = self._state.copy(), np.zeros(7)
+        self._advance(force, scratch, self._parity, out)
+        return Kinematics(*out[:3].tolist())
 
     def outputs(self) -> dict[str, float]:
         """Midspan displacement [m] and, with a device, its restoring force [N] and the flywheel
         displacement [m] and velocity [m/s], for logging every step (cheap: O(1))."""
-        i, w = self._midspan  # O(1) per step: energies are properties, computed on demand
-        out = {"midspan_displacement": float((1.0 - w) * self._full(i) + w * self._full(i + 1))}
-        if self.device is not None:
-            out["device_force"] = self.device_force
-        if self._series is not None:
-            out["flywheel_displacement"] = float(self._fly[0])
-            out["flywheel_velocity"] = float(self._fly[1])
-        return out
+        values = self._out[3:].tolist()  # O(1) per step: energies are computed on demand
+        return dict(zip((c.name for c in self.channels()), values))
 
     def channels(self) -> tuple[Channel, ...]:
         """The keys of :meth:`outputs`, with units (:data:`CABLE_CHANNELS`: the device's only
@@ -332,53 +340,31 @@ class Cable(Substructure):
 
     def write_channels(self, out: NDArray[np.float64]) -> None:
         """Write :meth:`outputs`' values into ``out`` (no dict)."""
-        i, w = self._midspan
-        out[0] = (1.0 - w) * self._full(i) + w * self._full(i + 1)
-        if self.device is not None:
-            out[1] = self.device_force
-        if self._series is not None:
-            out[2] = self._fly[0]
-            out[3] = self._fly[1]
+        out[:] = self._out[3 : 3 + out.size]
 
-    def _advance(self, force: float, out: _State) -> _State:
-        """The state at ``t_{k+1}`` for device force ``force`` [N], written into ``out``."""
-        t = (self.steps + 1) * self.dt
-        load_scale = math.sin(self._load_frequency * t) if t <= self._load_end else 0.0
+    def _advance(
+        self, force: float, state: NDArray[np.float64], parity: int, out: NDArray[np.float64]
+    ) -> None:
+        """Advance ``state[parity]`` to ``state[1 - parity]`` for the device force ``force``
+        [N] and write the outputs (:data:`plants.cable.kernel.OUTPUTS`) into ``out``."""
+        load_scale = math.sin(self._load_frequency * (self.steps + 1) * self.dt)
+        if (self.steps + 1) * self.dt > self._load_end:  # the load has stopped
+            load_scale = 0.0
         j, series = self._index, self._series
-        if not self.use_numba:
-            f = load_scale * self._load_shape
-            f[j] -= force
-            if series is None:
-                return (*step_reference(self._op, self._u, self._v, self._a, f), out[3])
-            r_x = series.flywheel_load(self._fly)
+        if self.use_numba:
+            cable_step(self._ops, state, parity, self._params, j, load_scale, -force, out)
+            return
+        u, v, a, fly = (state[parity, r] for r in range(4))
+        nxt = state[1 - parity]
+        f = load_scale * self._load_shape
+        f[j] -= force
+        if series is not None:
+            r_x = series.flywheel_load(fly[:3])
             f[j] += series.node_load(r_x)
-            u1, v1, a1 = step_reference(self._op, self._u, self._v, self._a, f)
-            return u1, v1, a1, series.advance(self._fly, r_x, float(u1[j]), out[3])
-        u1, v1, a1, fly1 = out
-        m, c = self._mass, self._damping
-        step_kernel(
-            m.diag,
-            m.off,
-            c.diag,
-            c.off,
-            self._l_diag,
-            self._l_sub,
-            self.dt,
-            self._u,
-            self._v,
-            self._a,
-            self._load_shape,
-            load_scale,
-            j,
-            -force,
-            self._series_args,
-            self._fly,
-            u1,
-            v1,
-            a1,
-            fly1,
-        )
-        return out
+        nxt[0], nxt[1], nxt[2] = step_reference(self._op, u, v, a, f)
+        if series is not None:
+            series.advance(fly[:3], r_x, float(nxt[0, j]), nxt[3, :3])
+        outputs_reference(nxt[0], nxt[1], nxt[2], nxt[3, :3], self._params, j, out)
 
     # ------------------------------------------------------------------ state and views
     def nodal_load(self, t: float) -> NDArray[np.float64]:
@@ -423,6 +409,7 @@ class Cable(Substructure):
             rhs[j] -= series.stiffness * (u[j] - self._fly[0])
         self._u[:], self._v[:] = u, v
         self._a[:] = sla.solveh_banded(self._mass.banded_lower(), rhs, lower=True)
+        outputs_reference(self._u, self._v, self._a, self._fly, self._params, j, self._out)
 
     @property
     def flywheel(self) -> Kinematics | None:
@@ -456,10 +443,6 @@ class Cable(Substructure):
     def acceleration(self) -> NDArray[np.float64]:
         """Nodal accelerations [m/s^2], shape ``(N-1,)`` (a copy)."""
         return self._a.copy()
-
-    def _full(self, node: int) -> float:
-        """Displacement of mesh node ``node`` including the fixed ends (0)."""
-        return 0.0 if node == 0 or node == len(self._nodes) - 1 else self._u[node - 1]
 
     def displacement_at(self, x: float) -> float:
         """Displacement [m] at the normalised position ``x`` in [0, 1] (linear interpolation)."""

@@ -137,10 +137,18 @@ def step_kernel(
 ) -> None:  # pragma: no cover - compiled; covered through the cross-check with step_reference
     """:func:`step_reference` with force ``load_scale*load_shape + point_force*e_index``.
 
-    ``series = (k_s, m_s, c_s, D)`` describes a series branch condensed at ``index`` (its
-    ``k_s (1 - k_s/D)`` must already be in the factor); ``k_s = 0`` means none.  ``flywheel``
-    is its state ``(x, x', x'')`` at ``t_k``.  Writes the new state into ``u1, v1, a1`` and
-    ``flywheel1`` (which must not alias the inputs).
+    ``l_diag`` and ``l_sub`` are the factor's diagonal and sub-diagonal.  ``series = (k_s,
+    m_s, c_s, D)`` describes a series branch condensed at ``index`` (its ``k_s (1 - k_s/D)``
+    must already be in the factor); ``k_s = 0`` means none.  ``flywheel`` is its state ``(x,
+    x', x'')`` at ``t_k``.  Writes the new state into ``u1, v1, a1`` and ``flywheel1`` (which
+    must not alias the inputs).
+
+    Two passes over the nodes: (1) the right-hand side ``f + M w + C z`` with ``w = c1 u + c2 v
+    + a`` and ``z = c3 u + v`` formed on the fly, fused with the forward substitution ``L y =
+    rhs`` (``y`` kept in ``a1``); (2) the back substitution ``L^T u1 = y`` fused with the
+    velocity and acceleration updates.  The arithmetic of every entry is that of the former
+    five-pass kernel, in the same order (bit-identical results), only with fewer passes over
+    memory.
     """
     n = u.size
     c1 = 4.0 / (h * h)
@@ -151,27 +159,30 @@ def step_kernel(
     if k_s > 0.0:
         r_x = series[1] * (c1 * flywheel[0] + c2 * flywheel[1] + flywheel[2])
         r_x += series[2] * (c3 * flywheel[0] + flywheel[1])
-    for i in range(n):  # u1 <- w = c1 u + c2 v + a, v1 <- z = c3 u + v
-        u1[i] = c1 * u[i] + c2 * v[i] + a[i]
-        v1[i] = c3 * u[i] + v[i]
-    for i in range(n):  # a1 <- rhs = f + M w + C z
-        r = load_scale * load_shape[i] + m_diag[i] * u1[i] + c_diag[i] * v1[i]
-        if i > 0:
-            r += m_off[i - 1] * u1[i - 1] + c_off[i - 1] * v1[i - 1]
-        if i < n - 1:
-            r += m_off[i] * u1[i + 1] + c_off[i] * v1[i + 1]
-        a1[i] = r
-    a1[index] += point_force
-    if k_s > 0.0:
-        a1[index] += k_s * r_x / series[3]
-    a1[0] = a1[0] / l_diag[0]  # forward substitution L y = rhs (in a1)
-    for i in range(1, n):
-        a1[i] = (a1[i] - l_sub[i - 1] * a1[i - 1]) / l_diag[i]
-    u1[n - 1] = a1[n - 1] / l_diag[n - 1]  # back substitution L^T u1 = y
-    for i in range(n - 2, -1, -1):
-        u1[i] = (a1[i] - l_sub[i] * u1[i + 1]) / l_diag[i]
+    w_prev = z_prev = y = 0.0
+    w = c1 * u[0] + c2 * v[0] + a[0]
+    z = c3 * u[0] + v[0]
+    w_next = z_next = 0.0
     for i in range(n):
-        du = u1[i] - u[i]
+        r = load_scale * load_shape[i] + m_diag[i] * w + c_diag[i] * z
+        if i > 0:
+            r += m_off[i - 1] * w_prev + c_off[i - 1] * z_prev
+        if i < n - 1:
+            w_next = c1 * u[i + 1] + c2 * v[i + 1] + a[i + 1]
+            z_next = c3 * u[i + 1] + v[i + 1]
+            r += m_off[i] * w_next + c_off[i] * z_next
+        if i == index:
+            r += point_force
+            if k_s > 0.0:
+                r += k_s * r_x / series[3]
+        y = (r - l_sub[i - 1] * y) / l_diag[i] if i > 0 else r / l_diag[0]
+        a1[i] = y
+        w_prev, z_prev, w, z = w, z, w_next, z_next
+    x = 0.0
+    for i in range(n - 1, -1, -1):
+        x = (a1[i] - l_sub[i] * x) / l_diag[i] if i < n - 1 else a1[i] / l_diag[i]
+        u1[i] = x
+        du = x - u[i]
         v1[i] = c3 * du - v[i]
         a1[i] = c1 * du - c2 * v[i] - a[i]
     if k_s > 0.0:

@@ -282,6 +282,8 @@ class InternalStiffnessIMD(_DampingMixin, Specimen):
         self._a = 0.0
         self._spring = 0.0
         self._force = 0.0
+        self._substep_key = (0.0, 0.0)  # (dt, c_d) the cached sub-step count is for
+        self._substep_count = 1
 
     def stiffness_at(self, u: float) -> float:
         """Series stiffness ``k_e`` [N/m] at drive displacement ``u`` [m] (S0 Eq.4)."""
@@ -301,7 +303,13 @@ class InternalStiffnessIMD(_DampingMixin, Specimen):
         return max(1, math.ceil(rate * dt / self.max_step_phase))
 
     def _step_impl(self, u: float, v: float, a: float, dt: float) -> float:
-        n_sub = self.substeps(_check_dt(dt), self._u, u)
+        if self._lf > 0.0:  # k_e depends on the drive (S0 Eq.4)
+            n_sub = self.substeps(_check_dt(dt), self._u, u)
+        else:  # constant k0: the count changes only with dt or c_d (at reversals)
+            if (dt, self._damping) != self._substep_key:
+                self._substep_key = (dt, self._damping)
+                self._substep_count = self.substeps(_check_dt(dt))
+            n_sub = self._substep_count
         self._x, self._w, self._spring = self._advance(
             self._x,
             self._w,

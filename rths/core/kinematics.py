@@ -3,14 +3,16 @@ exchange at the interface."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 __all__ = ["Kinematics"]
 
 
-@dataclass(frozen=True, slots=True)
-class Kinematics:
+class Kinematics(NamedTuple):
     """Displacement [m], velocity [m/s] and acceleration [m/s^2] of one point.
+
+    Immutable; a named tuple rather than a frozen dataclass because three are built every loop
+    step and a named tuple is built several times faster (no per-field ``object.__setattr__``).
 
     Attributes
     ----------

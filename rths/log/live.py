@@ -81,7 +81,7 @@ class LiveServer:
         self._channels: dict[str, Any] = {}
         self._schemas: dict[str, Mapping[str, Any]] = {}
         self._next_ns: dict[str, int] = {}
-        self._templates: dict[tuple[str, ...], str] = {}
+        self._templates: dict[tuple[str, ...], bytes] = {}
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
         self._thread = threading.Thread(target=self._run, name="rths-live", daemon=True)
         self._thread.start()

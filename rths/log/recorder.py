@@ -33,6 +33,7 @@ import json
 import operator
 import os
 import queue
+import threading
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal
@@ -444,6 +445,25 @@ class Recorder:
         """
         self._check_alive()
         self._queue.put(("r", topic, payload))
+
+    def wait_flushed(self, timeout: float | None = None) -> bool:
+        """Block until everything queued so far is flushed to the file by the writer's own
+        periodic flush (no flush is forced), or the file is finished.
+
+        Parameters
+        ----------
+        timeout
+            Longest wait [s]; None waits as long as it takes.
+
+        Returns
+        -------
+        bool
+            True once flushed, False on timeout.
+        """
+        self._check_alive()
+        flushed = threading.Event()
+        self._queue.put(("w", flushed))
+        return flushed.wait(timeout)
 
     def event(self, log_time_ns: int, kind: str, message: str, **details: Any) -> None:
         """Queue an event on ``rths/events``.

@@ -52,9 +52,10 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
+from typing import NamedTuple, Protocol
 
 from controllers.base import Compensator
 from plants.base import Substructure
@@ -102,11 +103,12 @@ class InterlockTripped(RTHSError, RuntimeError):
     """The loop stopped a run because a signal left its safe range."""
 
 
-@dataclass(frozen=True, slots=True)
-class LinkSample:
+class LinkSample(NamedTuple):
     """What the specimen answers: measured displacement [m], force [N] (specimen scale), the age
     of the sample when the loop uses it [ns] (0 in lockstep/fast) and the specimen's step number
-    (the ``seq`` of the command it answers; older than the step after a missed deadline)."""
+    (the ``seq`` of the command it answers; older than the step after a missed deadline).
+    Immutable; a named tuple because one is built every step (cheaper than a frozen
+    dataclass)."""
 
     displacement: float
     force: float
@@ -184,6 +186,7 @@ class LoopResult:
     longest_lag: int = 0
     ended_ns: int = 0  #: the pacer's clock when the last step ended [ns] (fault timing)
     link_mean: float = 0.0  #: mean time per step in ``link.exchange`` [s] (the round trip)
+    cpu_mean: float = 0.0  #: mean CPU time of the loop thread per step [s] (load-independent)
 
     @property
     def work_mean(self) -> float:
@@ -291,6 +294,9 @@ class Loop:
         dt_s = self.dt
         block = RowBlock(channels, rows)
         values, seqs, times = block.values, block.seq, block.t_ns
+        # the loop's own columns of the block's rows, as tuples: one numpy conversion per block
+        # instead of one per step (comp_/sub_ columns are written into the rows directly)
+        own: list[tuple[float, ...]] = []
         i = 0
         measured, force, fed = 0.0, 0.0, 0.0
         misses = run_of_misses = longest = 0
@@ -298,6 +304,7 @@ class Loop:
         fresh, start_lag = False, max(self.max_lag, round(0.1 / dt_s))
         now, in_link = pacer.now_ns, 0
         stopped: str | None = None
+        cpu_start = time.thread_time_ns()
         pacer.start()
         k = 0
         for k in range(self.n_steps):
@@ -345,18 +352,20 @@ class Loop:
             if self.force_filter is not None:
                 fed = self.force_filter(fed)
             row = values[i]
-            row[:n0] = (
-                t_ns * 1e-9,
-                target.displacement,
-                target.velocity,
-                target.acceleration,
-                command,
-                measured,
-                force,
-                fed,
-                sample.age_ns * 1e-9,
-                lag,
-                pacer.lateness_ns(k) * 1e-9,
+            own.append(
+                (
+                    t_ns * 1e-9,
+                    target.displacement,
+                    target.velocity,
+                    target.acceleration,
+                    command,
+                    measured,
+                    force,
+                    fed,
+                    sample.age_ns * 1e-9,
+                    lag,
+                    pacer.lateness_ns(k) * 1e-9,
+                )
             )
             if c1 > c0:
                 record_comp(row[c0:c1])
@@ -366,6 +375,8 @@ class Loop:
             times[i] = t_ns
             i += 1
             if i == rows:
+                values[:, :n0] = own
+                own.clear()
                 block.count = i
                 self.sink(block)
                 block = RowBlock(channels, rows)
@@ -377,7 +388,9 @@ class Loop:
         else:
             k = self.n_steps
         ended = pacer.now_ns()
+        cpu = time.thread_time_ns() - cpu_start
         if i:
+            values[:i, :n0] = own
             block.count = i
             self.sink(block)
         if progress is not None:
@@ -393,4 +406,5 @@ class Loop:
             longest_lag=longest,
             ended_ns=ended,
             link_mean=in_link * 1e-9 / max(k, 1),
+            cpu_mean=cpu * 1e-9 / max(k, 1),
         )

@@ -17,7 +17,34 @@ from rths.core.errors import ParameterError, TransportError, check_positive
 from rths.wire.auth import RunSecret
 from rths.wire.keys import ROLES, Role
 
-__all__ = ["ROLES", "Presence", "Role"]
+__all__ = ["ROLES", "Presence", "Role", "wait_matched"]
+
+
+def wait_matched(publisher: zenoh.Publisher, timeout: float | None) -> bool:
+    """Block until a subscriber matches ``publisher`` (woken by zenoh's matching listener).
+
+    Parameters
+    ----------
+    publisher
+        A declared zenoh publisher.
+    timeout
+        Longest wait [s]; None waits as long as it takes.
+
+    Returns
+    -------
+    bool
+        True once matched, False on timeout.
+    """
+    matched = threading.Event()
+    listener = publisher.declare_matching_listener(
+        lambda status: matched.set() if status.matching else None
+    )
+    try:
+        # a match made before the listener existed is not reported to it: check after declaring
+        matched_now: bool = publisher.matching_status.matching  # type: ignore[attr-defined]
+        return matched_now or matched.wait(timeout)
+    finally:
+        listener.undeclare()
 
 
 class _ControlKeys(Protocol):
@@ -151,13 +178,11 @@ class Presence:
                 f"{self.peer} process did not come up within {timeout:g} s on {self.where}"
             )
         for pub in publishers:
-            while not pub.matching_status.matching:  # type: ignore[attr-defined]
-                if time.monotonic() > deadline:
-                    raise TransportError(
-                        f"{self.peer} process is up but did not subscribe to '{pub.key_expr}' "
-                        f"within {timeout:g} s on {self.where}"
-                    )
-                time.sleep(0.005)
+            if not wait_matched(pub, max(deadline - time.monotonic(), 0.0)):
+                raise TransportError(
+                    f"{self.peer} process is up but did not subscribe to '{pub.key_expr}' "
+                    f"within {timeout:g} s on {self.where}"
+                )
 
     def request_stop(self, reason: str = "done") -> None:
         """Ask the peer to stop (it sees ``"<role> requested stop: <reason>"``)."""

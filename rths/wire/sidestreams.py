@@ -5,7 +5,7 @@ process publishes (:class:`LogPublisher`, :class:`BackgroundPublisher`) and the 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any, Protocol
 
 import zenoh
@@ -219,13 +219,37 @@ class LogBridge:
             keys.log_all, zenoh.handlers.FifoChannel(1 << 16)
         )
         self._stop = threading.Event()
+        self._drained = threading.Condition()
         self._thread = threading.Thread(target=self._run, name="log bridge", daemon=True)
         self._thread.start()
 
     def _run(self) -> None:
         while not self._stop.wait(0.005):
             self._drain()
+            with self._drained:
+                self._drained.notify_all()
         self._drain()
+        with self._drained:
+            self._drained.notify_all()
+
+    def wait_for(self, condition: Callable[[LogBridge], bool], timeout: float | None) -> bool:
+        """Block until ``condition(self)`` holds after a drain of the channel (the counters
+        :attr:`received` and :attr:`dropped` are up to date then), or ``timeout`` [s] passes.
+
+        Parameters
+        ----------
+        condition
+            Predicate on this bridge, e.g. ``lambda b: b.received >= 100``.
+        timeout
+            Longest wait [s]; None waits as long as it takes.
+
+        Returns
+        -------
+        bool
+            The condition's last value.
+        """
+        with self._drained:
+            return self._drained.wait_for(lambda: condition(self), timeout)
 
     def _drain(self) -> None:
         try_recv = self._subscriber.try_recv

@@ -58,7 +58,7 @@ from rths.wire.links import (
     RealtimeServer,
     SyncClient,
 )
-from rths.wire.presence import Presence, Role
+from rths.wire.presence import Presence, Role, wait_matched
 from rths.wire.sidestreams import (
     BackgroundPublisher,
     BlockPublisher,
@@ -90,6 +90,7 @@ __all__ = [
     "loopback_endpoint",
     "new_run_id",
     "open_session",
+    "wait_matched",
     "session_config",
 ]
 
