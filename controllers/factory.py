@@ -14,6 +14,7 @@ ats        adaptive time series (Chae et al. 2013)
 ff         inverse of a low-order nominal model (Phillips & Spencer 2013)
 lqg        LQG feedback on the nominal model with an integral of the tracking error
 ff_lqg     ff + lqg (Phillips & Spencer 2013; S0 §5.2)
+pi_lead    the vRTHS benchmark's sample controller: PI + phase lead (Silva et al. 2020)
 ========== =================================================================================
 
 ``nominal`` is the continuous-time command->measured model (python-control

@@ -45,6 +45,8 @@ class FFLQGCompensator(LQGCompensator):
         LQG gains from :func:`controllers.lqg.design_lqg` (same ``dt``).
     feedforward
         The model-based feedforward (required).
+    estimator
+        ``"steady"`` (hot path) or ``"filterpy"`` (:class:`~controllers.lqg.LQGCompensator`).
     use_jit
         Step with the compiled kernel (default) or the Python reference path.
 
@@ -78,8 +80,9 @@ class FFLQGCompensator(LQGCompensator):
         design: LQGDesign,
         feedforward: FeedforwardCompensator,
         *,
+        estimator: str = "steady",
         use_jit: bool = True,
     ) -> None:
         if feedforward is None:
             raise ParameterError("FF+LQG needs a feedforward compensator; got None")
-        super().__init__(dt, design, feedforward, use_jit=use_jit)
+        super().__init__(dt, design, feedforward, estimator=estimator, use_jit=use_jit)

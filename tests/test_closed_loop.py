@@ -151,7 +151,8 @@ def test_factory_derives_defaults_from_the_nominal_model():
 def test_factory_validation():
     nominal = benchmark_plant()
     with pytest.raises(
-        ParameterError, match="unknown compensator kind 'pid'; choose one of .*'none', 'polynomial'"
+        ParameterError,
+        match="unknown compensator kind 'pid'; choose one of .*'none', 'pi_lead', 'polynomial'",
     ):
         make_compensator("pid", DT, nominal)
     with pytest.raises(

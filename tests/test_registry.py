@@ -43,6 +43,7 @@ MINIMAL = {
     ("specimen", "hdrb"): 'preset = "s1_primary_uncontrolled"\n',
     ("actuator", "transfer_function"): 'preset = "mts_identified"\n',
     ("actuator", "servo_hydraulic"): 'preset = "heavy_inertial_load"\n',
+    ("substructure", "vrths_frame"): 'ground_motion = "chirp"\n',
 }
 DEFAULTS = {  # the companions of the kind under test
     "substructure": "cable",

@@ -7,7 +7,11 @@ Written to the output directory:
 ``time_history.png``    target, command and measured displacement (S0 Fig.32);
 ``sync_subspace.png``   measured vs. target with the perfect-tracking line (S0 Fig.33);
 ``rths_vs_mock.png``    damper hysteresis and cable displacement, RTHS vs. fully numerical mock
-                        runs with the ``[model]`` device and its simplified version (S0 Fig.34).
+                        runs with the ``[model]`` device and its simplified version (S0 Fig.34);
+``benchmark_floors.png`` on the vRTHS benchmark frame instead of the mock: the floors of the RTHS
+                        against the unpartitioned reference frame, and ``metrics.json`` gets
+                        ``benchmark``: F4's J1-J9 and the peak hydraulic force against its
+                        8.9 kN capacity (:func:`benchmark_section`).
 
 The mock runs are rebuilt from the scenario text stored in the log's metadata, so a log alone is
 enough.  The steady-state window for the figures is the last ``--cycles`` cycles of the load.
@@ -22,11 +26,15 @@ from typing import Any
 
 import numpy as np
 
+from rths.config import build
+from rths.config.kinds import registry
 from rths.core.errors import ConfigError, DataError, RTHSWarning
-from rths.log.reader import read_loop, read_metadata
+from rths.log.reader import read_loop, read_metadata, read_topic
 from rths.metrics import normalised_rms_error, summarize
+from rths.metrics.vrths import ACTUATOR_CAPACITY
+from rths.session.outcome import benchmark_scores
 
-__all__ = ["write_report"]
+__all__ = ["benchmark_section", "write_report"]
 
 
 def _window(t: np.ndarray, period: float, cycles: float) -> np.ndarray:
@@ -126,11 +134,55 @@ def write_report(log: Path, out: Path, cycles: float = 3.0, mock: bool = True) -
     fig.savefig(out / "sync_subspace.png", dpi=130)
     plt.close(fig)
 
-    # S0 Fig.34 ------------------------------------------------------------------------------
-    if mock and scn is not None:
+    # vRTHS benchmark: F4's J1-J9 against the reference frame; else S0 Fig.34 -----------------
+    reference = None if scn is None else _reference(scn)
+    if reference is not None:
+        doc["benchmark"] = benchmark_section(plt, log, loop, reference, dt, out)
+    elif mock and scn is not None:
         doc["mock"] = _mock_figure(plt, scn, loop, w, out)
     (out / "metrics.json").write_text(json.dumps(doc, indent=2, default=float))
     return doc
+
+
+def _reference(scn: Any) -> Any:
+    """The substructure's ``reference_response`` (the vRTHS frame has one), or None."""
+    target = registry("substructure").get(scn.substructure.kind).target
+    if not hasattr(target, "reference_response"):
+        return None
+    return getattr(build.substructure(scn), "reference_response")
+
+
+def benchmark_section(
+    plt: Any, log: Path, loop: dict[str, np.ndarray], reference: Any, dt: float, out: Path
+) -> dict[str, Any]:
+    """F4's J1-J9 of a vRTHS benchmark log, the peak hydraulic force and the floors figure."""
+    for key in ("sub_x1", "sub_x2", "sub_x3"):
+        if key not in loop:
+            raise DataError(f"'{log}': rths/loop has no field {key!r}; not a benchmark-frame log")
+    floors = np.column_stack([loop["sub_x1"], loop["sub_x2"], loop["sub_x3"]])
+    scores = benchmark_scores(reference, loop["measured"], floors, dt)
+    section: dict[str, Any] = scores.to_dict()
+    specimen = read_topic(log, "rths/specimen")
+    force = specimen.get("actuator.hydraulic_force")
+    if force is not None and force.size:
+        peak = float(np.max(np.abs(force)))
+        section |= {"peak_actuator_force": peak, "capacity": ACTUATOR_CAPACITY,
+                    "capacity_exceeded": peak >= ACTUATOR_CAPACITY}  # fmt: skip
+    ref = reference(floors.shape[0] + 1)[1:]
+    t = loop["t"]
+    fig, axes = plt.subplots(3, 1, figsize=(8, 6.4), sharex=True)
+    for i, ax in enumerate(axes[::-1]):
+        ax.plot(t, 1e3 * ref[:, i], lw=1.4, label="reference model")
+        ax.plot(t, 1e3 * floors[:, i], ":", lw=1.2, label="RTHS")
+        ax.set_ylabel(f"x{i + 1} [mm]")
+        ax.grid(alpha=0.3)
+    axes[0].legend(loc="upper right", fontsize=8)
+    axes[-1].set_xlabel("time [s]")
+    fig.suptitle("vRTHS benchmark: floors of the RTHS vs the reference frame (cf. F3)")
+    fig.tight_layout()
+    fig.savefig(out / "benchmark_floors.png", dpi=130)
+    plt.close(fig)
+    return section
 
 
 def _mock_figure(plt: Any, scn: Any, loop: dict[str, np.ndarray], w: np.ndarray, out: Path) -> dict:

@@ -13,6 +13,10 @@ substructure asked for, the *measured* displacement ``x_m`` [m] of the specimen 
 * energy error = ``int F (dx_m/dt - dx_t/dt) dt`` [J]
 * damping ratios and frequencies of the modes in a free decay (:func:`free_decay`, matrix pencil)
 
+The vRTHS benchmark's own criteria J1-J9, exactly as its ``F4_evaluation.m`` computes them (std
+instead of RMS, integer lags 0-49, rounding, percent), are in :mod:`rths.metrics.vrths`; they are
+reported beside these under upper-case names (``J1`` ... ``J9``).
+
 References
 ----------
 Silva, Gomez, Maghareh, Dyke & Spencer (2020), "Benchmark control problem for real-time hybrid

@@ -13,6 +13,7 @@ from __future__ import annotations
 import signal
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,9 +26,10 @@ from rths.core.channels import RowBlock
 from rths.core.errors import DataError, Interrupted, ParameterError, RTHSError
 from rths.log.recorder import Recorder, RecordingSummary
 from rths.metrics import TrackingSummary, summarize
+from rths.metrics.vrths import BenchmarkScores, evaluate
 from rths.runtime.loop import LoopResult
 
-__all__ = ["Collector", "RunOutcome", "finish_record", "run_metadata"]
+__all__ = ["Collector", "RunOutcome", "benchmark_scores", "finish_record", "run_metadata"]
 
 
 @dataclass
@@ -46,12 +48,21 @@ class RunOutcome:
     priority: int = 0
     gc: tuple[int, float] = (0, 0.0)
     security: dict[str, int] = field(default_factory=dict)
+    benchmark: BenchmarkScores | None = None
 
     def line(self) -> str:
-        """The one-line summary the CLI prints."""
-        m, t = self.metrics, self.result.timing
+        """The one-line summary the CLI prints (the vRTHS benchmark's J1-J9 when the
+        substructure has a reference response, else the project's J1-J3)."""
+        m, t, b = self.metrics, self.result.timing, self.benchmark
         parts = [f"{self.result.steps} steps"]
-        if m is not None:
+        if b is not None:
+            parts.append(
+                f"J1 {b.J1:.1f} ms, "
+                + ", ".join(f"{k} {v:.2f} %" for k, v in list(b.to_dict().items())[1:])
+            )
+            if m is not None:
+                parts.append(f"sync RMSE {100 * m.sync_rmse:.3f} %")
+        elif m is not None:
             parts += [
                 f"J1 {1e3 * m.j1_delay:.3f} ms",
                 f"J2 {100 * m.j2:.3f} %",
@@ -77,7 +88,8 @@ class RunOutcome:
 
 
 class Collector:
-    """Keeps target, measured, force and age per step for the summary (preallocated; a block's
+    """Keeps target, measured, force and age (and the frame's floors, ``sub_x1..3``, when the
+    substructure logs them) per step for the summary (preallocated; a block's
     columns are copied when the block is handed over, not per step;
     :data:`rths.session.budget.MEMORY_PER_STEP` bytes per step).
 
@@ -90,6 +102,7 @@ class Collector:
     def __init__(self, n: int) -> None:
         self.target, self.measured, self.force = np.zeros(n), np.zeros(n), np.zeros(n)
         self.age = np.zeros(n)
+        self.floors = np.zeros((n, 3))
         self.count = 0
 
     def __call__(self, block: RowBlock) -> None:
@@ -99,7 +112,37 @@ class Collector:
         k0 = int(block.seq[0])
         for name in ("target", "measured", "force", "age"):
             getattr(self, name)[k0 : k0 + n] = block.column(name)
+        if "sub_x3" in block.names:
+            for j, name in enumerate(("sub_x1", "sub_x2", "sub_x3")):
+                self.floors[k0 : k0 + n, j] = block.column(name)
         self.count = k0 + n
+
+
+def benchmark_scores(
+    reference: Callable[[int], np.ndarray],
+    measured: np.ndarray,
+    floors: np.ndarray,
+    dt: float,
+) -> BenchmarkScores:
+    """The vRTHS benchmark's J1-J9 (``F4_evaluation.m``) of a run's rows ``t_1 .. t_n``.
+
+    F4 scores records from ``t = 0``: the rest state is prepended before scoring against the
+    substructure's ``reference(n + 1)`` (floors of the unpartitioned frame from ``t = 0``).
+
+    Parameters
+    ----------
+    reference
+        The substructure's ``reference_response(n)`` (floors [m], shape ``(n, 3)``).
+    measured
+        Measured specimen displacement [m] of rows ``t_1 .. t_n``.
+    floors
+        The numerical substructure's floors [m], shape ``(n, 3)``.
+    dt
+        Step [s].
+    """
+    x_m = np.concatenate([[0.0], measured])
+    numerical = np.vstack([np.zeros((1, 3)), floors])
+    return evaluate(x_m, numerical, reference(x_m.size), dt)
 
 
 def run_metadata(
@@ -183,6 +226,8 @@ def finish_record(
     outcome: RunOutcome,
     collector: Collector,
     error: BaseException | None = None,
+    *,
+    reference: Callable[[int], np.ndarray] | None = None,
 ) -> None:
     """Write the run's end into ``rec`` (module docstring); fills ``outcome``; never raises.
 
@@ -198,6 +243,8 @@ def finish_record(
         What the loop recorded.
     error
         The exception that ended the run, if one did.
+    reference
+        The substructure's ``reference_response`` (the vRTHS frame): F4's J1-J9 are computed.
     """
     dt = scn.run.dt
     k = collector.count
@@ -218,6 +265,13 @@ def finish_record(
             )
         except (DataError, ParameterError) as exc:  # too short or too quiet a record
             outcome.events.append(f"metrics not computed: {exc}")
+        if callable(reference):  # the vRTHS benchmark frame: F4's J1-J9
+            try:
+                outcome.benchmark = benchmark_scores(
+                    reference, collector.measured[:k], collector.floors[:k], dt
+                )
+            except (DataError, ParameterError) as exc:
+                outcome.events.append(f"benchmark criteria not computed: {exc}")
         outcome.saturated = _saturations(scn, collector.measured[:k], collector.force[:k])
         for channel, count in outcome.saturated.items():
             if count:
@@ -263,6 +317,8 @@ def _summary(outcome: RunOutcome) -> dict[str, str]:
     }
     if outcome.metrics is not None:
         out.update({k: repr(v) for k, v in outcome.metrics.to_dict().items()})
+    if outcome.benchmark is not None:
+        out.update({k: repr(v) for k, v in outcome.benchmark.to_dict().items()})
     if outcome.clock == "realtime":
         out.update(
             {

@@ -53,12 +53,18 @@ from rths.runtime.clocks import (
 from rths.runtime.guard import CommandGuard
 from rths.runtime.loop import InProcessLink, LinkSample, Loop, LoopResult
 from rths.session.budget import check_budget, step_cost
-from rths.session.outcome import Collector, RunOutcome, finish_record, run_metadata
+from rths.session.outcome import (
+    Collector,
+    RunOutcome,
+    benchmark_scores,
+    finish_record,
+    run_metadata,
+)
 from rths.session.stopping import StopRequest
 from rths.wire.auth import read_secret
 from rths.wire.keys import check_run_id, new_run_id
 
-__all__ = ["RunOptions", "RunOutcome", "StopRequest", "run_scenario"]
+__all__ = ["RunOptions", "RunOutcome", "StopRequest", "benchmark_scores", "run_scenario"]
 
 SPECIMEN_TOPIC = "rths/specimen"
 
@@ -343,7 +349,14 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
             sys.setswitchinterval(switch)
             if progress is not None:
                 progress.finish()
-            finish_record(rec, scn, outcome, collector, error)
+            finish_record(
+                rec,
+                scn,
+                outcome,
+                collector,
+                error,
+                reference=getattr(substructure, "reference_response", None),
+            )
     outcome.recording = rec.summary
     return outcome
 
