@@ -101,6 +101,7 @@ def test_the_command_runs_a_campaign_and_resumes(tmp_path, capsys, monkeypatch, 
     assert main(argv) == 0
     out = capsys.readouterr().out
     assert "2 runs (2 already in the table)" in out and out.rstrip().endswith(digest)
+    assert "2 trials (2 from the table); capacity" in out
     assert "Case 2" in out and (tmp_path / "j2.png").exists()
 
 
