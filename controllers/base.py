@@ -38,6 +38,11 @@ class Compensator(ABC):
     * ``state()`` returns named internal variables for logging (e.g. the feedforward and feedback
       parts of the command, estimated delay); may be empty.
     * ``_reset_impl()`` returns to the initial state.
+
+    Parameters
+    ----------
+    dt : float
+        Loop step [s], > 0, fixed at construction.
     """
 
     #: Registry name used in scenario files and on the CLI, e.g. ``"ff_lqg"`` (set by the

@@ -26,7 +26,13 @@ __all__ = [
 
 @COMPENSATORS.register("none")
 class NoCompensation(Compensator):
-    """The command is the target: ``u_k = r_{k+1}`` (the reference every compensator must beat)."""
+    """The command is the target: ``u_k = r_{k+1}`` (the reference every compensator must beat).
+
+    Parameters
+    ----------
+    dt : float
+        Loop step [s], > 0.
+    """
 
     @classmethod
     def from_options(cls, options: NoOptions, *, dt: float, **_: object) -> NoCompensation:
@@ -47,6 +53,18 @@ def extrapolation_weights(order: int, steps_ahead: float) -> np.ndarray:
     evaluated ``h = steps_ahead`` samples ahead.  Exact for polynomials of that degree; for a
     sinusoid of angular frequency ``w`` the error is
     ``(w dt)^(order+1) * prod_j (h + j) / (order+1)!`` to leading order.
+
+    Parameters
+    ----------
+    order : int
+        Polynomial degree, >= 1 (the ``polynomial`` kind allows 1 to 4).
+    steps_ahead : float
+        Extrapolation horizon ``h`` [steps of dt], >= 0 (need not be an integer).
+
+    Returns
+    -------
+    numpy.ndarray, shape (order + 1,)
+        The weights ``w_0 .. w_order`` [-]; they sum to 1.
     """
     order = check_positive_int(order, "extrapolation order")
     h = check_nonnegative(steps_ahead, "extrapolation steps ahead")

@@ -21,7 +21,37 @@ __all__ = ["FFLQGCompensator", "FFLQGOptions"]
 class FFLQGOptions(LQGWeights, FeedforwardOptions):
     """Options of the ``ff_lqg`` compensator kind: those of ``ff``
     (:class:`~controllers.feedforward.FeedforwardOptions`) and of ``lqg``
-    (:class:`~controllers.lqg.LQGWeights`)."""
+    (:class:`~controllers.lqg.LQGWeights`).
+
+    The descriptions' first sentences repeat the parents' (``rths kinds`` shows the first sentence
+    of the most derived class's; keep them in step).
+
+    Parameters
+    ----------
+    order : int
+        Order of the low-order model inverted (Phillips & Spencer: 3).  Range 1 .. 5, default 3.
+    band_hz : tuple of (float, float)
+        Band [Hz] over which a higher-order nominal model is fitted by the low-order one.
+        Needs ``0 <= low < high``; default 0-20 Hz.
+    hold_correction : bool
+        Evaluate the inverse at mid-step to cancel the zero-order-hold lag.  Default True.
+    error_weight : float
+        ``q_y``: weight of the squared displacement error [m^2] relative to the squared feedback
+        command [m^2] (dimensionless).  Range > 0, default 1e5.
+    integral_weight : float
+        ``q_z``: weight of the squared integrated error [m^2 s^2], [1/s^2].  ``sqrt(q_z/q_y)`` is
+        roughly the angular frequency [rad/s] below which the integral dominates.  Range
+        >= 0, default 1e8.
+    noise_rms : float
+        Sensor noise RMS [m]; the Kalman filter's measurement noise variance is its square.
+        Range > 0, default 2e-5.
+    process_noise_rms : float
+        RMS of a white disturbance added to the command [m] (model uncertainty); with
+        ``noise_rms`` it sets the Kalman filter bandwidth.  Range > 0, default 1.5e-4.
+    pade_order : int
+        Order of the Padé approximant that replaces a transport delay of the nominal model.
+        Range 1 .. 10, default 3.
+    """
 
     def __post_init__(self) -> None:
         FeedforwardOptions.__post_init__(self)

@@ -184,6 +184,26 @@ def discrete_nominal(
     """ZOH discretisation ``(A, B, C)`` of the nominal model (balanced coordinates).
 
     A transport delay [s] is replaced by a Padé approximant of order ``pade_order`` in series.
+
+    Parameters
+    ----------
+    nominal : control.TransferFunction or control.StateSpace
+        Stable, strictly proper continuous-time SISO command-to-measured model [m/m].
+    dt : float
+        Loop step [s], > 0 (the ZOH sampling period).
+    delay : float
+        Transport delay of the nominal model [s], >= 0 (default 0).
+    pade_order : int
+        Order of the Padé approximant of the delay (default 3).
+
+    Returns
+    -------
+    A : numpy.ndarray, shape (n, n)
+        Discrete state matrix.
+    B : numpy.ndarray, shape (n,)
+        Input vector (command [m]).
+    C : numpy.ndarray, shape (n,)
+        Output vector (measured displacement [m]).
     """
     dt = check_positive(dt, "time step dt")
     delay = check_nonnegative(delay, "nominal delay")

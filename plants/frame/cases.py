@@ -140,7 +140,15 @@ def _sorted_modes(mass: FloatArray, stiffness: FloatArray) -> tuple[FloatArray, 
 
 
 def natural_frequencies(mass: FloatArray, stiffness: FloatArray) -> FloatArray:
-    """Natural frequencies [Hz] of ``(M, K)`` in ascending order."""
+    """Natural frequencies [Hz] of ``(M, K)`` in ascending order.
+
+    Parameters
+    ----------
+    mass : numpy.ndarray, shape (n, n)
+        Mass matrix ``M`` [kg].
+    stiffness : numpy.ndarray, shape (n, n)
+        Stiffness matrix ``K`` [N/m].
+    """
     return _sorted_modes(np.asarray(mass, float), np.asarray(stiffness, float))[0] / (2 * math.pi)
 
 
@@ -226,7 +234,13 @@ CASES: dict[int, BenchmarkCase] = {
 
 
 def benchmark_case(number: int) -> BenchmarkCase:
-    """The benchmark case ``number`` (1-4); :class:`ParameterError` for any other value."""
+    """The benchmark case ``number`` (1-4); :class:`ParameterError` for any other value.
+
+    Parameters
+    ----------
+    number : int
+        Case number, 1 .. 4 (:data:`CASES`).
+    """
     if isinstance(number, bool) or not isinstance(number, int) or number not in CASES:
         raise ParameterError(f"benchmark case must be one of 1, 2, 3, 4; got {number!r}")
     return CASES[number]

@@ -168,6 +168,8 @@ class ChirpMotion(GroundMotion):
         Initial frequency and frequency at the target time [Hz] (benchmark 0.1 and 40).
     duration
         Target time and run length [s] (benchmark 90).
+    name : str
+        Record name (default ``"chirp"``).
     """
 
     f_start: float = 0.1

@@ -14,7 +14,14 @@ __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
-    """Register ``rths check``."""
+    """Register ``rths check``.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``rths`` parser's sub-command group (``ArgumentParser.add_subparsers()``);
+        the new sub-parser is returned.
+    """
     p = subparsers.add_parser(
         "check",
         help="exit non-zero when a run's sync-subspace RMSE exceeds a bound (for CI)",
@@ -46,7 +53,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 def run(args: argparse.Namespace) -> int:
-    """Compare the log's sync-subspace RMSE with the bound; 0 pass, 1 fail."""
+    """Compare the log's sync-subspace RMSE with the bound; 0 pass, 1 fail.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line of ``rths check`` (the options :func:`add_parser`
+        declares).
+    """
     import math
 
     import numpy as np

@@ -36,7 +36,14 @@ _PHYSICAL = ("length", "tension", "mass_per_length")
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
-    """Register ``rths damping``."""
+    """Register ``rths damping``.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``rths`` parser's sub-command group (``ArgumentParser.add_subparsers()``);
+        the new sub-parser is returned.
+    """
     p = subparsers.add_parser(
         "damping",
         help="damping ratios of a cable with a point damper (exact equation and FE)",
@@ -138,7 +145,14 @@ def _pairs(exact: tuple[Any, ...], fe: tuple[Any, ...]) -> list[tuple[Any | None
 
 
 def run(args: argparse.Namespace) -> int:
-    """Compute and print the roots; returns 0."""
+    """Compute and print the roots; returns 0.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line of ``rths damping`` (the options :func:`add_parser`
+        declares).
+    """
     from plants.cable.frequency_equation import (
         asymptotic_damping,
         exact_roots,

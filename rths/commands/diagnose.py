@@ -34,7 +34,14 @@ __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
-    """Register ``rths diagnose``."""
+    """Register ``rths diagnose``.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``rths`` parser's sub-command group (``ArgumentParser.add_subparsers()``);
+        the new sub-parser is returned.
+    """
     p = subparsers.add_parser(
         "diagnose",
         help="locate, attribute and shrink the sim-to-real gap of test records",
@@ -68,7 +75,14 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Load the records and the nominal model, diagnose, print and write the outputs."""
+    """Load the records and the nominal model, diagnose, print and write the outputs.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line of ``rths diagnose`` (the options :func:`add_parser`
+        declares).
+    """
     from rths.diagnose import Options, diagnose, load_nominal, load_record
     from rths.diagnose.channels import DEFAULT_CUTOFF
     from rths.diagnose.effects import EFFECTS

@@ -15,7 +15,14 @@ _FAMILIES = ("substructure", "specimen", "actuator", "compensator")
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
-    """Register ``rths kinds``."""
+    """Register ``rths kinds``.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``rths`` parser's sub-command group (``ArgumentParser.add_subparsers()``);
+        the new sub-parser is returned.
+    """
     p = subparsers.add_parser(
         "kinds",
         help="list the kinds a scenario can name, with their options",
@@ -28,7 +35,18 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 def describe(families: tuple[str, ...] = _FAMILIES, markdown: bool = False) -> str:
-    """The text ``rths kinds`` prints."""
+    """The text ``rths kinds`` prints.
+
+    Parameters
+    ----------
+    families : tuple of str
+        Families to list, of ``"substructure"``, ``"specimen"``, ``"actuator"`` and
+        ``"compensator"`` (default: all four, in that order).
+    markdown : bool
+        True: one Markdown table per family (kind, summary, option keys with defaults), the
+        README's table of kinds; False (default): plain text with every option's type, default
+        and meaning.
+    """
     from rths.config.kinds import registry
     from rths.config.options import describe_options
 
@@ -59,7 +77,14 @@ def describe(families: tuple[str, ...] = _FAMILIES, markdown: bool = False) -> s
 
 
 def run(args: argparse.Namespace) -> int:
-    """Print the kinds."""
+    """Print the kinds.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line of ``rths kinds`` (the options :func:`add_parser`
+        declares).
+    """
     families = _FAMILIES if args.family is None else (args.family,)
     print(describe(families, args.markdown), end="")
     return 0

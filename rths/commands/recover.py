@@ -9,7 +9,14 @@ __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
-    """Register ``rths recover``."""
+    """Register ``rths recover``.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``rths`` parser's sub-command group (``ArgumentParser.add_subparsers()``);
+        the new sub-parser is returned.
+    """
     p = subparsers.add_parser(
         "recover",
         help="rewrite the log of a killed run (no footer, or a corrupt chunk) as a finished log",
@@ -24,7 +31,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 def run(args: argparse.Namespace) -> int:
-    """Write the finished copy; print one line saying what was kept."""
+    """Write the finished copy; print one line saying what was kept.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line of ``rths recover`` (the options :func:`add_parser`
+        declares).
+    """
     from rths.log.recover import recover
 
     out = args.out or args.log.with_name(f"{args.log.stem}.recovered.mcap")

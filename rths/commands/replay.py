@@ -12,7 +12,14 @@ DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
-    """Register ``rths replay``."""
+    """Register ``rths replay``.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``rths`` parser's sub-command group (``ArgumentParser.add_subparsers()``);
+        the new sub-parser is returned.
+    """
     p = subparsers.add_parser(
         "replay",
         help="republish a recorded run on zenoh at its recorded pace",
@@ -55,7 +62,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 def run(args: argparse.Namespace) -> int:
-    """Republish the log; returns 0."""
+    """Republish the log; returns 0.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line of ``rths replay`` (the options :func:`add_parser`
+        declares).
+    """
     import math
 
     from rths.core.errors import DataError

@@ -9,7 +9,14 @@ __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
-    """Register ``rths report``."""
+    """Register ``rths report``.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``rths`` parser's sub-command group (``ArgumentParser.add_subparsers()``);
+        the new sub-parser is returned.
+    """
     p = subparsers.add_parser(
         "report",
         help="write metrics.json and figures (time history, sync subspace, RTHS vs mock)",
@@ -29,7 +36,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 def run(args: argparse.Namespace) -> int:
-    """Write metrics.json and the figures; returns 0."""
+    """Write metrics.json and the figures; returns 0.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line of ``rths report`` (the options :func:`add_parser`
+        declares).
+    """
     from rths.analysis.report import write_report
     from rths.core.errors import DataError
 

@@ -31,7 +31,14 @@ class _KindsFormatter(argparse.HelpFormatter):
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
-    """Register ``rths run``."""
+    """Register ``rths run``.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``rths`` parser's sub-command group (``ArgumentParser.add_subparsers()``);
+        the new sub-parser is returned.
+    """
     p = subparsers.add_parser(
         "run",
         formatter_class=_KindsFormatter,
@@ -129,6 +136,12 @@ def run(args: argparse.Namespace) -> int:
     full disk stopped it (:class:`rths.core.errors.RunFault`); 128 + N a signal N stopped it
     (SIGINT 130, SIGTERM 143, SIGHUP 129) -- in every case after the log was finished with its
     summary.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line of ``rths run`` (the options :func:`add_parser`
+        declares).
     """
     from rths.config.scenario import load_scenario
 

@@ -9,7 +9,14 @@ __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
-    """Register ``rths specimen``."""
+    """Register ``rths specimen``.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``rths`` parser's sub-command group (``ArgumentParser.add_subparsers()``);
+        the new sub-parser is returned.
+    """
     p = subparsers.add_parser(
         "specimen",
         help="serve the emulated lab (actuator + specimen + converters) over zenoh",
@@ -61,7 +68,14 @@ def run(args: argparse.Namespace) -> int:
     """Serve the lab until the coordinator stops; returns 0.
 
     SIGTERM and SIGHUP end it as Ctrl-C does (:class:`rths.core.errors.Interrupted`: its zenoh
-    session closes, the coordinator sees it leave)."""
+    session closes, the coordinator sees it leave).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line of ``rths specimen`` (the options :func:`add_parser`
+        declares).
+    """
     import signal
     import sys
 

@@ -36,7 +36,14 @@ __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
-    """Register ``rths sweep``."""
+    """Register ``rths sweep``.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``rths`` parser's sub-command group (``ArgumentParser.add_subparsers()``);
+        the new sub-parser is returned.
+    """
     p = subparsers.add_parser(
         "sweep",
         help="stepped-sine shake-table emulation of the S1 TMDI specimens (FRFs, figures)",
@@ -103,7 +110,14 @@ def _print_table(summary: dict[str, Any]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the sweep, write the outputs, print the summary; returns 0."""
+    """Run the sweep, write the outputs, print the summary; returns 0.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line of ``rths sweep`` (the options :func:`add_parser`
+        declares).
+    """
     from rths.experiments.s1_shake_table.report import (
         frf_records,
         frf_table,

@@ -55,7 +55,13 @@ def _table(scn: Scenario, name: str) -> Iterator[None]:
 # ---------------------------------------------------------------------------------- structure
 def nominal_device(scn: Scenario) -> object | None:
     """The ``[model]`` device at prototype scale (impedances times ``scaling.impedance``), in
-    the form the substructure kind carries it (its ``nominal_device``); None for no model."""
+    the form the substructure kind carries it (its ``nominal_device``); None for no model.
+
+    Parameters
+    ----------
+    scn : rths.config.scenario.Scenario
+        The parsed scenario.
+    """
     target = registry("substructure").get(scn.substructure.kind).target
     model = None if scn.model is None else scn.model.scaled(scn.scaling.impedance)
     with _table(scn, "model"):
@@ -71,7 +77,17 @@ def nominal_device(scn: Scenario) -> object | None:
 
 
 def substructure(scn: Scenario, device: Any = "model") -> Substructure:
-    """The scenario's numerical substructure carrying ``device`` (default: the ``[model]``)."""
+    """The scenario's numerical substructure carrying ``device`` (default: the ``[model]``).
+
+    Parameters
+    ----------
+    scn : rths.config.scenario.Scenario
+        The parsed scenario.
+    device : object
+        The damper the substructure carries, in the form its kind takes (see
+        :func:`nominal_device`), or ``None`` for a bare substructure; the default ``"model"``
+        installs the ``[model]`` device at prototype scale.
+    """
     dev = nominal_device(scn) if isinstance(device, str) and device == "model" else device
     kind = registry("substructure").get(scn.substructure.kind)
     with _table(scn, "substructure"):
@@ -81,7 +97,16 @@ def substructure(scn: Scenario, device: Any = "model") -> Substructure:
 
 # ---------------------------------------------------------------------------------- specimen
 def specimen(scn: Scenario, rng: np.random.Generator | None = None) -> Specimen:
-    """The physical specimen of the emulated lab (``rng``: a Monte-Carlo draw)."""
+    """The physical specimen of the emulated lab (``rng``: a Monte-Carlo draw).
+
+    Parameters
+    ----------
+    scn : rths.config.scenario.Scenario
+        The parsed scenario.
+    rng : numpy.random.Generator or None
+        Draws the specimen's perturbed parameters of a Monte-Carlo sample; None (default)
+        builds the nominal specimen.
+    """
     kind = registry("specimen").get(scn.specimen.kind)
     with _table(scn, "specimen"):
         built: Specimen = kind.build(scn.specimen.options, rng=rng)
@@ -89,13 +114,31 @@ def specimen(scn: Scenario, rng: np.random.Generator | None = None) -> Specimen:
 
 
 def model_stiffness(scn: Scenario) -> control.TransferFunction | float:
-    """Dynamic stiffness ``K(s) = F/x`` [N/m] of the ``[model]`` device, specimen scale."""
+    """Dynamic stiffness ``K(s) = F/x`` [N/m] of the ``[model]`` device, specimen scale.
+
+    Parameters
+    ----------
+    scn : rths.config.scenario.Scenario
+        The parsed scenario.
+    """
     return 0.0 if scn.model is None else scn.model.dynamic_stiffness()
 
 
 # ---------------------------------------------------------------------------------- actuator
 def actuator(scn: Scenario, spec: Specimen, rng: np.random.Generator | None = None) -> Actuator:
-    """The lab's actuator driving ``spec`` (``rng``: a Monte-Carlo draw)."""
+    """The lab's actuator driving ``spec`` (``rng``: a Monte-Carlo draw).
+
+    Parameters
+    ----------
+    scn : rths.config.scenario.Scenario
+        The parsed scenario.
+    spec : plants.base.Specimen
+        The specimen the actuator drives (its force couples back: control-structure
+        interaction).
+    rng : numpy.random.Generator or None
+        Draws the actuator's perturbed parameters of a Monte-Carlo sample; None (default)
+        builds the nominal actuator.
+    """
     kind = registry("actuator").get(scn.actuator.kind)
     with _table(scn, "actuator"):
         built: Actuator = kind.build(scn.actuator.options, specimen=spec, dt=scn.run.dt, rng=rng)
@@ -104,7 +147,13 @@ def actuator(scn: Scenario, spec: Specimen, rng: np.random.Generator | None = No
 
 def nominal_plant(scn: Scenario) -> tuple[control.TransferFunction, float]:
     """The compensator's command→measured model and its transport delay [s] (the actuator
-    kind's ``nominal_plant`` with the ``[model]`` device installed)."""
+    kind's ``nominal_plant`` with the ``[model]`` device installed).
+
+    Parameters
+    ----------
+    scn : rths.config.scenario.Scenario
+        The parsed scenario.
+    """
     target = registry("actuator").get(scn.actuator.kind).target
     with _table(scn, "actuator"):
         plant: tuple[control.TransferFunction, float] = target.nominal_plant(
@@ -115,7 +164,13 @@ def nominal_plant(scn: Scenario) -> tuple[control.TransferFunction, float]:
 
 # ---------------------------------------------------------------------------------- lab, loop
 def converters(scn: Scenario) -> LabConverters:
-    """DAC and ADC channels of ``[lab]``."""
+    """DAC and ADC channels of ``[lab]``.
+
+    Parameters
+    ----------
+    scn : rths.config.scenario.Scenario
+        The parsed scenario.
+    """
     c = scn.lab
     with _table(scn, "lab"):
         return LabConverters(
@@ -133,6 +188,15 @@ def lab(
     """The emulated lab (specimen behind the actuator, converters, noise seeded by ``seed``).
 
     ``rng`` draws the specimen and actuator of a Monte-Carlo sample.
+
+    Parameters
+    ----------
+    scn : rths.config.scenario.Scenario
+        The parsed scenario.
+    seed : int or None
+        Seed of the converters' noise; None (default) takes ``[run] seed``.
+    rng : numpy.random.Generator or None
+        Draws the specimen and actuator of a Monte-Carlo sample; None (default): nominal.
     """
     spec = specimen(scn, rng)
     return EmulatedLab(
@@ -144,6 +208,16 @@ def compensator(scn: Scenario, kind: str | None = None, extra_delay: float = 0.0
     """The ``[compensator]`` (or ``kind`` with its default options) on the nominal plant.
 
     ``extra_delay`` [s] is added to the nominal plant's transport delay (e.g. the realtime link's).
+
+    Parameters
+    ----------
+    scn : rths.config.scenario.Scenario
+        The parsed scenario.
+    kind : str or None
+        A registered compensator kind to build instead, with its default options; None
+        (default) builds the ``[compensator]`` table's kind with its options.
+    extra_delay : float
+        Delay [s] added to the nominal plant's transport delay (default 0).
     """
     plant, delay = nominal_plant(scn)
     name = scn.compensator.kind if kind is None else kind
@@ -157,14 +231,26 @@ def compensator(scn: Scenario, kind: str | None = None, extra_delay: float = 0.0
 
 
 def correction_filter(scn: Scenario) -> LowPass | None:
-    """The low-pass on the force correction (None when ``correction_filter = 0``)."""
+    """The low-pass on the force correction (None when ``correction_filter = 0``).
+
+    Parameters
+    ----------
+    scn : rths.config.scenario.Scenario
+        The parsed scenario.
+    """
     f = scn.loop.correction_filter
     with _table(scn, "loop"):
         return LowPass(f, scn.run.dt) if f > 0 else None
 
 
 def guard_limits(scn: Scenario) -> GuardLimits:
-    """The specimen side's command guard (:mod:`rths.runtime.guard`) from ``[loop]``."""
+    """The specimen side's command guard (:mod:`rths.runtime.guard`) from ``[loop]``.
+
+    Parameters
+    ----------
+    scn : rths.config.scenario.Scenario
+        The parsed scenario.
+    """
     lp = scn.loop
     with _table(scn, "loop"):
         return GuardLimits(lp.stroke, lp.max_velocity, lp.ramp_velocity)

@@ -55,6 +55,12 @@ def load_kinds() -> None:
 
 def registry(family: str) -> Registry:
     """The filled registry of ``family`` (``"substructure"``, ``"specimen"``, ``"actuator"``,
-    ``"compensator"``)."""
+    ``"compensator"``).
+
+    Parameters
+    ----------
+    family : str
+        ``"substructure"``, ``"specimen"``, ``"actuator"`` or ``"compensator"``.
+    """
     load_kinds()
     return FAMILIES[family]

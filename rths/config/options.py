@@ -48,6 +48,13 @@ _MISSING = dataclasses.MISSING
 def parse_options(table: Table, options_cls: type) -> Any:
     """The ``options_cls`` instance the table describes (every key checked).
 
+    Parameters
+    ----------
+    table : rths.config.toml.Table
+        The scenario table (e.g. ``[actuator]``); every key is consumed and checked.
+    options_cls : type
+        The kind's frozen options dataclass (see the module docstring for the types understood).
+
     Raises
     ------
     ConfigError
@@ -80,7 +87,19 @@ def parse_options(table: Table, options_cls: type) -> Any:
 @dataclass(frozen=True)
 class OptionDoc:
     """One option of a kind, for help texts: key, type, default (``None``: required) and the
-    description from the options class's numpydoc ``Parameters`` section."""
+    description from the options class's numpydoc ``Parameters`` section.
+
+    Attributes
+    ----------
+    key : str
+        The TOML key (a field of the options class, or ``preset``).
+    type : str
+        The type as shown to users, e.g. ``float`` or ``'a' | 'b'``.
+    default : str or None
+        The default as text; None for a required key.
+    description : str
+        First sentence of the option's numpydoc description (``""`` if undocumented).
+    """
 
     key: str
     type: str
@@ -89,7 +108,13 @@ class OptionDoc:
 
 
 def describe_options(options_cls: type) -> list[OptionDoc]:
-    """The options of a kind, in declaration order (``preset`` first when the class has some)."""
+    """The options of a kind, in declaration order (``preset`` first when the class has some).
+
+    Parameters
+    ----------
+    options_cls : type
+        The kind's frozen options dataclass.
+    """
     hints = get_type_hints(options_cls)
     docs: dict[str, str] = {}
     for cls in reversed(options_cls.__mro__):  # a subclass's description wins

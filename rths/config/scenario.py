@@ -72,7 +72,23 @@ MODEL_KINDS = ("imd", "linear", "inerter", "none")
 
 @dataclass(frozen=True)
 class RunSpec:
-    """``[run]``: name, duration [s], loop rate [Hz], clock and seed of the lab's noise."""
+    """``[run]``: name, duration [s], loop rate [Hz], clock and seed of the lab's noise.
+
+    Attributes
+    ----------
+    name : str
+        Name of the run (appears in the log's metadata and the run id).
+    duration : float
+        Simulated duration [s], > 0, at most :data:`MAX_DURATION` (a day) and at least one
+        loop step ``1/rate``.
+    rate : float
+        Fixed loop rate [Hz], > 0, at most :data:`MAX_RATE` (vRTHS benchmark: 4096).
+    clock : str
+        One of :data:`CLOCKS`: ``"lockstep"`` (default; deterministic), ``"realtime"``
+        (wall-clock paced) or ``"fast"`` (one process, no zenoh).
+    seed : int
+        Seed of the emulated lab's noise, >= 0 (default 0).
+    """
 
     name: str
     duration: float
@@ -93,7 +109,16 @@ class RunSpec:
 
 @dataclass(frozen=True)
 class Component:
-    """A component table: the registered ``kind`` and its validated options dataclass."""
+    """A component table: the registered ``kind`` and its validated options dataclass.
+
+    Attributes
+    ----------
+    kind : str
+        Name of the registered kind (``rths kinds`` lists them).
+    options : Any
+        The kind's frozen options dataclass, parsed by
+        :func:`rths.config.options.parse_options` (units as documented there).
+    """
 
     kind: str
     options: Any
@@ -101,7 +126,30 @@ class Component:
 
 @dataclass(frozen=True)
 class LabSpec:
-    """``[lab]``: converters (bits, +/- full scale [V]), calibrations and noise [V RMS]."""
+    """``[lab]``: converters (bits, +/- full scale [V]), calibrations and noise [V RMS].
+
+    The command DAC and the displacement ADC share ``displacement_per_volt``; the force ADC uses
+    ``force_per_volt`` (:class:`plants.lab.Converter`).
+
+    Attributes
+    ----------
+    bits : int
+        Converter resolution [bits], >= 1 (default 16; vRTHS benchmark: 18).
+    full_scale : float
+        Converter input range ``+/- full_scale`` [V], > 0 (default 10; benchmark: 3.8).
+    displacement_per_volt : float
+        Displacement calibration [m/V], > 0 (default 0.0076); ``displacement_per_volt *
+        full_scale`` at most 10 m.
+    force_per_volt : float
+        Load-cell calibration [N/V], > 0 (default 220); ``force_per_volt * full_scale`` at
+        most 1e9 N.
+    command_noise : float
+        RMS of the noise on the command DAC [V], 0 .. ``full_scale`` (default 0).
+    displacement_noise : float
+        RMS of the noise on the displacement ADC [V], 0 .. ``full_scale`` (default 5e-4).
+    force_noise : float
+        RMS of the noise on the force ADC [V], 0 .. ``full_scale`` (default 1e-3).
+    """
 
     bits: int = 16
     full_scale: float = 10.0
@@ -122,7 +170,25 @@ MAX_LAG_TIME = 1.0
 class LoopSpec:
     """``[loop]``: low-pass on the force correction [Hz] (0: none), the stroke interlock [m],
     the specimen side's command rate limit and ramp-down rate [m/s] and the measurement
-    watchdog [steps] (:mod:`rths.runtime.guard`, :class:`rths.runtime.loop.Loop`)."""
+    watchdog [steps] (:mod:`rths.runtime.guard`, :class:`rths.runtime.loop.Loop`).
+
+    Attributes
+    ----------
+    correction_filter : float
+        Cut-off [Hz] of the low-pass on the force correction, >= 0 and below the Nyquist
+        frequency ``rate/2``; 0 turns it off (default 60).
+    stroke : float
+        Stroke interlock: largest ``|command|`` [m], > 0 (default inf: none).
+    max_velocity : float
+        Largest command rate [m/s] the specimen side lets through, > 0, at most
+        ``MAX_VELOCITY`` = 10 m/s (default 0.5).
+    ramp_velocity : float
+        Rate [m/s] of the ramp back to zero after a trip or stop, > 0 and <= ``max_velocity``
+        (default 0.05).
+    max_lag : int
+        Measurement watchdog [steps], >= 1, with ``max_lag * dt`` at most ``MAX_LAG_TIME`` =
+        1 s (default 5).
+    """
 
     correction_filter: float = 60.0
     stroke: float = math.inf
@@ -138,6 +204,39 @@ class Scenario:
     ``model`` is the ``[model]`` device at specimen scale, or None for ``kind = "none"``;
     ``study`` is the ``[study]`` table as parsed (None without one); ``overrides`` are the
     dotted-key overrides applied on top of ``text`` (:func:`parse_scenario`), in order.
+
+    Attributes
+    ----------
+    source : str
+        Where the scenario came from (a file path or ``"<scenario>"``), used in error messages.
+    text : str
+        The scenario's TOML text as read (logged as run metadata).
+    run : RunSpec
+        ``[run]``.
+    scaling : rths.core.scaling.Scaling
+        ``[scaling]``: specimen/prototype displacement and prototype/specimen force factors
+        [-] (default 1, 1).
+    substructure : Component
+        ``[substructure]``: the numerical substructure kind (prototype scale).
+    specimen : Component
+        ``[specimen]``: the physical specimen of the emulated lab (the truth).
+    actuator : Component
+        ``[actuator]``: the lab's actuator kind.
+    lab : LabSpec
+        ``[lab]``: converters, calibrations and noise.
+    model : plants.device_model.DeviceModel or None
+        ``[model]``: the nominal device at specimen scale (inertance [kg], damping [N s/m],
+        stiffness [N/m]); None for ``kind = "none"`` (default).
+    compensator : Component
+        ``[compensator]`` (default kind ``"ff_lqg"``).
+    loop : LoopSpec
+        ``[loop]``.
+    monte_carlo_draws : int
+        ``[monte_carlo] draws``: number of perturbed benchmark plants, >= 0 (default 0).
+    study : mapping or None
+        ``[study]`` as parsed (``rths study``'s keys, values and sampling); None without one.
+    overrides : tuple of (str, object)
+        Dotted keys and values applied on top of ``text`` (:func:`parse_scenario`), in order.
     """
 
     source: str
@@ -166,9 +265,9 @@ def load_scenario(path: str | Path, overrides: Mapping[str, Any] | None = None) 
 
     Parameters
     ----------
-    path
-        The scenario TOML file.
-    overrides
+    path : str or pathlib.Path
+        The scenario's TOML file.
+    overrides : mapping of str to object, optional
         Dotted keys and values replacing the file's (:func:`parse_scenario`).
     """
     doc, text = load_toml(path)
@@ -184,11 +283,11 @@ def parse_scenario(
 
     Parameters
     ----------
-    text
+    text : str
         The scenario's TOML text.
-    source
-        Where it came from (named in error messages).
-    overrides
+    source : str
+        Name used for the scenario in error messages (default ``"<scenario>"``).
+    overrides : mapping of str to object, optional
         Dotted keys replacing values of the text before it is validated, e.g.
         ``{"specimen.inertance": 1200.0, "substructure.load.amplitude": 20.0}``: the value is
         checked like the file's own (a key the table does not take is an error naming it).  The

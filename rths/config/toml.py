@@ -29,7 +29,17 @@ _MISSING: Any = object()
 
 
 class Table:
-    """A TOML table whose keys are consumed one by one; :meth:`finish` rejects the leftovers."""
+    """A TOML table whose keys are consumed one by one; :meth:`finish` rejects the leftovers.
+
+    Parameters
+    ----------
+    data : dict
+        The table's parsed keys and values (copied).
+    where : str
+        Dotted name of the table in the document (``""``: the top level), used in error messages.
+    source : str
+        Name of the document (a file path or ``"<scenario>"``), used in error messages.
+    """
 
     def __init__(self, data: dict[str, Any], where: str, source: str) -> None:
         self._data = dict(data)
@@ -179,7 +189,15 @@ class Table:
 
 
 def parse_toml(text: str, source: str) -> Table:
-    """Parse TOML text; syntax errors become :class:`ConfigError` naming ``source``."""
+    """Parse TOML text; syntax errors become :class:`ConfigError` naming ``source``.
+
+    Parameters
+    ----------
+    text : str
+        The TOML text.
+    source : str
+        Name of the document (a file path or ``"<scenario>"``), used in error messages.
+    """
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -190,7 +208,13 @@ def parse_toml(text: str, source: str) -> Table:
 
 
 def load_toml(path: str | Path) -> tuple[Table, str]:
-    """Read and parse a TOML file; returns the top-level table and the raw text."""
+    """Read and parse a TOML file; returns the top-level table and the raw text.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The UTF-8 TOML file.
+    """
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8")

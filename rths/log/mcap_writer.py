@@ -102,7 +102,24 @@ class TopicStats:
 @dataclass(frozen=True, slots=True)
 class RecordingSummary:
     """Returned by :meth:`Recorder.close`: per-topic counts, events, largest queue backlog,
-    messages lost after a failed write and what endangered the log (None: nothing)."""
+    messages lost after a failed write and what endangered the log (None: nothing).
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The MCAP file written.
+    topics : Mapping[str, TopicStats]
+        Per-topic counts, by topic name.
+    events : int
+        Number of events written.
+    max_backlog : int
+        Largest number of items queued for the writer thread at once (a row block counts as one).
+    lost : int
+        Messages that could not be written after a failed write (default 0).
+    fault : str or None
+        The message of what endangered the log (disk nearly full, a failed write); None
+        (default) if nothing did.
+    """
 
     path: Path
     topics: Mapping[str, TopicStats]
@@ -127,7 +144,13 @@ def _messages(item: tuple[Any, ...]) -> int:
 
 
 def open_schema(topic: str) -> bytes:
-    """Schema for a topic first seen from another process: any JSON object."""
+    """Schema for a topic first seen from another process: any JSON object.
+
+    Parameters
+    ----------
+    topic : str
+        The topic's name (the schema's title).
+    """
     return json.dumps(
         {"title": topic, "type": "object", "description": "log record from another process"}
     ).encode()

@@ -257,12 +257,24 @@ def iter_messages(
 
 
 def is_complete(path: str | os.PathLike[str]) -> bool:
-    """True if the log ends with its footer (the writer finished); False if it was cut short."""
+    """True if the log ends with its footer (the writer finished); False if it was cut short.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The MCAP log.
+    """
     return any(isinstance(r, Footer) for r in _records(path))
 
 
 def list_topics(path: str | os.PathLike[str]) -> dict[str, int]:
-    """``{topic: number of messages}`` in the log, in order of channel registration."""
+    """``{topic: number of messages}`` in the log, in order of channel registration.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The MCAP log.
+    """
     channels: dict[int, str] = {}
     counts: dict[str, int] = {}
     for record in _records(path):
@@ -275,7 +287,13 @@ def list_topics(path: str | os.PathLike[str]) -> dict[str, int]:
 
 
 def read_metadata(path: str | os.PathLike[str]) -> dict[str, dict[str, str]]:
-    """``{record name: {key: value}}`` of the log's metadata records (later names win)."""
+    """``{record name: {key: value}}`` of the log's metadata records (later names win).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The MCAP log.
+    """
     return {r.name: dict(r.metadata) for r in _records(path) if isinstance(r, Metadata)}
 
 

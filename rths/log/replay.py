@@ -28,6 +28,13 @@ def replay_records(path: Path, topics: Sequence[str]) -> list[tuple[str, int, di
     """``(topic, log_time_ns, message)`` of ``topics`` in log-time order (a truncated log is read
     up to its cut).
 
+    Parameters
+    ----------
+    path : pathlib.Path
+        The MCAP log.
+    topics : Sequence[str]
+        Topics to read, e.g. ``("rths/loop",)``.
+
     Raises
     ------
     DataError
@@ -52,6 +59,14 @@ def prepare(
     """Check a log before anything is published: the topics to replay (default ``rths/loop``
     and ``rths/specimen`` when present), their records (:func:`replay_records`; ``rths/loop``
     must also keep the log contract, :func:`rths.log.reader.read_loop`) and the recorded run id.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The MCAP log.
+    topics : Sequence[str] or None
+        Topics to replay; None or empty (default): ``rths/loop`` and ``rths/specimen``, those
+        present.
 
     Raises
     ------
@@ -79,7 +94,19 @@ def paced(
     sleep: Callable[[float], None] = time.sleep,
 ) -> Iterator[tuple[str, int, dict]]:
     """Yield ``(topic, log_time_ns, message)`` no earlier than its recorded time divided by
-    ``speed`` after the first one (clock and sleep injectable for tests)."""
+    ``speed`` after the first one (clock and sleep injectable for tests).
+
+    Parameters
+    ----------
+    records : Iterable[tuple[str, int, dict]]
+        ``(topic, log_time_ns, message)`` in log-time order; ``log_time_ns`` [ns].
+    speed : float
+        Replay speed [-], > 0 (checked by the caller): 1 is the recorded pace, 2 twice as fast.
+    now_ns : Callable[[], int]
+        Monotonic clock [ns] (default :func:`time.monotonic_ns`).
+    sleep : Callable[[float], None]
+        Waits the given time [s] (default :func:`time.sleep`).
+    """
     start: int | None = None
     first = 0
     for topic, log_time, message in records:

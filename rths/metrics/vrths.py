@@ -56,7 +56,13 @@ CRITERIA: tuple[str, ...] = tuple(f"J{i}" for i in range(1, 10))
 
 
 def matlab_round(x: float) -> float:
-    """MATLAB ``round``: nearest integer, halves away from zero."""
+    """MATLAB ``round``: nearest integer, halves away from zero.
+
+    Parameters
+    ----------
+    x : float
+        The value to round (any unit; F4 rounds J1 in units of 0.1 ms, J2-J9 of 0.01 %).
+    """
     return math.copysign(math.floor(abs(x) + 0.5), x)
 
 
@@ -64,10 +70,29 @@ def matlab_round(x: float) -> float:
 class BenchmarkScores:
     """J1 [ms] and J2-J9 [%] of one run (F4's units; rounded as F4 unless made unrounded).
 
+    The symbols are those of the module docstring; F4 rounds J1 to 0.1 ms and J2-J9 to 0.01 %
+    (:func:`evaluate` with ``rounded=False`` keeps full precision).
+
     Attributes
     ----------
-    J1 .. J9
-        The criteria (module docstring).
+    J1 : float
+        Tracking delay [ms]: the lag of the best correlation, 0 .. 49 samples, times ``dt``.
+    J2 : float
+        ``std(x_m - y_1) / std(y_1)`` [%]: tracking error, normalised by the target.
+    J3 : float
+        ``max|x_m - y_1| / max|y_1|`` [%]: peak tracking error.
+    J4 : float
+        ``std(x_m - x_1) / std(x_1)`` [%]: measured vs reference floor 1.
+    J5 : float
+        ``max|x_m - x_1| / max|x_1|`` [%]: peak, measured vs reference floor 1.
+    J6 : float
+        ``std(y_2 - x_2) / std(x_2)`` [%]: floor 2 vs reference.
+    J7 : float
+        ``std(y_3 - x_3) / std(x_3)`` [%]: floor 3 vs reference.
+    J8 : float
+        ``max|y_2 - x_2| / max|x_2|`` [%]: peak, floor 2 vs reference.
+    J9 : float
+        ``max|y_3 - x_3| / max|x_3|`` [%]: peak, floor 3 vs reference.
     """
 
     J1: float
@@ -116,6 +141,13 @@ def j1_correlations(measured: ArrayLike, target: ArrayLike) -> FloatArray:
 
     ``r[j] = corr(x_m[j:], y_1[:n-j])`` for ``j = 0 .. 49`` (MATLAB ``jj = j + 1``); a constant
     window gives NaN, which MATLAB's ``max`` skips.
+
+    Parameters
+    ----------
+    measured : array_like, shape (n,)
+        Measured specimen displacement ``x_m`` [m], finite, ``n >= 52`` samples at ``dt``.
+    target : array_like, shape (n,)
+        Target displacement ``y_1`` [m] at the same instants.
     """
     x_m = _column(measured, "measured")
     y = _column(target, "target", x_m.size)

@@ -312,7 +312,17 @@ class Pacer:
 
 
 class FreeRunning(Pacer):
-    """Runs steps back to back (``lockstep`` over zenoh, ``fast`` in process)."""
+    """Runs steps back to back (``lockstep`` over zenoh, ``fast`` in process).
+
+    Parameters
+    ----------
+    dt : float
+        Loop step [s], > 0.
+    n_steps : int
+        Number of steps of the run, >= 1 (sizes the timing arrays).
+    now_ns : callable
+        Monotonic time source in integer nanoseconds (default ``time.monotonic_ns``).
+    """
 
 
 class WallClock(Pacer):

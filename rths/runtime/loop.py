@@ -108,7 +108,19 @@ class LinkSample(NamedTuple):
     of the sample when the loop uses it [ns] (0 in lockstep/fast) and the specimen's step number
     (the ``seq`` of the command it answers; older than the step after a missed deadline).
     Immutable; a named tuple because one is built every step (cheaper than a frozen
-    dataclass)."""
+    dataclass).
+
+    Attributes
+    ----------
+    displacement : float
+        Measured displacement [m], specimen scale.
+    force : float
+        Measured force [N], specimen scale.
+    age_ns : int
+        Age of the sample when the loop uses it [ns] (default 0: lockstep and fast).
+    specimen_seq : int
+        The specimen's step number, the ``seq`` of the command it answers (default -1: unknown).
+    """
 
     displacement: float
     force: float
@@ -177,7 +189,28 @@ class LoopResult:
     """Outcome of :meth:`Loop.run`: steps completed, timing figures, why it stopped early
     (``None`` when it ran to the end), and the deadline misses (measurements not there by the
     step's deadline; the longest lag in ``longest_lag`` steps) and when the loop ended on the
-    pacer's clock (``ended_ns``)."""
+    pacer's clock (``ended_ns``).
+
+    Attributes
+    ----------
+    steps : int
+        Steps completed.
+    timing : rths.runtime.clocks.TimingStats
+        Lateness and work-time figures of the pacer.
+    stopped : str or None
+        Why the loop stopped early (a stop request, an interlock, the watchdog); None (default)
+        when it ran to the end.
+    misses : int
+        Deadline misses: steps whose measurement was not there by the deadline (default 0).
+    longest_lag : int
+        Longest lag of the measurement behind the command [steps] (default 0).
+    ended_ns : int
+        The pacer's clock when the last step ended [ns] (default 0).
+    link_mean : float
+        Mean time per step in ``link.exchange`` (the round trip) [s] (default 0).
+    cpu_mean : float
+        Mean CPU time of the loop thread per step [s] (load-independent; default 0).
+    """
 
     steps: int
     timing: TimingStats

@@ -34,7 +34,41 @@ __all__ = ["Collector", "RunOutcome", "benchmark_scores", "finish_record", "run_
 
 @dataclass
 class RunOutcome:
-    """What a run produced: the log, the loop result, metrics and the recording's counts."""
+    """What a run produced: the log, the loop result, metrics and the recording's counts.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The run's MCAP log.
+    run_id : str
+        The run's id (:func:`rths.wire.keys.check_run_id`).
+    clock : str
+        ``"lockstep"``, ``"realtime"`` or ``"fast"``.
+    result : rths.runtime.loop.LoopResult
+        Steps, timing, deadline misses and why the loop stopped.
+    metrics : rths.metrics.TrackingSummary or None
+        Tracking metrics (J1 delay [s], J2, J3 and sync RMSE [-]); None if they could
+        not be computed (the reason is in ``events``).
+    recording : rths.log.recorder.RecordingSummary or None
+        The recording's counts; None (default) until the log is closed.
+    events : list of str
+        Notes for the summary (e.g. why metrics were not computed); default empty.
+    saturated : dict of str to int
+        Samples at an ADC's extreme code, per channel (``"displacement"``, ``"force"``);
+        default empty.
+    age_p99 : float
+        99th percentile of the measurement's age when the loop used it [s] (default 0).
+    priority : int
+        ``SCHED_FIFO`` priority of the run, 1..99; 0 (default): ordinary scheduling.
+    gc : tuple of (int, float)
+        Garbage collections during the loop and the longest one [s] (default ``(0, 0.0)``).
+    security : dict of str to int
+        Messages ``"accepted"`` and dropped as ``"forged"`` or ``"replayed"`` (runs over zenoh);
+        default empty.
+    benchmark : rths.metrics.vrths.BenchmarkScores or None
+        The vRTHS benchmark's J1 [ms] and J2-J9 [%] when the substructure has a reference
+        response; None (default) otherwise.
+    """
 
     path: Path
     run_id: str

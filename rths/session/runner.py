@@ -210,6 +210,14 @@ def _check_out(path: Path) -> None:
 def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome:
     """Run ``scn`` (see the module docstring); the MCAP log is always finished.
 
+    Parameters
+    ----------
+    scn : rths.config.scenario.Scenario
+        The parsed scenario.
+    options : RunOptions or None
+        The CLI's flags (clock, log path, compensator, endpoints, seed, ...); None (default):
+        :class:`RunOptions` defaults, i.e. the scenario's own choices.
+
     Raises
     ------
     ConfigError

@@ -213,11 +213,35 @@ def run_over_zenoh(
 ) -> tuple[LoopResult, dict[str, int]]:
     """Run the loop against a specimen process over zenoh; see the module docstring.
 
-    ``opts`` is the run's :class:`rths.session.runner.RunOptions`; ``make_loop(link, sink)`` builds
-    the loop; ``now_ns()`` gives the simulated time of the last recorded step for error events;
-    ``seed`` seeds the lab's noise;
-    ``live`` (a Foxglove server, or None) also receives the specimen's rows.  Returns the loop's
-    result and the authentication counts (messages accepted, dropped as forged or replayed).
+    Parameters
+    ----------
+    scn : rths.config.scenario.Scenario
+        The parsed scenario (the specimen process builds its lab from the same file).
+    opts : rths.session.runner.RunOptions
+        The run's options (endpoints, secret file, external specimen, timeouts).
+    clock : str
+        ``"lockstep"`` or ``"realtime"``.
+    run_id : str
+        The run's id; every key lives under ``rths/<run_id>/``.
+    rec : rths.log.recorder.Recorder
+        The run's open recorder (the specimen's log streams are bridged into it).
+    make_loop : Callable[..., rths.runtime.loop.Loop]
+        ``make_loop(link, sink)`` builds the loop on the zenoh link.
+    on_progress : Callable[[int], None]
+        ``on_progress(k)``, called every 256 steps from the loop thread.
+    now_ns : Callable[[], int]
+        Simulated time [ns] of the last recorded step, for error events.
+    seed : int
+        Seed of the lab's noise, >= 0.
+    live : object or None
+        A Foxglove live server that also receives the specimen's rows; None (default): none.
+
+    Returns
+    -------
+    result : rths.runtime.loop.LoopResult
+        The loop's result.
+    security : dict of str to int
+        Messages ``"accepted"`` and dropped as ``"forged"`` or ``"replayed"``.
     """
     keys = RunKeys(run_id)
     listen = opts.listen or (() if opts.connect else (loopback_endpoint(),))

@@ -134,7 +134,16 @@ class RunSecret:
 
 
 class Sealer:
-    """Seals payloads of one domain: counter, payload, tag (see the module docstring)."""
+    """Seals payloads of one domain: counter, payload, tag (see the module docstring).
+
+    Parameters
+    ----------
+    key : bytes
+        The run's secret key, at least 16 bytes (:func:`new_secret`: 32 random bytes).
+    domain : str
+        The message kind and direction, e.g. ``"command"``; part of every tag, so a frame of one
+        domain never verifies in another.
+    """
 
     __slots__ = ("_domain", "_key", "counter")
 
@@ -159,6 +168,13 @@ class Sealer:
 
 class Opener:
     """Checks frames of one domain and counts what it drops.
+
+    Parameters
+    ----------
+    key : bytes
+        The run's secret key, at least 16 bytes (:func:`new_secret`: 32 random bytes).
+    domain : str
+        The message kind and direction, e.g. ``"command"``; must match the sender's.
 
     Attributes
     ----------

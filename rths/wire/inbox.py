@@ -183,7 +183,18 @@ class Inbox(Generic[T]):
 
 @dataclass(frozen=True, slots=True)
 class Latest(Generic[T]):
-    """The newest message of a :class:`Mailbox`, when it arrived and how old it is [ns]."""
+    """The newest message of a :class:`Mailbox`, when it arrived and how old it is [ns].
+
+    Attributes
+    ----------
+    message : T
+        The decoded message.
+    received_ns : int
+        When it was drained from the zenoh channel [ns], on the mailbox's clock (default
+        :func:`time.monotonic_ns`).
+    age_ns : int
+        Time since ``received_ns`` when :meth:`Mailbox.latest` returned it [ns], >= 0.
+    """
 
     message: T
     received_ns: int

@@ -23,7 +23,18 @@ _LOG_NAME = re.compile(r"^[A-Za-z0-9_.-]+(/[A-Za-z0-9_.-]+)*$")
 
 def check_run_id(run_id: str) -> str:
     """Return ``run_id`` if it is 1-64 characters of ``[A-Za-z0-9_.-]`` starting with a letter or
-    digit (no ``/``, ``*``, ``$``: it can never widen a key expression to another run)."""
+    digit (no ``/``, ``*``, ``$``: it can never widen a key expression to another run).
+
+    Parameters
+    ----------
+    run_id : str
+        The candidate run id, e.g. ``"20250101T120000Z-3fa2c1"`` (:func:`new_run_id`).
+
+    Raises
+    ------
+    ParameterError
+        If ``run_id`` is not such a string.
+    """
     if not isinstance(run_id, str) or not _RUN_ID.match(run_id):
         raise ParameterError(
             f"run id must be 1-64 characters of [A-Za-z0-9_.-] starting with a letter or digit; "
@@ -43,6 +54,11 @@ class RunKeys:
 
     ``run_id`` is 1-64 characters from ``[A-Za-z0-9_.-]`` starting with a letter or digit (no
     ``/``, ``*``, ``$``, so it can never widen a key expression to another run).
+
+    Attributes
+    ----------
+    run_id : str
+        The run's id (:func:`check_run_id`; :func:`new_run_id` makes a fresh one).
     """
 
     run_id: str

@@ -28,6 +28,9 @@ class LogPublisher:
         Open session and the run's keys.
     name
         Stream name, e.g. ``"specimen"`` (recorded as MCAP topic ``rths/specimen``).
+    secret : rths.wire.auth.RunSecret or None
+        The run's secret: each payload is sealed (domain: the key), so the recorder can tell
+        it from a forged one.  None (default): plain payloads.
 
     For slower, self-describing side streams of another process (e.g. the specimen's internal
     state); the coordinator's :class:`rths.log.recorder.LogBridge` records them as MCAP topic
@@ -158,7 +161,20 @@ class BackgroundPublisher:
 
 class BlockPublisher(BackgroundPublisher):
     """Publish :class:`rths.core.channels.RowBlock` s (binary frames, :func:`pack_block`) from a
-    background thread: the producer hands over a full block and returns."""
+    background thread: the producer hands over a full block and returns.
+
+    Parameters
+    ----------
+    session : zenoh.Session
+        Open zenoh session.
+    key : str
+        Key expression to publish on.
+    reliable : bool
+        True (default): reliable with congestion control BLOCK; False: best effort, dropped
+        under congestion (live copies for monitors).
+    secret : rths.wire.auth.RunSecret or None
+        The run's secret: each frame is sealed (domain: the key).  None (default): plain.
+    """
 
     def put_block(self, block: RowBlock) -> None:
         """Queue a filled block; it must not change afterwards."""

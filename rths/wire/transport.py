@@ -107,14 +107,26 @@ LOWLATENCY_ENV = "RTHS_ZENOH_LOWLATENCY"
 
 
 def free_loopback_port(host: str = "127.0.0.1") -> int:
-    """A TCP port on ``host`` that was free a moment ago (the OS picks it; a race is possible)."""
+    """A TCP port on ``host`` that was free a moment ago (the OS picks it; a race is possible).
+
+    Parameters
+    ----------
+    host : str
+        IPv4 address to bind on (default ``"127.0.0.1"``).
+    """
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
         sock.bind((host, 0))
         return int(sock.getsockname()[1])
 
 
 def loopback_endpoint(port: int | None = None) -> str:
-    """``"tcp/127.0.0.1:<port>"``; a free port is picked when ``port`` is None."""
+    """``"tcp/127.0.0.1:<port>"``; a free port is picked when ``port`` is None.
+
+    Parameters
+    ----------
+    port : int or None
+        TCP port, 1..65535; None (default) picks a free one (:func:`free_loopback_port`).
+    """
     if port is None:
         port = free_loopback_port()
     if isinstance(port, bool) or not isinstance(port, int) or not 0 < port < 65536:
@@ -128,6 +140,13 @@ class ZenohEndpoints:
 
     Endpoints are zenoh locators ``"<protocol>/<address>"``, e.g. ``"tcp/127.0.0.1:7447"``.
     The coordinator listens, the specimen connects; see :meth:`loopback` and :meth:`peer`.
+
+    Attributes
+    ----------
+    listen : tuple of str
+        Locators this session listens on (default none).
+    connect : tuple of str
+        Locators this session connects to (default none).
     """
 
     listen: tuple[str, ...] = ()

@@ -75,6 +75,13 @@ def benchmark_converters(dt: float = DT, noise: bool = True) -> LabConverters:
     +/-32 m, is as unreachable as +/-3.8 m); the load cell's channel (1000 N/V, 3.8 mN codes) is
     practically unquantised, as in the benchmark.  The two noises are independent here (the
     benchmark seeds both blocks alike, which only scales one sequence twice).
+
+    Parameters
+    ----------
+    dt : float
+        Loop step [s], > 0 (default :data:`DT` = 1/4096 s, the benchmark's).
+    noise : bool
+        True (default): the benchmark's sensor noise, ``sqrt(Cov/dt)`` RMS; False: none.
     """
     dt = check_positive(dt, "time step dt")
     sx = math.sqrt(DISPLACEMENT_NOISE_POWER / dt) if noise else 0.0
@@ -90,20 +97,50 @@ def benchmark_lab(
     plant: PlantDraw = NOMINAL, dt: float = DT, seed: int | None = 0, noise: bool = True
 ) -> EmulatedLab:
     """The drawn specimen behind the drawn servo-hydraulic actuator, with the benchmark's
-    converters; ``seed`` seeds the sensor noise."""
+    converters; ``seed`` seeds the sensor noise.
+
+    Parameters
+    ----------
+    plant : PlantDraw
+        The trial's specimen stiffness and servo-valve/hydraulic parameters (default
+        :data:`rths.experiments.vrths.draws.NOMINAL`, the nominal plant).
+    dt : float
+        Loop step [s], > 0 (default :data:`DT` = 1/4096 s, the benchmark's).
+    seed : int or None
+        Seed of the sensor noise (default 0); None: fresh entropy.
+    noise : bool
+        True (default): the benchmark's sensor noise; False: none.
+    """
     actuator = ServoHydraulicActuator(plant.specimen(), dt, plant.actuator())
     return EmulatedLab(actuator, benchmark_converters(dt, noise), seed=seed)
 
 
 def nominal_plant(dt: float = DT) -> control.TransferFunction:
-    """Command -> displacement model of the nominal plant (``G_plant`` of F1, CSI included)."""
+    """Command -> displacement model of the nominal plant (``G_plant`` of F1, CSI included).
+
+    Parameters
+    ----------
+    dt : float
+        Loop step [s], > 0 (default :data:`DT` = 1/4096 s, the benchmark's).
+    """
     actuator = ServoHydraulicActuator(NOMINAL.specimen(), dt, BENCHMARK)
     return control.minreal(actuator.transfer_function(), verbose=False)
 
 
 def benchmark_compensator(kind: str, dt: float = DT, **options: Any) -> Compensator:
     """A :mod:`controllers.factory` kind (``pi_lead``, ``ff_lqg``, ...) designed on
-    :func:`nominal_plant`."""
+    :func:`nominal_plant`.
+
+    Parameters
+    ----------
+    kind : str
+        A registered compensator kind, e.g. ``"pi_lead"``, ``"ff_lqg"``, ``"none"``.
+    dt : float
+        Loop step [s], > 0 (default :data:`DT` = 1/4096 s, the benchmark's).
+    **options
+        Fields of the kind's options dataclass (``rths kinds compensator``), e.g.
+        ``order=4`` for ``ff_lqg``.
+    """
     return make_compensator(kind, dt, nominal_plant(dt), **options)
 
 
@@ -223,7 +260,16 @@ def run_trial(
 
 
 def score(trial: Trial, reference: FloatArray) -> BenchmarkScores:
-    """F4's J1-J9 of a trial against the reference response (``(n, 3)`` from ``t = 0``)."""
+    """F4's J1-J9 of a trial against the reference response (``(n, 3)`` from ``t = 0``).
+
+    Parameters
+    ----------
+    trial : Trial
+        The trial (:func:`run_trial`).
+    reference : numpy.ndarray, shape (>= n, 3)
+        Floor displacements [m] of the unpartitioned reference frame from ``t = 0`` at the
+        trial's ``dt`` (:func:`reference_for`); the first ``n`` rows are used.
+    """
     n = trial.measured.size
     return evaluate(trial.measured, trial.numerical, reference[:n], trial.dt)
 

@@ -33,7 +33,15 @@ def _title(c: Comparison, kind: str, what: str) -> str:
 
 
 def nominal_table(c: Comparison, kind: str) -> str:
-    """J1-J9 of ``kind`` on the nominal plant, one column per case (the benchmark's layout)."""
+    """J1-J9 of ``kind`` on the nominal plant, one column per case (the benchmark's layout).
+
+    Parameters
+    ----------
+    c : rths.experiments.vrths.compare.Comparison
+        The finished comparison (trials of every kind, case and plant).
+    kind : str
+        The compensator kind whose trials are tabulated (one of ``c.kinds``).
+    """
     cases = c.cases
     width = 24
     lines = [_title(c, kind, "nominal plant (F4_evaluation.m)"),
@@ -56,7 +64,15 @@ def nominal_table(c: Comparison, kind: str) -> str:
 
 
 def perturbed_table(c: Comparison, kind: str) -> str:
-    """Median / worst of J1-J9 over the perturbed plants, interlocks and actuator force."""
+    """Median / worst of J1-J9 over the perturbed plants, interlocks and actuator force.
+
+    Parameters
+    ----------
+    c : rths.experiments.vrths.compare.Comparison
+        The finished comparison (trials of every kind, case and plant).
+    kind : str
+        The compensator kind whose trials are tabulated (one of ``c.kinds``).
+    """
     cases = c.cases
     width = 24
     lines = [_title(c, kind, f"{c.perturbed} perturbed plants: median / worst"),
@@ -89,7 +105,13 @@ def perturbed_table(c: Comparison, kind: str) -> str:
 
 
 def worst_j2_table(c: Comparison) -> str:
-    """Worst F4 J2 [%] (and worst noise-free J2) over the perturbed plants, kind x case."""
+    """Worst F4 J2 [%] (and worst noise-free J2) over the perturbed plants, kind x case.
+
+    Parameters
+    ----------
+    c : rths.experiments.vrths.compare.Comparison
+        The finished comparison (trials of every kind, case and plant).
+    """
     cases = c.cases
     lines = [f"worst J2 over {c.perturbed} perturbed plants [%] (F4 / noise-free); "
              f"'*' = some runs interlocked",
@@ -107,7 +129,13 @@ def worst_j2_table(c: Comparison) -> str:
 
 
 def render(c: Comparison) -> str:
-    """Every table of the comparison, then its wall time."""
+    """Every table of the comparison, then its wall time.
+
+    Parameters
+    ----------
+    c : rths.experiments.vrths.compare.Comparison
+        The finished comparison (trials of every kind, case and plant).
+    """
     blocks = []
     for kind in c.kinds:
         blocks.append(nominal_table(c, kind))
@@ -125,7 +153,15 @@ def render(c: Comparison) -> str:
 
 
 def plot_j2(c: Comparison, path: str | Path) -> Path:
-    """Figure: J2 (F4, filled) and noise-free J2 (open) of every trial, one panel per case."""
+    """Figure: J2 (F4, filled) and noise-free J2 (open) of every trial, one panel per case.
+
+    Parameters
+    ----------
+    c : rths.experiments.vrths.compare.Comparison
+        The finished comparison (trials of every kind, case and plant).
+    path : str or pathlib.Path
+        Image file to write (format from the suffix, e.g. ``.png``).
+    """
     import matplotlib
 
     matplotlib.use("Agg")
