@@ -9,8 +9,7 @@ import pytest
 
 from plants.actuator import MTS_IDENTIFIED
 from rths.core.errors import ConfigError, DataError, ParameterError
-from rths.diagnose.data import MIN_DURATION, load_record, read_csv, write_csv
-from rths.diagnose.nominal import (
+from rths.diagnose.data.nominal import (
     ActuatorNominal,
     NominalModel,
     SpecimenNominal,
@@ -18,6 +17,7 @@ from rths.diagnose.nominal import (
     nominal_toml,
     parse_nominal,
 )
+from rths.diagnose.data.records import MIN_DURATION, load_record, read_csv, write_csv
 
 DT = 1.0 / 256.0
 
@@ -116,7 +116,11 @@ def test_mcap_log_is_read_from_rths_loop(tmp_path):
                 {"t": t[k], "target": u[k], "command": u[k], "measured": x[k], "force": f[k]},
             )
     r = load_record(path)
-    assert np.allclose(r.force, f) and np.allclose(r.target, u)  # JSON keeps float64 repr
+    # DAQ convention: row k = the command applied from t_k and the measurements at t_k, i.e. the
+    # previous log row's (the loop logs a command with the state at the end of its hold)
+    assert np.array_equal(r.command, u) and r.time[0] == pytest.approx(t[0] - DT)
+    assert np.allclose(r.force[1:], f[:-1]) and r.force[0] == 0.0  # JSON keeps float64 repr
+    assert np.allclose(r.measured[1:], x[:-1]) and np.allclose(r.target[1:], u[:-1])
     assert r.scenario_text == "not used here"
     assert r.dt == pytest.approx(DT)
 
@@ -182,7 +186,7 @@ def test_nominal_file_errors(tmp_path):
 
 
 def test_structure_channel_explains_why_it_is_missing(tmp_path):
-    from rths.diagnose.data import Record
+    from rths.diagnose.data.records import Record
     from rths.diagnose.structure import structure_gap
 
     t, u, x, f = _columns()

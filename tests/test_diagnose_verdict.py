@@ -1,27 +1,34 @@
-"""End-to-end diagnosis of emulated-lab records: the right verdict, parameter and shrink.
+"""End-to-end diagnosis on one small case of each source: own plants, the independent
+generator (tools/truthgen), real friction-damper records.
 
-Each record is made by the project's emulated lab (rths.diagnose.synthetic: MTS-identified TF,
-IMD specimen, 16-bit converters with 3.8 um / 1 N noise) with one hidden effect; the nominal
-model is mis-calibrated (inertance -6 %, damping +25 %, actuator gain +3 %), which the baseline
-must absorb.  Short records (2 x 8 s at 1024 Hz) keep this file fast.
+Own plants: records of the project's emulated lab (rths.diagnose.data.synthetic: MTS-identified
+TF, IMD specimen, 16-bit converters) with a mis-calibrated nominal (inertance -6 %, damping
++25 %, actuator gain +3 %) that the baseline must absorb.  These prove self-consistency only;
+the independent generator (written without the diagnosis code: its own integrator, DAQ, effect
+forms) and the real records are the validation.  Short records keep this file fast; the full
+figures come from tools/score_diagnosis.py.
 """
 
 from __future__ import annotations
 
 import math
+import os
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from rths.core.errors import ParameterError
-from rths.diagnose import Options, diagnose
-from rths.diagnose.synthetic import LabCase, band_limited_command, lab_record
+from rths.diagnose import Options, diagnose, load_nominal, load_record
+from rths.diagnose.data.synthetic import LabCase, band_limited_command, lab_record
 
 DT = 1.0 / 1024.0
 M, C = 1589.0, 2 * 0.15 * 1589.0 * 2 * math.pi * 20.0  # zeta 0.15 at 20 Hz (S0 Eq.18 range)
+TOOLS = Path(__file__).resolve().parents[1] / "tools"
 
 
-def _records(case: LabCase, n: int = 2, duration: float = 8.0, seed: int = 5) -> list:
+def _records(case: LabCase, n: int = 2, duration: float = 6.0, seed: int = 5) -> list:
     rng = np.random.default_rng(seed)
     return [
         lab_record(
@@ -39,68 +46,71 @@ def _nominal(case: LabCase):
     return case.nominal(0.94 * case.inertance, 1.25 * case.damping, 1.03)
 
 
-@pytest.mark.parametrize(
-    ("effect", "value", "key"),
-    [
-        ("internal_stiffness", M * (2 * math.pi * 13.8) ** 2, "stiffness"),  # S0 Type II
-        ("backlash", 2e-4, "gap"),
-        ("coulomb_friction", 150.0, "friction"),
-        ("actuator_delay", 0.006, "delay"),
-        ("rate_limit", 0.05, "velocity_limit"),
-    ],
-)
-def test_single_effect_gives_its_verdict_parameter_and_shrink(effect, value, key):
-    case = LabCase(effect, value, M, C, contact_frequency=20.0)
+def test_own_lab_friction_is_named_with_its_level_and_the_gap_shrinks():
+    case = LabCase("coulomb_friction", 200.0, M, C)
     d = diagnose(_records(case), _nominal(case))
-    assert d.verdict == effect
-    assert d.subsystem == ("actuator" if effect in ("actuator_delay", "rate_limit") else "specimen")
-    # the replayed drive is noise-free and the force noise is 1 N on kN forces: the fits are
-    # exact to well under 1 % (blind-suite median); 3 % leaves room for the short records
-    assert d.params[key] == pytest.approx(value, rel=0.03)
-    assert d.shrink > 0.9 and d.after < d.before  # >= 90 % of the reducible gap closed
+    assert d.verdict == "coulomb_friction" and d.subsystem == "specimen"
+    assert [e for e, _, _ in d.effects] == ["coulomb_friction"]
+    # the measured drive's noise, differentiated twice, dominates this channel's floor: 5 %
+    assert d.params["friction"] == pytest.approx(200.0, rel=0.05)
+    assert d.shrink > 0.8 and d.after < d.before
     assert d.identification == ["run_0.csv"] and d.held_out == ["run_1.csv"]
 
 
-def test_internal_stiffness_ripple_band_under_single_sines():
-    """S0 section 3: a sine test rings at the self-vibration frequency sqrt(k0/m_e)/2pi."""
-    fe = 13.8  # S0 Type II
-    c = 2 * 0.02 * M * 2 * math.pi * fe  # xi_e = 0.02 at ~3.5 mm (S0 Eq.17)
-    case = LabCase("internal_stiffness", M * (2 * math.pi * fe) ** 2, M, c)
-    t = DT * np.arange(8 * 1024)
-    records = [
-        lab_record(case, 3e-3 * np.sin(2 * math.pi * f * t), DT, seed=k, name=f"run_{k}.csv")
-        for k, f in enumerate((1.5, 1.875))
-    ]
-    d = diagnose(records, _nominal(case))
-    # one sine cannot separate inertance from stiffness: the baseline keeps the nominal split
-    # (ridge) and what it leaves is the ripple, in a band of a few 0.5 Hz Welch bins
-    assert d.verdict == "internal_stiffness"
-    assert d.band_hz[0] <= fe <= d.band_hz[1] and d.band_hz[1] - d.band_hz[0] < 3.0
-    assert d.params["frequency"] == pytest.approx(fe, rel=0.01)
-    assert d.shrink > 0.95
-
-
-def test_noise_only_and_miscalibration_only_are_none():
+def test_own_lab_noise_and_miscalibration_only_is_none():
     case = LabCase("none", 0.0, M, C)
     d = diagnose(_records(case), _nominal(case))
-    assert d.verdict == "none" and d.subsystem == "none" and d.params == {}
+    assert d.verdict == "none" and d.subsystem == "none" and d.params == {} and not d.effects
     assert d.shrink == 0.0 and d.before == d.after
     spec = d.channels["force"].baseline.baseline  # the baseline absorbed the mis-calibration
-    assert spec["inertance"] == pytest.approx(M, rel=0.01)  # exact model, 1 N force noise
+    assert spec["inertance"] == pytest.approx(M, rel=0.01)
 
 
-def test_measured_drive_and_single_file_time_split():
-    case = LabCase("actuator_delay", 0.004, M, C)
-    d = diagnose(_records(case, n=1, duration=12.0), _nominal(case), Options(drive="measured"))
-    assert d.identification == d.held_out == ["run_0.csv"]  # alternating time blocks
-    assert d.verdict == "actuator_delay"
-    assert d.params["delay"] == pytest.approx(0.004, abs=5e-5)  # 1/20 sample at 1024 Hz
-    assert d.channels["force"].channel.noise["drive"] > 0.0  # the measured (noisy) drive
-    case = LabCase("coulomb_friction", 200.0, M, C)
-    d = diagnose(_records(case), _nominal(case), Options(drive="measured"))
-    assert d.verdict == "coulomb_friction"
-    # displacement noise differentiated twice dominates this channel's floor: 5 %
-    assert d.params["friction"] == pytest.approx(200.0, rel=0.05)
+def test_independent_generator_case_is_named_with_its_parameter(tmp_path):
+    sys.path.insert(0, str(TOOLS.parent))
+    from tools.truthgen.generate import build_case
+
+    # one internal-stiffness case of the independent generator, 1000 Hz, records capped at 3 s
+    ss = np.random.SeedSequence(20240611)
+    label = build_case(ss, ("internal_stiffness",), [1000.0], 3.0, tmp_path / "case")
+    files = sorted((tmp_path / "case").glob("rec_*.csv"))
+    d = diagnose([load_record(f) for f in files], load_nominal(tmp_path / "case" / "NOMINAL.toml"))
+    truth = label["effects"][0]["params"]["stiffness"]
+    assert d.verdict == "internal_stiffness"
+    # a series stiffness is identified from the resonance it adds: 10 % (the issue's target)
+    assert d.params["stiffness"] == pytest.approx(truth, rel=0.1)
+
+
+def test_real_friction_damper_names_friction_and_backlash(tmp_path):
+    sys.path.insert(0, str(TOOLS))
+    from friction_damper_data import find_data_dir
+    from friction_damper_data import load_record as load_fd
+    from friction_damper_to_csv import columns, write_csv
+
+    folder = find_data_dir(os.environ.get("RTHS_DATA"))
+    if folder is None:
+        pytest.skip("RTHS_DATA with friction-damper/ not available")
+    # 30 lb band tension, 0.5 in: identify on 8 s (16 cycles) at 2 Hz, hold out 12 s (6 cycles)
+    # at 0.5 Hz (the same tension, another frequency)
+    for name, seconds in (("2Hz30lbtension0.5amplitude", 8), ("0.5Hz30lbtension0.5amplitude", 12)):
+        table = columns(load_fd(folder, name))[0]
+        write_csv(tmp_path / f"{name}.csv", table[1024 : 1024 * (seconds + 1)])
+    nominal = tmp_path / "NOMINAL.toml"
+    nominal.write_text(
+        "[actuator]\nnum = [1.0]\nden = [1.0]\ndelay = 0.0\n"
+        "[specimen]\ninertance = 0.0\ndamping = 0.0\nstiffness = 0.0\nfriction = 5000.0\n"
+    )
+    records = [
+        load_record(tmp_path / f"{n}.csv")
+        for n in ("2Hz30lbtension0.5amplitude", "0.5Hz30lbtension0.5amplitude")
+    ]
+    d = diagnose(records, load_nominal(nominal))
+    named = {e: p for e, _, p in d.effects}
+    assert {"coulomb_friction", "backlash"} <= set(named)
+    # loop reading (tools/friction_damper_loops.py): friction 10.2 kN at 30 lb, tangent
+    # clearance 3.5-4.1 mm (5 % band width 1.1-2.7 mm): a model, not a ruler, within ~25 %
+    assert 7.5e3 < named["coulomb_friction"]["friction"] < 12.5e3
+    assert 1.0e-3 < named["backlash"]["gap"] < 5.0e-3
 
 
 def test_options_are_checked():

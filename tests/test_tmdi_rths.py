@@ -62,8 +62,8 @@ def test_diagnose_localises_the_ideal_inerter_gap_in_the_inerter_channel(tmp_pat
     """S1 §4.2: the ideal-inerter model misses the inerter's own behaviour, not the structure's.
     Against an ideal-inerter NOMINAL.toml the diagnosis finds the actuator channel explained and
     the gap in the specimen (inerter force) channel, above a few hertz."""
-    from rths.diagnose.data import load_record
-    from rths.diagnose.nominal import load_nominal
+    from rths.diagnose.data.nominal import load_nominal
+    from rths.diagnose.data.records import load_record
     from rths.diagnose.verdict import diagnose
 
     text = (

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rths.diagnose.data import write_csv
+from rths.diagnose.data.records import write_csv
 
 DISPLACEMENT_M_PER_V = 10.0e-3
 FORCE_N_PER_V = 9806.65

@@ -1,22 +1,29 @@
 """``rths diagnose``: where the sim-to-real gap lies, which effect causes it, how far it shrinks.
 
-Contract (design.md section 7)::
+Contract (design.md section 7; the README section "Sim-to-real diagnosis" has the details)::
 
     rths diagnose DATA... --nominal NOMINAL.toml [--json OUT.json] [--plots DIR]
+                          [--held-out NAMES] [--effects NAMES] [--drive measured|auto]
 
-DATA are CSV records (header ``time,command,measured,force``, SI, uniform sampling) or MCAP logs
-of ``rths run``.  With several files the first half identify and the rest are held out; one file
-is split in time (first two thirds identify).  The verdict is one of ``internal_stiffness``,
-``backlash``, ``coulomb_friction``, ``actuator_delay``, ``rate_limit`` or ``none``.
+DATA are CSV records (header ``time,command,measured,force``, SI, uniform sampling; row k holds
+the command applied from t_k and the displacement and force sampled at t_k) or MCAP logs of
+``rths run`` (aligned to that convention on reading).  With several files the first half
+identify and the rest are held out (``--held-out`` names them instead); one file is split in
+alternating time blocks.  The baseline re-calibrates only NOMINAL.toml's own parameters (and a
+shift of up to one sample between command and measured); every channel then adds effects one
+at a time while the next one buys its parameters on held-out data.
 
-JSON (``--json``): ``verdict``; ``where`` = {``subsystem`` (specimen | actuator | none),
-``band_hz`` [lo, hi], ``phase`` (reversals | zero_crossings | broadband | none)}; ``params``
-named per verdict (``stiffness`` [N/m], ``gap`` [m], ``friction`` [N], ``delay`` [s] beyond the
-nominal, ``velocity_limit`` [m/s]; series models add their ``frequency`` [Hz]); ``gap`` =
-{``channel`` (measured | force), ``before``, ``after``}: held-out NRMSE as fractions of the
-observed RMS; ``shrink``: fraction of the reducible gap (above the noise floor) closed;
-``candidates``: every effect tried, ranked, with its held-out NRMSE, ``closed`` fraction and
-score; ``channels``: the decomposition of both channels; ``files``; ``structure`` (MCAP logs).
+JSON (``--json``): ``verdict`` (``internal_stiffness``, ``backlash``, ``coulomb_friction``,
+``amplitude_damping``, ``actuator_delay``, ``rate_limit``, ``none`` or ``unexplained``): the
+first effect of the channel with the largest reducible gap; ``where`` = {``subsystem``
+(specimen | actuator | none), ``band_hz`` [lo, hi], ``phase`` (reversals | zero_crossings |
+broadband | none)}; ``params`` of the verdict (``stiffness`` [N/m], ``gap`` [m], ``friction``
+[N], ``delay`` [s] beyond the nominal, ``velocity_limit`` [m/s], ``c1`` [N s] and ``c2`` [m]);
+``effects``: the ordered effects of every channel with their parameters; ``gap`` =
+{``channel``, ``before``, ``after``}: held-out NRMSE as fractions of the observed RMS;
+``shrink``: fraction of the reducible gap (above the noise floor) closed; ``candidates``: every
+model tried, ranked; ``channels``: per channel its effects, verdict, NRMSEs, floor, band,
+phase; ``files``; ``structure`` (MCAP logs).
 
 Examples::
 
@@ -66,9 +73,14 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument(
         "--drive",
         choices=("auto", "measured"),
-        default="auto",
-        help="specimen drive: the transfer model's replay when it explains the measured "
-        "displacement to its noise floor (auto, default) or always the measured displacement",
+        default="measured",
+        help="specimen drive: the measured displacement (default) or the transfer model's "
+        "replay of the command when it explains the measured displacement to its noise floor",
+    )
+    p.add_argument(
+        "--held-out",
+        metavar="NAMES",
+        help="comma-separated file names to hold out (default: the second half)",
     )
     p.add_argument("--quiet", action="store_true", help="print only the verdict line")
     return p
@@ -97,12 +109,16 @@ def run(args: argparse.Namespace) -> int:
         cutoff=DEFAULT_CUTOFF if args.cutoff is None else args.cutoff,
         effects=effects,
         drive=args.drive,
+        held_out=None
+        if args.held_out is None
+        else tuple(h.strip() for h in args.held_out.split(",") if h.strip()),
     )
     nominal = load_nominal(args.nominal)
     records = [load_record(path) for path in args.data]
     result = diagnose(records, nominal, options)
     text = table(result)
-    print(text.splitlines()[-2] if args.quiet else text)
+    verdict_line = next(line for line in text.splitlines() if line.startswith("verdict:"))
+    print(verdict_line if args.quiet else text)
     if args.json:
         with open(args.json, "w", encoding="utf-8") as f:
             json.dump(result.to_dict(), f, indent=2)

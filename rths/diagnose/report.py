@@ -22,7 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rths.diagnose.verdict import ChannelResult, Diagnosis, held_runs
+from rths.diagnose.search.selection import ChannelResult, held_runs
+from rths.diagnose.verdict import Diagnosis, _flat, _nominal_mse
 
 __all__ = ["table", "write_figures"]
 
@@ -45,48 +46,49 @@ def _pct(x: float) -> str:
 
 
 def table(d: Diagnosis) -> str:
-    """The terminal summary: channels, ranked candidates, verdict and shrink."""
+    """The terminal summary: channels, ranked candidates, effects, verdict and shrink."""
     lines = [
         f"identification: {', '.join(d.identification)}   held out: {', '.join(d.held_out)}"
         + ("   (time split)" if d.identification == d.held_out else ""),
         "",
-        f"{'channel':9} {'subsystem':9} {'nominal':>9} {'baseline':>9} {'floor':>9}  "
-        f"{'significant':11} {'band [Hz]':>13}  phase",
+        f"{'channel':12} {'subsystem':9} {'nominal':>9} {'baseline':>9} {'after':>9} "
+        f"{'floor':>9}  {'significant':11} {'band [Hz]':>13}  {'phase':14} effects",
     ]
     for name, c in d.channels.items():
         dec = c.decomposition
         band = f"{dec.band_hz[0]:.3g}-{dec.band_hz[1]:.3g}" if dec.significant else "-"
+        effects = " + ".join(c.effects) if c.effects else c.verdict
         lines.append(
-            f"{name:9} {c.channel.subsystem:9} {_pct(c.nominal_nrmse):>9} "
-            f"{_pct(c.baseline_nrmse):>9} {_pct(c.floor_nrmse):>9}  "
-            f"{'yes' if dec.significant else 'no':11} {band:>13}  {dec.phase}"
+            f"{name:12} {c.channel.subsystem:9} {_pct(c.nrmse(_nominal_mse(c))):>9} "
+            f"{_pct(c.nrmse(c.baseline.held_mse)):>9} {_pct(c.nrmse(c.final.held_mse)):>9} "
+            f"{_pct(c.nrmse(c.floor_mse)):>9}  {'yes' if dec.significant else 'no':11} "
+            f"{band:>13}  {dec.phase:14} {effects}"
         )
     lines += [
         "",
-        f"{'candidate':20} {'subsystem':9} {'held-out':>9} {'closed':>8} {'score':>6}  parameters",
+        f"{'candidate':36} {'channel':12} {'held-out':>9} {'closed':>8} {'gain':>6}  parameters",
     ]
-    for cand in d.candidates:
-        mark = "*" if cand.eligible else " "
+    for cand, res in d.candidates:
+        mark = "*" if cand.accepted else " "
         lines.append(
-            f"{mark}{cand.name:19} {cand.subsystem:9} {_pct(cand.held_nrmse):>9} "
-            f"{100 * cand.closed:7.1f}% {cand.score:6.2f}  {_params(cand.fit.params)}"
+            f"{mark}{cand.name:35} {res.channel.name:12} {_pct(res.nrmse(cand.fit.held_mse)):>9} "
+            f"{100 * cand.closed:7.1f}% {cand.gain:6.2f}  {_params(_flat(cand.fit.params))}"
         )
     lines.append("")
-    if d.verdict == "none":
-        where = (
-            ""
-            if d.subsystem == "none"
-            else (
-                f" (unexplained gap in the {d.subsystem}: {d.band_hz[0]:.3g}-{d.band_hz[1]:.3g} Hz,"
-                f" {d.phase})"
-            )
+    if d.verdict in ("none", "unexplained") and d.subsystem == "none":
+        lines.append(f"verdict: {d.verdict}")
+    elif d.verdict == "unexplained":
+        lines.append(
+            f"verdict: unexplained gap in the {d.subsystem} ({d.gap_channel} channel, "
+            f"{d.band_hz[0]:.3g}-{d.band_hz[1]:.3g} Hz, {d.phase})"
         )
-        lines.append(f"verdict: none{where}")
     else:
         lines.append(
             f"verdict: {d.verdict} ({d.subsystem}, {d.band_hz[0]:.3g}-{d.band_hz[1]:.3g} Hz, "
             f"{d.phase}): {_params(d.params)}"
         )
+    for e, ch, p in d.effects:
+        lines.append(f"  effect {e:20} ({ch}): {_params(p)}")
     lines.append(
         f"gap ({d.gap_channel}, held out): {_pct(d.before)} -> {_pct(d.after)}, closes "
         f"{100 * d.shrink:.1f} % of the reducible gap"
@@ -115,15 +117,16 @@ def write_figures(d: Diagnosis, directory: str | os.PathLike[str]) -> list[Path]
     out.mkdir(parents=True, exist_ok=True)
     c = d.channels[d.gap_channel]
     unit = "m" if c.channel.name == "measured" else "N"
-    verdict = next((k for k in d.candidates if k.name == d.verdict), None)
+    verdict = c.final if c.effects and d.verdict != "unexplained" else None
+    label = " + ".join(c.effects)
     t, r0 = _held_part(c, c.baseline.residuals(c.channel))
-    r1 = _held_part(c, verdict.fit.residuals(c.channel))[1] if verdict else None
+    r1 = _held_part(c, verdict.residuals(c.channel))[1] if verdict else None
     paths = []
 
     fig, ax = plt.subplots(figsize=(9, 3.5))
     ax.plot(t, r0, lw=0.6, label="re-calibrated nominal")
     if r1 is not None:
-        ax.plot(t, r1, lw=0.6, label=f"+ {d.verdict}")
+        ax.plot(t, r1, lw=0.6, label=f"+ {label}")
     for a, b in c.decomposition.windows:
         ax.axvspan(a, b, color="tab:red", alpha=0.15, lw=0)
     ax.set(
@@ -141,7 +144,7 @@ def write_figures(d: Diagnosis, directory: str | os.PathLike[str]) -> list[Path]
         f, p = signal.welch(
             r1, fs=1.0 / c.channel.dt, nperseg=min(r1.size, dec.frequency.size * 2 - 2)
         )
-        ax2.loglog(f[1:], p[1:], lw=0.8, label=f"+ {d.verdict}")
+        ax2.loglog(f[1:], p[1:], lw=0.8, label=f"+ {label}")
     ax2.loglog(dec.frequency[1:], dec.floor_psd[1:], "k--", lw=0.8, label="noise floor + tol.")
     if dec.significant:
         ax2.axvspan(*dec.band_hz, color="tab:red", alpha=0.15, lw=0)
@@ -150,9 +153,9 @@ def write_figures(d: Diagnosis, directory: str | os.PathLike[str]) -> list[Path]
     paths.append(out / "residual_spectrum.png")
 
     fig3, ax3 = plt.subplots(figsize=(7, 3.5))
-    names = [k.name for k in d.candidates]
-    closed = [100.0 * k.closed for k in d.candidates]
-    colors = ["tab:green" if k.eligible else "tab:gray" for k in d.candidates]
+    names = [f"{k.name} ({r.channel.name})" for k, r in d.candidates]
+    closed = [100.0 * k.closed for k, _ in d.candidates]
+    colors = ["tab:green" if k.accepted else "tab:gray" for k, _ in d.candidates]
     ax3.barh(names[::-1], closed[::-1], color=colors[::-1])
     ax3.axvline(100.0 * 0.5, color="k", lw=0.6, ls=":")
     ax3.set(xlabel="held-out reducible gap closed [%]", title=f"verdict: {d.verdict}")
@@ -170,8 +173,8 @@ def write_figures(d: Diagnosis, directory: str | os.PathLike[str]) -> list[Path]
     ax4.plot(tt[sel], before[sel], lw=0.8, label="re-calibrated nominal")
     ax5.plot(tt[sel], (obs - before)[sel], lw=0.8)
     if verdict:
-        after = _held_part(c, verdict.fit.prediction)[1]
-        ax4.plot(tt[sel], after[sel], "--", lw=0.8, label=f"+ {d.verdict}")
+        after = _held_part(c, verdict.prediction)[1]
+        ax4.plot(tt[sel], after[sel], "--", lw=0.8, label=f"+ {label}")
         ax5.plot(tt[sel], (obs - after)[sel], "--", lw=0.8)
     ax4.set(ylabel=f"{c.channel.name} [{unit}]", title="before / after")
     ax4.legend(loc="upper right")

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rths.core.errors import RTHSError
-from rths.diagnose.data import Record
+from rths.diagnose.data.records import Record
 from rths.diagnose.residuals import nrmse
 
 __all__ = ["StructureGap", "structure_gap"]

@@ -1,59 +1,51 @@
-"""Rank the candidate effects, pick the verdict and measure how far it shrinks the gap.
+"""Diagnose records against a nominal model: per-channel effects, the verdict, the shrink.
 
-For each channel ``J_0`` is the held-out mean squared residual of the re-calibrated nominal
-(baseline) and ``N_0`` its noise floor; for each candidate ``J_c`` and ``N_c`` likewise (the floor
-is per model: :func:`rths.diagnose.identify.noise_floor`).  The fraction of the reducible gap a
-candidate closes is
+Order of work:
 
-.. math:: \\rho_c = \\frac{(J_0 - N_0) - (J_c - N_c)}{J_0 - N_0}
+1. the ``measured`` (actuator) channel: baseline and greedy effects
+   (:func:`rths.diagnose.search.selection.select`);
+2. the specimen channel's drive: the actuator model's replay of the command when it explains
+   the measured displacement to its noise floor (a noise-free drive), else the measured
+   displacement (``Options.drive``);
+3. the ``force`` (specimen) channel: baseline and greedy effects;
+4. the structure channel of ``rths run`` logs (:mod:`rths.diagnose.structure`).
 
-(0 when the channel's residual is not significant), its score ``rho_c - PENALTY * n_c`` with
-``n_c`` effect parameters (the complexity penalty: a nested model must buy its extra parameter
-with more than :data:`PENALTY` of the gap).  A candidate is eligible when its channel is
-significant, its parameters are physical and ``rho_c >= MIN_CLOSED``; the verdict is the
-eligible candidate with the best score, else ``none``.  The shrink is ``rho`` of the verdict and
-the gap ``before``/``after`` the held-out NRMSE of the baseline and of the verdict.
+The verdict is the first effect of the channel with the largest reducible gap (relative to its
+observation's mean square); ``unexplained`` when that channel's effects close less than half of
+its significant gap; ``none`` when no channel's baseline residual is significant against its
+noise floor.  The shrink is the selected set's share ``rho`` of that channel's reducible gap
+and ``gap.before``/``gap.after`` the held-out NRMSE of the baseline and of the set.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from rths.core.errors import ParameterError, check_positive, format_choices
-from rths.diagnose.channels import (
+from rths.diagnose.channels.channel import (
     DEFAULT_CUTOFF,
-    Channel,
     actuator_channel,
+    displacement_channel,
     specimen_channel,
 )
-from rths.diagnose.data import Record
-from rths.diagnose.effects import EFFECTS, baseline_for
-from rths.diagnose.identify import Fit, fit_model, noise_floor
-from rths.diagnose.nominal import NominalModel
-from rths.diagnose.residuals import FLOOR_MARGIN, Decomposition, decompose
+from rths.diagnose.data.nominal import NominalModel
+from rths.diagnose.data.records import Record
+from rths.diagnose.effects import EFFECTS
+from rths.diagnose.residuals import FLOOR_MARGIN
+from rths.diagnose.search.identify import Fit
+from rths.diagnose.search.selection import Candidate, ChannelResult, select
 from rths.diagnose.structure import StructureGap, structure_gap
 
-__all__ = [
-    "DRIVES",
-    "MIN_CLOSED",
-    "PENALTY",
-    "Candidate",
-    "ChannelResult",
-    "Diagnosis",
-    "Options",
-    "diagnose",
-    "held_runs",
-]
+__all__ = ["DRIVES", "REPLAY_CUTOFF", "Diagnosis", "Options", "diagnose"]
 
-#: Complexity penalty per effect parameter [fraction of the reducible gap].
-PENALTY: float = 0.05
-#: Smallest fraction of the reducible gap an eligible candidate must close.
-MIN_CLOSED: float = 0.5
 #: Choices of :attr:`Options.drive`.
 DRIVES: tuple[str, ...] = ("auto", "measured")
+#: Cutoff of the specimen smoother with a replayed (noise-free) drive, as a fraction of the
+#: sampling rate (below the anti-alias band of a DAQ).
+REPLAY_CUTOFF: float = 0.15
 
 
 @dataclass(frozen=True)
@@ -63,28 +55,29 @@ class Options:
     Attributes
     ----------
     cutoff
-        Specimen-channel smoother cutoff [Hz].
+        Specimen-channel smoother cutoff [Hz]; None: :data:`REPLAY_CUTOFF` of the sampling
+        rate with a replayed drive, :data:`rths.diagnose.channels.channel.DEFAULT_CUTOFF` with
+        the measured one.
     effects
         Candidate effect names to try (default: all of :data:`rths.diagnose.effects.EFFECTS`).
-    penalty, min_closed
-        See the module docstring.
     seed
         Seed of the synthetic noise used for the per-model floors.
     drive
-        Drive of the specimen channel: ``"auto"`` (the transfer model's replay of the command
-        when it explains the measured displacement to its noise floor, else the measured
-        displacement) or ``"measured"`` (always the measured displacement).
+        ``"auto"`` (the actuator model's replay when it explains the measured displacement to
+        its noise floor, else the measured displacement) or ``"measured"``.
+    held_out
+        Names of the records to hold out (the rest identify); None: the default split.
     """
 
-    cutoff: float = DEFAULT_CUTOFF
+    cutoff: float | None = None
     effects: tuple[str, ...] = tuple(EFFECTS)
-    penalty: float = PENALTY
-    min_closed: float = MIN_CLOSED
     seed: int = 0
-    drive: str = "auto"
+    drive: str = "measured"
+    held_out: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
-        check_positive(self.cutoff, "specimen smoothing cutoff [Hz]")
+        if self.cutoff is not None:
+            check_positive(self.cutoff, "specimen smoothing cutoff [Hz]")
         if self.drive not in DRIVES:
             raise ParameterError(
                 f"drive must be one of {format_choices(DRIVES)}; got {self.drive!r}"
@@ -100,62 +93,81 @@ class Options:
             )
 
 
-@dataclass(frozen=True)
-class ChannelResult:
-    """One channel's decomposition with its nominal and baseline fits."""
-
-    channel: Channel = field(repr=False)
-    baseline: Fit = field(repr=False)
-    nominal_nrmse: float
-    baseline_nrmse: float
-    floor_nrmse: float
-    baseline_mse: float
-    floor_mse: float
-    decomposition: Decomposition
-
-    @property
-    def excess(self) -> float:
-        """``J_0 - N_0`` (held-out)."""
-        return self.baseline_mse - self.floor_mse
+def _flat(params: dict[str, dict[str, float]]) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for p in params.values():
+        out.update(p)
+    return out
 
 
-@dataclass(frozen=True)
-class Candidate:
-    """A candidate effect identified and scored on held-out data."""
+def _candidate_dict(c: Candidate, result: ChannelResult) -> dict[str, object]:
+    return {
+        "name": c.name,
+        "effects": {k: dict(v) for k, v in c.fit.params.items()},
+        "subsystem": result.channel.subsystem,
+        "channel": result.channel.name,
+        "structure": c.fit.model.structure,
+        "params": _flat(c.fit.params),
+        "baseline": c.fit.baseline,
+        "held_out_nrmse": result.nrmse(c.fit.held_mse),
+        "floor_nrmse": result.nrmse(c.floor),
+        "closed": c.closed,
+        "gain": c.gain,
+        "score": c.gain,
+        "eligible": c.accepted,
+        "physical": c.physical,
+    }
 
-    fit: Fit = field(repr=False)
-    subsystem: str
-    channel: str
-    held_nrmse: float
-    floor_nrmse: float
-    closed: float
-    score: float
-    eligible: bool
 
-    @property
-    def name(self) -> str:
-        """Effect name."""
-        return self.fit.name
+def _nominal_mse(result: ChannelResult) -> float:
+    """Held-out mean squared residual of the nominal model as written (offsets calibrated)."""
+    base = result.baseline
+    model, channel = base.model, result.channel
+    theta = {p.name: (p.start if p.start is not None else 0.0) for p in model.space(channel)}
+    theta = {k: (1.0 if k.endswith("_scale") else v) for k, v in theta.items()}
+    theta["shift"] = 0.0
+    beta = model.prior(channel)
+    sq, n = 0.0, 0
+    for s in channel.segments:
+        if not np.any(s.held):
+            continue
+        try:
+            x, f = model.columns(channel, s, theta)
+        except KeyError:
+            x, f = model.columns(channel, s, base.theta)
+        r = (s.observed - x @ beta - f)[s.held]
+        r = r - np.mean(r)
+        sq, n = sq + float(np.sum(r * r)), n + r.size
+    return sq / max(n, 1)
 
-    def to_dict(self) -> dict[str, object]:
-        """JSON form."""
-        return {
-            "name": self.name,
-            "subsystem": self.subsystem,
-            "channel": self.channel,
-            "params": self.fit.params,
-            "baseline": self.fit.baseline,
-            "held_out_nrmse": self.held_nrmse,
-            "floor_nrmse": self.floor_nrmse,
-            "closed": self.closed,
-            "score": self.score,
-            "eligible": self.eligible,
-        }
+
+def _channel_dict(result: ChannelResult) -> dict[str, object]:
+    c, dec = result, result.decomposition
+    return {
+        "subsystem": c.channel.subsystem,
+        "verdict": c.verdict,
+        "effects": [{"name": e, "params": dict(c.final.params.get(e, {}))} for e in c.effects],
+        "closed": c.closed,
+        "nominal_nrmse": c.nrmse(_nominal_mse(c)),
+        "baseline_nrmse": c.nrmse(c.baseline.held_mse),
+        "after_nrmse": c.nrmse(c.final.held_mse),
+        "floor_nrmse": c.nrmse(c.floor_mse),
+        "significant": dec.significant,
+        "ratio": list(dec.ratio),
+        "band_hz": list(dec.band_hz),
+        "peak_hz": dec.peak_hz,
+        "phase": dec.phase,
+        "windows": [list(w) for w in dec.windows],
+        "baseline": c.baseline.baseline,
+        "noise_rms": dict(c.channel.noise),
+        "drive": "replay" if c.channel.noise.get("drive", 1.0) == 0.0 else "measured",
+        "cutoff_hz": c.channel.cutoff,
+    }
 
 
 @dataclass(frozen=True)
 class Diagnosis:
-    """The answer: where the gap is, which effect explains it, how far it shrinks."""
+    """The answer: where the gap is, which effects explain it, how far they shrink it."""
 
     verdict: str
     subsystem: str
@@ -166,32 +178,37 @@ class Diagnosis:
     before: float
     after: float
     shrink: float
-    candidates: list[Candidate]
     channels: dict[str, ChannelResult] = field(repr=False)
     identification: list[str] = field(default_factory=list)
     held_out: list[str] = field(default_factory=list)
     structure: StructureGap | None = None
+    views: tuple[str, ...] = ("measured", "force")
+
+    @property
+    def effects(self) -> list[tuple[str, str, dict[str, float]]]:
+        """``(effect, channel, params)`` over the channels that count (the actuator's and the
+        specimen's chosen view), the largest gap's channel first."""
+        counted = [self.channels[v] for v in self.views]
+        order = sorted(counted, key=lambda c: -_magnitude(c, self.channels))
+        return [
+            (e, c.channel.name, dict(c.final.params.get(e, {})))
+            for c in order
+            if c.verdict != "unexplained"
+            for e in c.effects
+        ]
+
+    @property
+    def candidates(self) -> list[tuple[Candidate, ChannelResult]]:
+        """Every model tried, accepted ones first, then by the share of the gap closed."""
+        pairs = [(k, c) for c in self.channels.values() for k in c.candidates]
+        return sorted(pairs, key=lambda p: (not p[0].accepted, -p[0].closed))
+
+    def fit(self, channel: str) -> Fit:
+        """The final model of a channel."""
+        return self.channels[channel].final
 
     def to_dict(self) -> dict[str, object]:
         """The JSON document of design.md section 7 (plus details)."""
-        channels = {
-            name: {
-                "subsystem": c.channel.subsystem,
-                "nominal_nrmse": c.nominal_nrmse,
-                "baseline_nrmse": c.baseline_nrmse,
-                "floor_nrmse": c.floor_nrmse,
-                "significant": c.decomposition.significant,
-                "ratio": list(c.decomposition.ratio),
-                "band_hz": list(c.decomposition.band_hz),
-                "peak_hz": c.decomposition.peak_hz,
-                "phase": c.decomposition.phase,
-                "windows": [list(w) for w in c.decomposition.windows],
-                "baseline": c.baseline.baseline,
-                "noise_rms": dict(c.channel.noise),
-                "drive": "replay" if c.channel.noise.get("drive", 1.0) == 0.0 else "measured",
-            }
-            for name, c in self.channels.items()
-        }
         return {
             "verdict": self.verdict,
             "where": {
@@ -200,175 +217,133 @@ class Diagnosis:
                 "phase": self.phase,
             },
             "params": dict(self.params),
+            "effects": [
+                {
+                    "name": e,
+                    "channel": ch,
+                    "subsystem": EFFECTS[e].subsystem,
+                    "params": p,
+                }
+                for e, ch, p in self.effects
+            ],
             "gap": {"channel": self.gap_channel, "before": self.before, "after": self.after},
             "shrink": self.shrink,
-            "candidates": [c.to_dict() for c in self.candidates],
-            "channels": channels,
+            "candidates": [_candidate_dict(k, c) for k, c in self.candidates],
+            "channels": {name: _channel_dict(c) for name, c in self.channels.items()},
             "files": {"identification": self.identification, "held_out": self.held_out},
+            "specimen_channel": self.views[-1],
             "structure": None if self.structure is None else self.structure.to_dict(),
         }
 
 
-def held_runs(mask: np.ndarray) -> list[slice]:
-    """Contiguous runs of a boolean mask as slices."""
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
-    return [slice(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+def _specimen_view(channels: dict[str, ChannelResult]) -> ChannelResult:
+    """The specimen's result: the ``force`` channel, or the ``displacement`` channel (the
+    specimen seen from the force) when its effects close a larger share of its gap."""
+    force = channels["force"]
+    other = channels.get("displacement")
+    if other is None or not other.effects or other.verdict == "unexplained":
+        return force
+    if not force.effects or force.verdict == "unexplained" or other.closed > force.closed:
+        return other
+    return force
 
 
-def _held(channel: Channel, arrays: list[np.ndarray]) -> list[np.ndarray]:
-    """The held-out samples of per-record arrays, one part per contiguous run."""
-    return [
-        a[run] for s, a in zip(channel.segments, arrays, strict=True) for run in held_runs(s.held)
-    ]
+def _magnitude(result: ChannelResult, channels: dict[str, ChannelResult]) -> float:
+    """A channel's reducible gap relative to its observation (the specimen's in force units
+    whichever view explains it)."""
+    if result.channel.subsystem == "specimen":
+        return channels["force"].relative_gap
+    return result.relative_gap
 
 
-def _nrmse(channel: Channel, mse: float) -> float:
-    obs = np.concatenate(_held(channel, [s.observed for s in channel.segments]))
-    return math.sqrt(max(mse, 0.0) / float(np.mean(obs**2)))
-
-
-def _nominal_mse(channel: Channel, base: Fit) -> float:
-    beta = base.model.prior(channel)  # the nominal values of the baseline's parameters
-    sq, n = 0.0, 0
-    for s in channel.segments:
-        cols, fixed = base.model.columns(channel, s, base.theta)
-        r = (s.observed - cols @ beta - fixed)[s.held]
-        sq, n = sq + float(np.sum(r * r)), n + r.size
-    return sq / max(n, 1)
-
-
-def _channel_result(channel: Channel) -> ChannelResult:
-    base = fit_model(baseline_for(channel.subsystem), channel)
-    if channel.subsystem == "specimen":
-        b = base.baseline
-        linear = (b["inertance"], b["damping"], b["stiffness"])
-        drive = [s.signals["x"] for s in channel.segments]
-        f_max = 1.5 * float(channel.cutoff or 0.0)
-    else:
-        linear = None
-        drive = [s.observed for s in channel.segments]
-        f_max = 0.45 / channel.dt
-    floor = channel.floor_psd(linear)
-    floor_mse = channel.floor_variance(linear)
-    times = [np.arange(s.observed.size) * s.dt for s in channel.segments]
-    dec = decompose(
-        _held(channel, base.residuals(channel)),
-        _held(channel, [s.observed for s in channel.segments]),
-        _held(channel, drive),
-        _held(channel, times),
-        channel.dt,
-        floor,
-        f_max,
-    )
-    return ChannelResult(
-        channel,
-        base,
-        _nrmse(channel, _nominal_mse(channel, base)),
-        _nrmse(channel, base.held_mse),
-        _nrmse(channel, floor_mse),
-        base.held_mse,
-        floor_mse,
-        dec,
-    )
-
-
-def _candidate(name: str, result: ChannelResult, options: Options) -> Candidate:
-    model = EFFECTS[name]()
-    channel = result.channel
-    fit = fit_model(model, channel, result.baseline.baseline)
-    floor = noise_floor(fit, channel, options.seed)
-    significant = result.decomposition.significant and result.excess > 0.0
-    closed = (result.excess - (fit.held_mse - floor)) / result.excess if significant else 0.0
-    score = closed - options.penalty * model.n_effect
-    eligible = significant and model.physical(channel, fit.params) and closed >= options.min_closed
-    return Candidate(
-        fit,
-        model.subsystem,
-        channel.name,
-        _nrmse(channel, fit.held_mse),
-        _nrmse(channel, floor),
-        closed,
-        score,
-        eligible,
-    )
-
-
-def _replayed_drive(transfer: ChannelResult, candidates: list[Candidate]) -> list | None:
-    """The transfer model's replay of the command, if it explains the measured displacement.
-
-    The best actuator model (the best eligible actuator candidate, else the baseline) is used
-    when its held-out residual lies within ``1 + FLOOR_MARGIN`` of its noise floor: it is then a
-    noise-free estimate of the specimen's drive, and the specimen channel is spared the
-    measured displacement's noise differentiated twice.  Otherwise None (measured drive).
-    """
-    eligible = [c for c in candidates if c.eligible]
-    best = max(eligible, key=lambda c: c.score).fit if eligible else transfer.baseline
-    floor = transfer.floor_mse
-    if best.held_mse <= (1.0 + FLOOR_MARGIN) * floor:
-        return list(best.prediction)
+def _replayed_drive(result: ChannelResult) -> list | None:
+    """The actuator model's replay of the command, if it explains the measured displacement
+    to within ``1 + FLOOR_MARGIN`` of its noise floor (else None: the measured drive)."""
+    if result.final.held_mse <= (1.0 + FLOOR_MARGIN) * result.floor_mse:
+        return list(result.final.prediction)
     return None
 
 
 def diagnose(
     records: list[Record], nominal: NominalModel, options: Options | None = None
 ) -> Diagnosis:
-    """Decompose, attribute and shrink the sim-to-real gap of ``records`` (design.md section 7).
+    """Decompose, attribute and shrink the sim-to-real gap of ``records`` (module docstring).
 
     Parameters
     ----------
     records
-        One or more records (the first half identify, the rest are held out; one record is
-        split in time, :mod:`rths.diagnose.channels`).
+        One or more records (several: the first half identify unless ``options.held_out``
+        names the held-out ones; one record is split in time).
     nominal
         What the simulation believes.
     options
         Settings (defaults: :class:`Options`).
     """
     options = options or Options()
-    transfer = _channel_result(actuator_channel(records, nominal, options.cutoff))
-    candidates = [
-        _candidate(n, transfer, options)
-        for n in options.effects
-        if EFFECTS[n].subsystem == "actuator"
-    ]
-    drive = _replayed_drive(transfer, candidates) if options.drive == "auto" else None
-    specimen = _channel_result(specimen_channel(records, nominal, options.cutoff, drive))
-    candidates += [
-        _candidate(n, specimen, options)
-        for n in options.effects
-        if EFFECTS[n].subsystem == "specimen"
-    ]
+    with threadpool_limits(1):  # one core: tiny matrices, BLAS threads only cost
+        return _diagnose(records, nominal, options)
+
+
+def _diagnose(records: list[Record], nominal: NominalModel, options: Options) -> Diagnosis:
+    cutoff0 = options.cutoff or DEFAULT_CUTOFF
+    held = options.held_out
+    transfer = select(
+        actuator_channel(records, nominal, cutoff0, held), options.effects, options.seed
+    )
+    drive = _replayed_drive(transfer) if options.drive == "auto" else None
+    cutoff = options.cutoff or (
+        REPLAY_CUTOFF / records[0].dt if drive is not None else DEFAULT_CUTOFF
+    )
+    specimen = select(
+        specimen_channel(records, nominal, cutoff, drive, held), options.effects, options.seed
+    )
     channels = {"measured": transfer, "force": specimen}
-    candidates.sort(key=lambda c: (not c.eligible, -c.score))
-    best = candidates[0] if candidates and candidates[0].eligible else None
-    where: ChannelResult | None
-    if best is not None:
-        where = channels[best.channel]
-    else:
-        significant = [c for c in channels.values() if c.decomposition.significant]
-        where = max(
-            significant,
-            key=lambda c: c.decomposition.ratio[0] / c.decomposition.ratio[1],
-            default=None,
+    if nominal.specimen.inertance > 0.0 and nominal.specimen.friction == 0.0:
+        channels["displacement"] = select(
+            displacement_channel(records, nominal, held), options.effects, options.seed
         )
-    split = channels["measured"].channel.segments
+    view = _specimen_view(channels)
+    views = ("measured", view.channel.name)
+    significant = [c for c in (transfer, view) if c.decomposition.significant or c.effects]
+    where = max(significant, key=lambda c: _magnitude(c, channels), default=None)
+    split = transfer.channel.segments
     ident = [s.name for s in split if np.any(s.ident)]
-    held = [s.name for s in split if np.any(s.held)]
-    gap_channel = where or max(channels.values(), key=lambda c: c.excess / max(c.floor_mse, 1e-300))
+    held_names = [s.name for s in split if np.any(s.held)]
     structure = structure_gap(records) if any(r.target is not None for r in records) else None
+    if where is None:
+        gap = max(channels.values(), key=lambda c: c.excess / max(c.floor_mse, 1e-300))
+        return Diagnosis(
+            "none",
+            "none",
+            (0.0, 0.0),
+            "none",
+            {},
+            gap.channel.name,
+            gap.nrmse(gap.baseline.held_mse),
+            gap.nrmse(gap.baseline.held_mse),
+            0.0,
+            channels,
+            ident,
+            held_names,
+            structure,
+            views,
+        )
+    verdict = where.verdict
+    params = dict(where.final.params.get(verdict, {})) if verdict in EFFECTS else {}
+    explained = verdict != "unexplained"
     return Diagnosis(
-        verdict=best.name if best else "none",
-        subsystem=where.channel.subsystem if where else "none",
-        band_hz=where.decomposition.band_hz if where else (0.0, 0.0),
-        phase=where.decomposition.phase if where else "none",
-        params=dict(best.fit.params) if best else {},
-        gap_channel=gap_channel.channel.name,
-        before=gap_channel.baseline_nrmse,
-        after=best.held_nrmse if best else gap_channel.baseline_nrmse,
-        shrink=best.closed if best else 0.0,
-        candidates=candidates,
+        verdict=verdict,
+        subsystem=where.channel.subsystem,
+        band_hz=where.decomposition.band_hz,
+        phase=where.decomposition.phase,
+        params=params,
+        gap_channel=where.channel.name,
+        before=where.nrmse(where.baseline.held_mse),
+        after=where.nrmse(where.final.held_mse if explained else where.baseline.held_mse),
+        shrink=max(where.closed, 0.0) if explained else max(where.closed, 0.0),
         channels=channels,
         identification=ident,
-        held_out=held,
+        held_out=held_names,
         structure=structure,
+        views=views,
     )

@@ -1,10 +1,11 @@
-"""Synthetic lab records with one hidden effect, made by the project's own emulated lab.
+"""Synthetic lab records with hidden effects, made by the project's own emulated lab.
 
 Used by the blind suite (``tools/blind_suite.py``), the tests and the benchmark.  A record is the
 loop ``command -> DAC -> TransferFunctionActuator (+ delay, rate limit) -> IMD specimen -> ADCs``
 of :class:`plants.lab.EmulatedLab`; the specimen is :class:`plants.imd.models.SimplifiedIMD`
 (S0 Eq.1), or :class:`plants.imd.models.InternalStiffnessIMD` (S0 Eq.12) when a series element is
-switched on.
+switched on; an amplitude-dependent damping is the IMD's S0 Eq.18 law.  Records follow the CSV
+timing convention (row ``k``: the command applied from ``t_k``, the measurement at ``t_k``).
 Nothing here is visible to the diagnosis, which sees only the CSV columns and the nominal file.
 """
 
@@ -19,18 +20,20 @@ from scipy import signal
 
 from plants.actuator import MTS_IDENTIFIED, TransferFunctionActuator
 from plants.imd.models import IMDParameters, imd_from_parameters
+from plants.imd.parameters import AmplitudeDamping
 from plants.lab import Converter, EmulatedLab, LabConverters
 from rths.core.errors import ParameterError, check_positive, format_choices
-from rths.diagnose.data import Record
-from rths.diagnose.nominal import ActuatorNominal, NominalModel, SpecimenNominal
+from rths.diagnose.data.nominal import ActuatorNominal, NominalModel, SpecimenNominal
+from rths.diagnose.data.records import Record, align_log
 
 __all__ = ["CLASSES", "LabCase", "band_limited_command", "lab_record", "seed_converters"]
 
-#: The six labels of the blind suite (design.md section 7 verdicts).
+#: The labels of the blind suite (design.md section 7 verdicts).
 CLASSES: tuple[str, ...] = (
     "internal_stiffness",
     "backlash",
     "coulomb_friction",
+    "amplitude_damping",
     "actuator_delay",
     "rate_limit",
     "none",
@@ -62,8 +65,9 @@ class LabCase:
         One of :data:`CLASSES`.
     value
         The hidden parameter in the units of the verdict's ``params`` (design.md section 7):
-        series ``stiffness`` [N/m], ``gap`` [m], ``friction`` [N], ``delay`` [s],
-        ``velocity_limit`` [m/s]; ignored for ``none``.
+        series ``stiffness`` [N/m], ``gap`` [m], ``friction`` [N], ``c1`` [N s] of the
+        amplitude-dependent damping ``c1/(A + c2)``, ``delay`` [s], ``velocity_limit`` [m/s];
+        ignored for ``none``.
     inertance, damping
         True specimen ``m_e`` [kg] and ``c_d`` [N s/m] (on the flywheel with a series element).
     gain
@@ -77,6 +81,12 @@ class LabCase:
     specimen
         The true IMD parameters outright (e.g. ``IMDParameters.preset("type_ii")`` with its
         amplitude law, S0 Eq.18); default: built from the fields above and the effect.
+    amplitude_c2
+        ``c2`` [m] of an ``amplitude_damping`` case (the damping is then ``c1/(A + c2)`` alone,
+        ``A`` the IMD's reversal-based load amplitude, and ``damping`` is not used).
+    extra
+        Further hidden effects ``((effect, value), ...)`` on top of ``effect`` (combined cases;
+        backlash and internal stiffness share the IMD's series element and do not combine).
     """
 
     effect: str
@@ -89,28 +99,60 @@ class LabCase:
     contact_frequency: float = 100.0
     converters: LabConverters | None = None
     specimen: IMDParameters | None = None
+    amplitude_c2: float = 0.5e-3
+    extra: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
-        if self.effect not in CLASSES:
-            raise ParameterError(
-                f"effect must be one of {format_choices(CLASSES)}; got {self.effect!r}"
-            )
-        if self.effect != "none":
-            check_positive(self.value, f"{self.effect} value")
+        for effect, value in ((self.effect, self.value), *self.extra):
+            if effect not in CLASSES:
+                raise ParameterError(
+                    f"effect must be one of {format_choices(CLASSES)}; got {effect!r}"
+                )
+            if effect != "none":
+                check_positive(value, f"{effect} value")
         check_positive(self.gain, "actuator gain")
 
+    @property
+    def effects(self) -> dict[str, float]:
+        """Every hidden effect with its value (``{}`` for none)."""
+        out = {} if self.effect == "none" else {self.effect: self.value}
+        out.update(self.extra)
+        return out
+
     def specimen_parameters(self) -> IMDParameters:
-        """The true IMD (S0 Eq.1 or Eq.12) with the hidden specimen effect switched on."""
+        """The true IMD (S0 Eq.1 or Eq.12) with the hidden specimen effects switched on."""
         if self.specimen is not None:
             return self.specimen
         p = IMDParameters(inertance=self.inertance, damping=self.damping)
-        if self.effect == "internal_stiffness":
-            return replace(p, stiffness=self.value)
-        if self.effect == "backlash":
+        order = ("internal_stiffness", "backlash", "coulomb_friction", "amplitude_damping")
+        for effect in order:  # the damping law needs the series stiffness, if any, first
+            if effect in self.effects:
+                p = self._with(p, effect, self.effects[effect])
+        return p
+
+    def _with(self, p: IMDParameters, effect: str, value: float) -> IMDParameters:
+        if effect == "internal_stiffness":
+            return replace(p, stiffness=value)
+        if effect == "backlash":
             k_c = self.inertance * (2.0 * math.pi * self.contact_frequency) ** 2
-            return replace(p, clearance=self.value, contact_stiffness=k_c)
-        if self.effect == "coulomb_friction":
-            return replace(p, friction=self.value)
+            return replace(p, clearance=value, contact_stiffness=k_c)
+        if effect == "coulomb_friction":
+            return replace(p, friction=value)
+        if effect == "amplitude_damping":
+            # c_d = 2 xi sqrt(k0 m) with xi = c1'/(A_mm + c2') (S0 Eq.17-18) is c1/(A + c2) for
+            # c1' = c1 / (2e-3 sqrt(k0 m)), c2' = 1e3 c2; k0 only scales c1' (no series spring)
+            series = p.stiffness is not None
+            k0 = (
+                float(p.stiffness)  # type: ignore[arg-type]
+                if series
+                else self.inertance * (2.0 * math.pi * 10.0) ** 2
+            )
+            law = AmplitudeDamping(
+                c1=value / (2e-3 * math.sqrt(k0 * self.inertance)),
+                c2=1e3 * self.amplitude_c2,
+                small_amplitude_mm=0.0,
+            )
+            return replace(p, damping=0.0, damping_law=law, stiffness=k0, internal_stiffness=series)
         return p
 
     def nominal(self, inertance: float, damping: float, gain: float) -> NominalModel:
@@ -145,8 +187,8 @@ def band_limited_command(
 
 def _run(case: LabCase, command: NDArray, dt: float, seed: int, converters: LabConverters):
     specimen = imd_from_parameters(case.specimen_parameters())
-    delay = case.value if case.effect == "actuator_delay" else 0.0
-    v_max = case.value if case.effect == "rate_limit" else None
+    delay = case.effects.get("actuator_delay", 0.0)
+    v_max = case.effects.get("rate_limit")
     num = tuple(case.gain * c for c in case.num)
     actuator = TransferFunctionActuator(
         num, case.den, specimen, dt, delay=delay, velocity_limit=v_max
@@ -165,6 +207,9 @@ def lab_record(
 ) -> Record:
     """Run the emulated lab on a command history; return the record the CSV would hold.
 
+    The lab holds ``command[k]`` over step ``k`` and measures at its end; the record is aligned
+    to the CSV timing convention (:func:`rths.diagnose.data.records.align_log`).
+
     The converters are ``case.converters`` (default :func:`seed_converters`) with the load cell
     ranged as a lab engineer would: if the force saturates, the run is repeated with the force
     range set to 1.25 times the peak true force.
@@ -180,4 +225,5 @@ def lab_record(
         )
         measured, force, _, _ = _run(case, command, dt, seed, converters)
     t = dt * np.arange(1, command.size + 1, dtype=np.float64)
-    return Record(name, dt, t, np.asarray(command, float).copy(), measured, force)
+    t, u, x, f = align_log(t, np.asarray(command, float).copy(), measured, force)
+    return Record(name, dt, t, u, x, f)

@@ -2,15 +2,21 @@
 
 CSV contract (design.md section 7): a header line naming at least the columns ``time``,
 ``command``, ``measured`` and ``force`` (any order; other columns are ignored), then one row per
-sample, SI units, uniform sampling.  Row ``i`` holds the measured displacement [m] and force [N]
-at ``time[i]`` [s] and the command [m] that was held over the interval ending at ``time[i]`` --
-the convention of the MCAP topic ``rths/loop`` (``t`` is the end of the step), so both formats
-mean the same thing.  A lab record sampled simultaneously differs from this by at most half a
-sample, which the diagnosis sees as part of the actuator delay.
+sample, SI units, uniform sampling.
+
+Timing convention (the DAQ one): row ``k`` holds the command applied from ``time[k]`` (a
+zero-order-hold DAC updated at ``t_k``) and the measured displacement [m] and force [N]
+sampled at ``time[k]``.  A lab record whose converters are not exactly simultaneous differs
+from this by a fraction of a sample; a shift of up to one sample between command and measured
+is calibration (the baseline's alignment), never an effect.
 
 MCAP logs written by ``rths run`` are read through :func:`rths.log.reader.read_loop` (topic
-``rths/loop``: ``t``, ``target``, ``command``, ``measured``, ``force``); the scenario text in the
-log's metadata is kept for the structure channel.
+``rths/loop``: ``t``, ``target``, ``command``, ``measured``, ``force``).  A log row holds the
+command held over the step *ending* at ``t`` and the measurement at ``t``, so on reading the
+measurement columns move one row later (row ``k``: the command applied from ``t_k``, the
+measurement at ``t_k``; the first row is the rest state before the first step, the last
+command is dropped): :func:`align_log`.  The scenario text in the log's metadata is kept for
+the structure channel.
 """
 
 from __future__ import annotations
@@ -30,6 +36,7 @@ __all__ = [
     "MIN_DURATION",
     "SAMPLING_TOLERANCE",
     "Record",
+    "align_log",
     "load_record",
     "read_csv",
     "read_mcap",
@@ -64,13 +71,14 @@ class Record:
     time
         Sample times [s], shape ``(n,)``.
     command
-        Actuator command [m] held over the interval ending at each sample, shape ``(n,)``.
+        Actuator command [m] applied from each sample time on (DAQ convention), shape ``(n,)``.
     measured
         Measured displacement of the specimen end [m], shape ``(n,)``.
     force
         Measured specimen restoring force [N], shape ``(n,)``.
     target
-        Target displacement [m] from the numerical substructure (MCAP logs only), else None.
+        Target displacement [m] from the numerical substructure at each sample time (MCAP logs
+        only), else None.
     scenario_text
         The scenario TOML the run was made from (MCAP logs with metadata only), else None.
     """
@@ -119,6 +127,10 @@ def _check_arrays(name: str, time: NDArray, columns: dict[str, NDArray]) -> floa
         raise DataError(f"{name}: needs at least 3 samples; got {time.size}")
     steps = np.diff(time)
     dt = float(np.median(steps))
+    if dt > 0.0 and time.size > 2:  # the mean step: free of the print rounding of each time
+        mean = float((time[-1] - time[0]) / (time.size - 1))
+        if abs(mean - dt) <= SAMPLING_TOLERANCE * dt:
+            dt = mean
     if not dt > 0.0:
         raise DataError(f"{name}: column 'time' must increase; median step is {dt!r} s")
     worst = int(np.argmax(np.abs(steps - dt)))
@@ -197,8 +209,32 @@ def read_csv(path: str | os.PathLike[str]) -> Record:
     return Record(p.name, dt, cols["time"], cols["command"], cols["measured"], cols["force"])
 
 
+def align_log(
+    time: NDArray[np.float64],
+    command: NDArray[np.float64],
+    measured: NDArray[np.float64],
+    force: NDArray[np.float64],
+    target: NDArray[np.float64] | None = None,
+) -> tuple[NDArray[np.float64], ...]:
+    """Log rows (command held over the step ending at ``t``) to the DAQ convention.
+
+    Row ``k`` of the result: time ``t_k = time[k] - dt`` (the step's start), the command applied
+    from it (``command[k]``), and the measurement at ``t_k``: the previous log row's, or the
+    rest state (0) for the first row.  Returns ``(time, command, measured, force[, target])``.
+    """
+    dt = float(time[1] - time[0]) if time.size > 1 else 0.0
+
+    def later(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.concatenate([[0.0], x[:-1]])
+
+    out = (time - dt, np.asarray(command, float), later(measured), later(force))
+    return out if target is None else (*out, later(target))
+
+
 def read_mcap(path: str | os.PathLike[str]) -> Record:
     """Read topic ``rths/loop`` (and the scenario metadata) of an ``rths run`` MCAP log.
+
+    The rows are aligned to the DAQ timing convention (:func:`align_log`).
 
     Raises
     ------
@@ -217,9 +253,17 @@ def read_mcap(path: str | os.PathLike[str]) -> Record:
         if target is not None and target.dtype.kind in "fi"
         else None
     )
+    aligned = align_log(cols["t"], cols["command"], cols["measured"], cols["force"], target)
     scenario = read_metadata(p).get("scenario", {}).get("text")
     return Record(
-        p.name, dt, cols["t"], cols["command"], cols["measured"], cols["force"], target, scenario
+        p.name,
+        dt,
+        aligned[0],
+        aligned[1],
+        aligned[2],
+        aligned[3],
+        aligned[4] if target is not None else None,
+        scenario,
     )
 
 

@@ -1,7 +1,8 @@
 """``NOMINAL.toml``: what the "sim" believes about the transfer system and the specimen.
 
 Format (design.md section 7; every key below is required except ``delay``, ``damping``,
-``stiffness`` and ``friction``, which default to 0; unknown keys are errors)::
+``stiffness``, ``friction`` and the two amplitude-damping keys, which default to 0; unknown keys
+are errors)::
 
     [actuator]            # measured/command, continuous-time TF, descending powers of s
     num = [b0]
@@ -12,9 +13,14 @@ Format (design.md section 7; every key below is required except ``delay``, ``dam
     damping = 0.0         # N s/m
     stiffness = 0.0       # N/m
     friction = 0.0        # N
+    amplitude_c1 = 0.0    # N s  } optional amplitude-dependent damping c1/(A + c2)
+    amplitude_c2 = 1e-3   # m    } (S0 Eq.17-18 form), A the running load amplitude
 
-The specimen form is the simplified IMD of S0 Eq.1 plus a parallel spring.  Errors are
-:class:`rths.core.errors.ConfigError` naming the file, the table, the key and the value.
+The specimen form is the simplified IMD of S0 Eq.1 plus a parallel spring.  What the file
+declares is the baseline: the diagnosis re-calibrates these parameters (and the actuator's
+gain, pole frequencies, pole damping, offsets and a +/-1 sample alignment) and calls everything
+else an effect -- e.g. ``amplitude_damping`` is an effect unless ``amplitude_c1`` is declared.
+Errors are :class:`rths.core.errors.ConfigError` naming the file, the table, the key and the value.
 """
 
 from __future__ import annotations
@@ -74,12 +80,22 @@ class SpecimenNominal:
         ``k`` [N/m] (any sign: a negative value is a negative-stiffness device).
     friction
         ``F_r`` [N], >= 0.
+    amplitude_c1, amplitude_c2
+        Amplitude-dependent damping ``c1/(A + c2)`` [N s], [m] (S0 Eq.17-18 form; ``c1 = 0``:
+        none declared), ``c2 > 0``.
     """
 
     inertance: float
     damping: float = 0.0
     stiffness: float = 0.0
     friction: float = 0.0
+    amplitude_c1: float = 0.0
+    amplitude_c2: float = 1e-3
+
+    @property
+    def declares_amplitude_damping(self) -> bool:
+        """Whether the nominal holds an amplitude-dependent damping (then it is baseline)."""
+        return self.amplitude_c1 > 0.0
 
 
 @dataclass(frozen=True)
@@ -131,7 +147,11 @@ def _specimen(t: Table) -> SpecimenNominal:
         damping=t.number("damping", 0.0, nonnegative=True, hi=MAX_VALUE),
         stiffness=t.number("stiffness", 0.0, lo=-MAX_VALUE, hi=MAX_VALUE),
         friction=t.number("friction", 0.0, nonnegative=True, hi=MAX_VALUE),
+        amplitude_c1=t.number("amplitude_c1", 0.0, nonnegative=True, hi=MAX_VALUE),
+        amplitude_c2=t.number("amplitude_c2", 1e-3, nonnegative=True, hi=MAX_VALUE),
     )
+    if s.amplitude_c2 <= 0.0:
+        raise t.error("amplitude_c2", f"must be positive; got {s.amplitude_c2!r}")
     t.finish()
     return s
 
@@ -178,4 +198,10 @@ def nominal_toml(model: NominalModel, comment: str = "") -> str:
         f"damping = {float(s.damping)!r}  # N s/m\n"
         f"stiffness = {float(s.stiffness)!r}  # N/m\n"
         f"friction = {float(s.friction)!r}  # N\n"
+        + (
+            f"amplitude_c1 = {float(s.amplitude_c1)!r}  # N s\n"
+            f"amplitude_c2 = {float(s.amplitude_c2)!r}  # m\n"
+            if s.declares_amplitude_damping
+            else ""
+        )
     )

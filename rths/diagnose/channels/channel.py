@@ -1,0 +1,394 @@
+"""The replay channels of a diagnosis and the split into identification and held-out data.
+
+``measured`` (subsystem ``actuator``)
+    The nominal actuator TF (+ its delay) driven by the recorded command, against the measured
+    displacement (raw: the command is noise-free, so the residual noise is the displacement
+    transducer's own).  Carries the force deviation ``dF = F - Z_0 x`` (measured force minus
+    the nominal specimen on the measured displacement) for the control-structure interaction
+    path of the actuator models (:mod:`rths.diagnose.effects.actuator`).
+``force`` (subsystem ``specimen``)
+    The specimen models driven by the drive displacement (measured, or the actuator model's
+    noise-free replay) through a light low-pass (:data:`DRIVE_CUTOFF`), against the measured
+    force; the measured force and every model's output go through the same zero-phase low-pass
+    at the channel's cutoff (see :mod:`rths.diagnose.channels.signals`).  Nonlinear models see
+    the motion's fast content (a contact closes within milliseconds); the comparison is made
+    where the noise allows.
+
+Split (design.md section 7): with several records the first ``ceil(k/2)`` identify and the rest
+are held out, unless the caller names the held-out records; a single record is cut into
+:data:`TIME_BLOCKS` equal blocks in time, the even ones identify and the odd ones are held out
+-- alternating blocks rather than one cut, so that the held-out part of a sine sweep spans the
+same frequencies as the identification part.  The replay always runs over the whole record from
+its start; only the fitting and scoring are split.  :data:`EDGE_SECONDS` (at least ``4/f_c``)
+at both ends of every record are left out of fitting and scoring (filter edge transients).
+Every record has its own transducer offsets: they are calibrated on the record itself (the
+fitter's per-record offset columns on identification data, the mean residual on held-out data).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rths.core.errors import DataError
+from rths.diagnose.channels.signals import (
+    actuator_replay,
+    derivatives,
+    impulse_kernel,
+    smooth,
+    smoother,
+    white_noise_rms,
+)
+from rths.diagnose.data.nominal import NominalModel
+from rths.diagnose.data.records import Record
+
+__all__ = [
+    "DEFAULT_CUTOFF",
+    "DRIVE_CUTOFF",
+    "EDGE_SECONDS",
+    "TIME_BLOCKS",
+    "Channel",
+    "Segment",
+    "actuator_channel",
+    "displacement_channel",
+    "force_deviation",
+    "specimen_channel",
+    "split_roles",
+]
+
+#: Default cutoff [Hz] of the specimen channel's zero-phase low-pass when the drive is the noisy
+#: measured displacement and no cutoff is given: twice the 10-14 Hz ripple band of S0 section 3.
+DEFAULT_CUTOFF: float = 30.0
+#: Number of alternating identification/held-out blocks of a single record.
+TIME_BLOCKS: int = 6
+#: Samples within this time [s] (or ``4/f_c`` if longer) of a record's ends are not scored.
+EDGE_SECONDS: float = 0.1
+
+#: Cutoff of the light low-pass on the specimen channel's drive, as a fraction of the sampling
+#: rate: it keeps what nonlinear models (contacts, stick-slip) need from the motion and sheds the
+#: converter noise near the Nyquist frequency.
+DRIVE_CUTOFF: float = 0.2
+#: Length of the impulse responses behind the noise-floor PSD.
+_KERNEL_LENGTH = 8192
+
+ChannelName = Literal["measured", "force", "displacement"]
+
+
+@dataclass
+class Segment:
+    """One record as seen by one channel.
+
+    Attributes
+    ----------
+    name
+        Record name.
+    index
+        Record number (0-based; the per-record offsets).
+    dt
+        Sample period [s].
+    observed
+        What the models must reproduce: measured displacement [m] or smoothed force [N].
+    signals
+        Drive signals: ``command`` and ``dforce`` (force deviation [N]) for the actuator
+        channel; ``x``, ``v``, ``a`` (smoothed drive displacement and its derivatives) for the
+        specimen channel.
+    ident, held
+        Boolean masks of the samples used for identification and for held-out scoring.
+    sos
+        The smoother ``h`` applied to model outputs (specimen channel), else None.
+    cache
+        Per-model precomputed columns (filled lazily by the models).
+    """
+
+    name: str
+    index: int
+    dt: float
+    observed: NDArray[np.float64]
+    signals: dict[str, NDArray[np.float64]]
+    ident: NDArray[np.bool_]
+    held: NDArray[np.bool_]
+    sos: NDArray[np.float64] | None = None
+    cache: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+
+    def h(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """A model output through the channel's smoother (identity without one)."""
+        return x if self.sos is None else smooth(x, self.sos)
+
+
+@dataclass
+class Channel:
+    """A replay channel over all records, with its white-noise levels.
+
+    Attributes
+    ----------
+    name, subsystem
+        ``measured``/``actuator`` or ``force``/``specimen``.
+    segments
+        One per record.
+    nominal
+        The nominal model.
+    noise
+        White-noise RMS estimated from the records: ``measured`` [m], ``force`` [N],
+        ``command`` [m]; and ``drive`` [m], the noise on the specimen channel's drive (the
+        measured displacement's, or 0 for a replayed drive).
+    cutoff
+        Smoother cutoff [Hz] (specimen channel), else None.
+    drive_sos
+        The light low-pass the specimen channel's drive goes through (:data:`DRIVE_CUTOFF`),
+        else None.
+    """
+
+    name: ChannelName
+    subsystem: Literal["actuator", "specimen"]
+    segments: list[Segment]
+    nominal: NominalModel
+    noise: dict[str, float]
+    cutoff: float | None = None
+    drive_sos: NDArray[np.float64] | None = None
+
+    @property
+    def dt(self) -> float:
+        """Sample period [s] (the same for every record)."""
+        return self.segments[0].dt
+
+    @property
+    def n_records(self) -> int:
+        """Number of records."""
+        return len(self.segments)
+
+    def stack(self, key: str, mask: str | None = None) -> NDArray[np.float64]:
+        """Concatenate ``observed`` or a signal over segments, optionally over a mask."""
+        parts = []
+        for s in self.segments:
+            x = s.observed if key == "observed" else s.signals[key]
+            parts.append(x if mask is None else x[getattr(s, mask)])
+        return np.concatenate(parts)
+
+    def floor_variance(self, linear: tuple[float, float, float] | None = None) -> float:
+        """Variance of the residual a perfect model would leave (white noise only).
+
+        Actuator channel: ``s_y^2 + g^2 s_u^2 sum(h_G^2)`` (displacement noise plus command
+        noise through the nominal TF).  Specimen channel: ``s_F^2 sum(k_F^2) + s_x^2
+        sum(k_x^2)`` with ``k_F = h`` and ``k_x = h L g`` (``g`` the drive's low-pass),
+        ``L = m D2 + c D1 + k`` the linear
+        part of the (re-calibrated) specimen ``linear = (m, c, k)``.
+        """
+        return float(np.sum(self.floor_psd(linear)[1]) * self.psd_df)
+
+    @property
+    def psd_df(self) -> float:
+        """Frequency step [Hz] of :meth:`floor_psd`."""
+        return 1.0 / (_KERNEL_LENGTH * self.dt)
+
+    def floor_psd(
+        self, linear: tuple[float, float, float] | None = None
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """One-sided PSD [unit^2/Hz] of the noise floor (see :meth:`floor_variance`)."""
+        n, dt = _KERNEL_LENGTH, self.dt
+        f = np.fft.rfftfreq(n, dt)
+        scale = np.full(f.size, 2.0 * dt)
+        scale[0] = scale[-1] = dt
+        if self.subsystem == "actuator":
+            g = self.nominal.actuator
+            impulse = np.zeros(n)
+            impulse[0] = 1.0
+            k_u = actuator_replay(g.num, g.den, dt, impulse)
+            psd = (
+                self.noise["measured"] ** 2
+                + self.noise["command"] ** 2 * np.abs(np.fft.rfft(k_u)) ** 2
+            )
+            return np.asarray(f, dtype=np.float64), psd * scale
+        sos = self.segments[0].sos
+        assert sos is not None
+        if self.name == "displacement":
+            k_h = np.abs(np.fft.rfft(impulse_kernel(sos, dt))) ** 2
+            return np.asarray(f, dtype=np.float64), self.noise["measured"] ** 2 * k_h * scale
+        spec = self.nominal.specimen
+        lin = linear or (spec.inertance, spec.damping, spec.stiffness)
+        k_f = np.abs(np.fft.rfft(impulse_kernel(sos, dt))) ** 2
+        k_x = np.abs(np.fft.rfft(impulse_kernel(sos, dt, lin, self.drive_sos))) ** 2
+        psd = self.noise["force"] ** 2 * k_f + self.noise["drive"] ** 2 * k_x
+        return np.asarray(f, dtype=np.float64), psd * scale
+
+
+def split_roles(
+    records: list[Record], cutoff: float, held_out: tuple[str, ...] | None = None
+) -> list[tuple[NDArray, NDArray]]:
+    """``(ident, held)`` sample masks per record (module docstring).
+
+    Parameters
+    ----------
+    records
+        The records.
+    cutoff
+        Smoother cutoff [Hz] (sets the unscored edges).
+    held_out
+        Names of the records to hold out (the others identify); None: the default split.
+    """
+    if not records:
+        raise DataError("no records given")
+    k = len(records)
+    names = [r.name for r in records]
+    if held_out is not None:
+        unknown = [h for h in held_out if h not in names]
+        if unknown:
+            raise DataError(f"held-out record '{unknown[0]}' is not among the data {names}")
+        if len(set(held_out)) >= k:
+            raise DataError("at least one record must identify; all were held out")
+    n_ident = math.ceil(k / 2) if k > 1 else 1
+    masks = []
+    for i, r in enumerate(records):
+        edge = max(1, int(round(max(EDGE_SECONDS, 4.0 / cutoff) / r.dt)))
+        inner = np.zeros(r.n, dtype=bool)
+        inner[edge : r.n - edge] = True
+        if k == 1 and not held_out:
+            block = (np.arange(r.n) * TIME_BLOCKS) // r.n
+            ident, held = inner & (block % 2 == 0), inner & (block % 2 == 1)
+        elif (r.name in held_out) if held_out is not None else i >= n_ident:
+            ident, held = np.zeros(r.n, dtype=bool), inner
+        else:
+            ident, held = inner, np.zeros(r.n, dtype=bool)
+        masks.append((ident, held))
+    return masks
+
+
+def _noise(records: list[Record], key: str) -> float:
+    """Pooled white-noise RMS of a column over records (weighted by length)."""
+    total = sum(r.n for r in records)
+    var = sum(r.n * white_noise_rms(getattr(r, key), r.dt) ** 2 for r in records) / total
+    return math.sqrt(var)
+
+
+def _check_rates(records: list[Record]) -> float:
+    dt = records[0].dt
+    for r in records[1:]:
+        if abs(r.dt - dt) > 1e-5 * dt:  # 1e-5: < 0.04 samples of drift over 60 min
+            raise DataError(
+                f"all records must share one sampling rate; '{r.name}' has {r.rate:.6g} Hz, "
+                f"'{records[0].name}' {records[0].rate:.6g} Hz"
+            )
+    return dt
+
+
+def _noise_levels(records: list[Record]) -> dict[str, float]:
+    return {k: _noise(records, k) for k in ("measured", "force", "command")}
+
+
+def displacement_channel(
+    records: list[Record],
+    nominal: NominalModel,
+    held_out: tuple[str, ...] | None = None,
+) -> Channel:
+    """The ``displacement`` channel: the measured displacement predicted from the measured
+    force (:mod:`rths.diagnose.effects.compliance`).
+
+    Both go through zero-phase low-passes: the displacement (observed) at :data:`DRIVE_CUTOFF`
+    of the sampling rate (no derivative: its noise is not amplified), the force (the drive) at
+    the same cutoff.  Samples where the force is within ``2 F_0`` of zero are not scored;
+    ``F_0`` (signal ``f0``) is five times the smoothed force noise or 1 % of the force's RMS.
+    """
+    dt = _check_rates(records)
+    cutoff = DRIVE_CUTOFF / dt
+    sos = smoother(cutoff, dt)
+    noise = _noise_levels(records)
+    segments = []
+    forces = [smooth(r.force, sos) for r in records]
+    rms = float(np.sqrt(np.mean(np.concatenate(forces) ** 2)))
+    gain = float(np.sqrt(np.sum(impulse_kernel(sos, dt) ** 2)))
+    f0 = max(5.0 * noise["force"] * gain, 0.01 * rms, 1e-12)
+    roles = split_roles(records, cutoff, held_out)
+    for i, (r, f, (ident, held)) in enumerate(zip(records, forces, roles, strict=True)):
+        live = np.abs(f - np.median(f)) >= 2.0 * f0
+        signals = {"f": f, "f0": np.full(1, f0)}
+        segments.append(
+            Segment(r.name, i, dt, smooth(r.measured, sos), signals, ident & live, held & live, sos)
+        )
+    noise["drive"] = 0.0
+    return Channel("displacement", "specimen", segments, nominal, noise, cutoff, sos)
+
+
+def force_deviation(record: Record, nominal: NominalModel) -> NDArray[np.float64]:
+    """``dF = F - (m x'' + c x' + k x)`` [N]: the force the nominal specimen does not explain.
+
+    The force goes through a zero-phase low-pass at :data:`DRIVE_CUTOFF` of the sampling rate
+    (contacts and stick-slip stay in it), the displacement through one at
+    :data:`DEFAULT_CUTOFF` (its second derivative is noisy; the inertial force of a drive is
+    slow).  Nominal friction is not subtracted.
+    """
+    x = smooth(record.measured, smoother(min(DEFAULT_CUTOFF, 0.2 / record.dt), record.dt))
+    force = smooth(record.force, smoother(DRIVE_CUTOFF / record.dt, record.dt))
+    v, a = derivatives(x, record.dt)
+    s = nominal.specimen
+    return force - (s.inertance * a + s.damping * v + s.stiffness * x)
+
+
+def actuator_channel(
+    records: list[Record],
+    nominal: NominalModel,
+    cutoff: float,
+    held_out: tuple[str, ...] | None = None,
+) -> Channel:
+    """The ``measured`` channel: the recorded commands and force deviations per record.
+
+    Parameters
+    ----------
+    records, nominal
+        The data and the nominal model.
+    cutoff
+        The specimen channel's cutoff [Hz] (the unscored edges are the same on both channels).
+    held_out
+        Names of the held-out records (:func:`split_roles`).
+    """
+    dt = _check_rates(records)
+    segments = []
+    for i, (r, (ident, held)) in enumerate(
+        zip(records, split_roles(records, cutoff, held_out), strict=True)
+    ):
+        signals = {"command": r.command, "dforce": force_deviation(r, nominal)}
+        segments.append(Segment(r.name, i, dt, r.measured, signals, ident, held))
+    return Channel("measured", "actuator", segments, nominal, _noise_levels(records))
+
+
+def specimen_channel(
+    records: list[Record],
+    nominal: NominalModel,
+    cutoff: float,
+    drive: list[NDArray[np.float64]] | None = None,
+    held_out: tuple[str, ...] | None = None,
+) -> Channel:
+    """The ``force`` channel: smoothed drive displacement, its derivatives, smoothed force.
+
+    Parameters
+    ----------
+    records, nominal
+        As for :func:`actuator_channel`.
+    cutoff
+        Cutoff [Hz] of the smoother.
+    drive
+        Drive displacement per record [m]; default the measured displacement.  A noise-free
+        drive (the transfer model's replay of the command, see :mod:`rths.diagnose.verdict`)
+        has no noise of its own, so the floor is then the force noise alone.
+    held_out
+        Names of the held-out records (:func:`split_roles`).
+    """
+    dt = _check_rates(records)
+    sos = smoother(cutoff, dt)
+    drive_sos = smoother(max(DRIVE_CUTOFF / dt, cutoff), dt)
+    segments = []
+    drives = drive if drive is not None else [r.measured for r in records]
+    roles = split_roles(records, cutoff, held_out)
+    for i, (r, d, (ident, held)) in enumerate(zip(records, drives, roles, strict=True)):
+        x = smooth(d, drive_sos)
+        v, acc = derivatives(x, dt)
+        segments.append(
+            Segment(
+                r.name, i, dt, smooth(r.force, sos), {"x": x, "v": v, "a": acc}, ident, held, sos
+            )
+        )
+    noise = _noise_levels(records)
+    noise["drive"] = noise["measured"] if drive is None else 0.0
+    return Channel("force", "specimen", segments, nominal, noise, cutoff, drive_sos)

@@ -1,0 +1,205 @@
+"""Signal helpers of the diagnosis: zero-phase smoothing, derivatives, noise level, TF replay,
+fractional shifts and the running load amplitude.
+
+Smoothing and differentiation (the specimen channel).  The drive displacement may be noisy and
+its second derivative is needed, so every specimen signal goes through the same zero-phase
+low-pass ``h`` (Butterworth, order :data:`SMOOTHING_ORDER`, run forwards and backwards by
+``scipy.signal.sosfiltfilt``: magnitude ``1/(1 + (f/f_c)^8)``, no phase): the displacement is
+smoothed, ``x_f = h*x``, and differentiated by second-order central differences
+(``numpy.gradient``), which commute with ``h``; the measured force is smoothed by the same
+``h``, and so is every model's force output.  For a linear model ``L`` the comparison is then
+``h*F`` against ``h*L(h*x) = h*h*L(x)``, equal to ``h*L(x)`` to ``1 - |H|``.
+
+Noise level.  White measurement noise is estimated from the record itself as the median of its
+Welch PSD over the top of the band (:data:`NOISE_BAND` of the Nyquist frequency), where lab
+signals hold nothing but converter noise and quantisation; the median ignores narrow tones.
+
+Replay (DAQ timing convention, :mod:`rths.diagnose.data.records`).  The command ``u_k`` is held
+from ``t_k`` to ``t_{k+1}`` (zero-order hold) and the displacement is sampled at ``t_k``: with
+the ZOH-exact discrete model ``z_{k+1} = A z_k + B u_k``, ``y_k = C z_k + D u_k``.
+
+Running load amplitude (the ``A`` of S0 Eq.17-18).  ``A = sqrt(2 (LP[x^2] - LP[x]^2))``: the
+square root of twice the running variance of the drive, ``LP`` a causal critically damped
+second-order low-pass (two first-order stages of time constant ``tau``).  For a sine of
+amplitude ``X`` it settles on ``X`` within a few ``tau``, whatever the frequency; it follows
+a non-stationary record with a memory of about ``2 tau``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import linalg, signal
+
+from rths.core.errors import ParameterError
+
+__all__ = [
+    "NOISE_BAND",
+    "SMOOTHING_ORDER",
+    "actuator_replay",
+    "derivatives",
+    "discrete_tf",
+    "impulse_kernel",
+    "running_amplitude",
+    "shifted",
+    "smooth",
+    "smoother",
+    "white_noise_rms",
+]
+
+#: Order of the Butterworth prototype of the zero-phase smoother (doubled by filtfilt).
+SMOOTHING_ORDER: int = 4
+#: Fraction of the Nyquist band [lo, hi] whose PSD median gives the white-noise level.
+NOISE_BAND: tuple[float, float] = (0.7, 0.95)
+
+
+def smoother(cutoff: float, dt: float) -> NDArray[np.float64]:
+    """Second-order sections of the low-pass ``h`` (cutoff [Hz] at sampling step ``dt`` [s])."""
+    nyquist = 0.5 / dt
+    if not 0.0 < cutoff < 0.9 * nyquist:
+        raise ParameterError(
+            f"smoothing cutoff must lie in (0, {0.9 * nyquist:.6g}) Hz at {1 / dt:.6g} Hz "
+            f"sampling; got {cutoff!r}"
+        )
+    return signal.butter(SMOOTHING_ORDER, cutoff, fs=1.0 / dt, output="sos")
+
+
+_ZI: dict[bytes, NDArray[np.float64]] = {}
+
+
+def _zi(sos: NDArray[np.float64]) -> NDArray[np.float64]:
+    key = sos.tobytes()
+    if key not in _ZI:
+        if len(_ZI) > 32:
+            _ZI.clear()
+        _ZI[key] = signal.sosfilt_zi(sos)
+    return _ZI[key]
+
+
+def smooth(x: NDArray[np.float64], sos: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Zero-phase ``h*x``: ``scipy.signal.sosfiltfilt``'s algorithm (odd-extension padding of
+    ``min(n - 1, 768)`` samples, steady-state initial conditions) with the initial-condition
+    vector cached per filter."""
+    n = x.size
+    pad = min(n - 1, 3 * 256)
+    if pad > 0:
+        ext = np.concatenate([2.0 * x[0] - x[pad:0:-1], x, 2.0 * x[-1] - x[-2 : -pad - 2 : -1]])
+    else:
+        ext = np.asarray(x, dtype=float)
+    zi = _zi(sos)
+    y, _ = signal.sosfilt(sos, ext, zi=zi * ext[0])
+    y, _ = signal.sosfilt(sos, y[::-1], zi=zi * y[-1])
+    y = y[::-1]
+    return y[pad : pad + n] if pad > 0 else y
+
+
+def derivatives(x: NDArray[np.float64], dt: float) -> tuple[NDArray, NDArray]:
+    """Velocity and acceleration of a smooth record by central differences."""
+    v = np.gradient(x, dt)
+    return v, np.gradient(v, dt)
+
+
+def white_noise_rms(x: NDArray[np.float64], dt: float) -> float:
+    """RMS of the white noise on a record, from the median PSD over :data:`NOISE_BAND`.
+
+    Returns the standard deviation in the record's units; 0 for a constant record.
+    """
+    n = min(512, x.size)
+    f, p = signal.welch(x - np.mean(x), fs=1.0 / dt, nperseg=n, detrend="linear")
+    nyquist = 0.5 / dt
+    band = (f >= NOISE_BAND[0] * nyquist) & (f <= NOISE_BAND[1] * nyquist)
+    level = float(np.median(p[band])) if np.any(band) else 0.0
+    return float(np.sqrt(max(level, 0.0) * nyquist))
+
+
+def impulse_kernel(
+    sos: NDArray[np.float64],
+    dt: float,
+    linear: tuple[float, float, float] | None = None,
+    drive_sos: NDArray[np.float64] | None = None,
+) -> NDArray[np.float64]:
+    """Impulse response of ``h`` (``linear`` None) or of ``h * L * g``, ``L = m D2 + c D1 + k``.
+
+    Used to predict the residual noise floor of the specimen channel: white noise of variance
+    ``s^2`` through a kernel ``k`` has variance ``s^2 sum(k^2)``.  ``g`` is the low-pass the
+    drive goes through before it is differentiated (``drive_sos``; default ``h`` itself).
+    """
+    n = 8192
+    delta = np.zeros(n)
+    delta[n // 2] = 1.0
+    k = smooth(delta, sos if drive_sos is None or linear is None else drive_sos)
+    if linear is None:
+        return k
+    m, c, stiffness = linear
+    v, a = derivatives(k, dt)
+    return smooth(m * a + c * v + stiffness * k, sos)
+
+
+def discrete_tf(
+    num: tuple[float, ...] | NDArray, den: tuple[float, ...] | NDArray, dt: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(b, a)`` of the ZOH-exact discrete model of ``num/den`` in the DAQ convention.
+
+    ``y_k = C z_k + D u_k`` with ``z_{k+1} = A z_k + B u_k``: a strictly proper ``num/den``
+    gives ``b[0] = 0`` (the sample at ``t_k`` does not see the command applied from ``t_k``).
+    """
+    if len(den) <= 1:
+        return np.array([float(num[-1]) / float(den[0])]), np.array([1.0])
+    A, B, C, D = signal.tf2ss(np.asarray(num, float), np.asarray(den, float))
+    n = A.shape[0]
+    block = np.zeros((n + 1, n + 1))
+    block[:n, :n], block[:n, n:] = A * dt, B * dt
+    phi = linalg.expm(block)
+    b, a = signal.ss2tf(phi[:n, :n], phi[:n, n:], C, D)
+    return np.asarray(b[0], dtype=float), np.asarray(a, dtype=float)
+
+
+def actuator_replay(
+    num: tuple[float, ...], den: tuple[float, ...], dt: float, command: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Response of ``num/den`` from rest to a command in the DAQ convention (module docstring).
+
+    Run by ``scipy.signal.lfilter`` on :func:`discrete_tf`.
+    """
+    b, a = discrete_tf(num, den, dt)
+    return signal.lfilter(b, a, command)
+
+
+def shifted(x: NDArray[np.float64], samples: float) -> NDArray[np.float64]:
+    """``x`` delayed by ``samples`` (any real number; negative = advanced), linear interpolation.
+
+    Outside the record the first (last) sample is held.
+    """
+    if samples == 0.0:
+        return x
+    whole = math.floor(samples)
+    frac = samples - whole
+    n = x.size
+    idx = np.arange(n) - whole
+    lo = x[np.clip(idx, 0, n - 1)]
+    hi = x[np.clip(idx - 1, 0, n - 1)]
+    return (1.0 - frac) * lo + frac * hi
+
+
+def running_amplitude(x: NDArray[np.float64], dt: float, tau: float) -> NDArray[np.float64]:
+    """Running load amplitude ``sqrt(2 (LP[x^2] - LP[x]^2))`` [m] (module docstring).
+
+    Parameters
+    ----------
+    x
+        Drive displacement [m], shape ``(n,)``; the low-passes start at rest.
+    dt
+        Sample period [s].
+    tau
+        Time constant [s] of each of the two first-order stages of ``LP``.
+    """
+    pole = math.exp(-dt / tau)
+    b, a = np.array([1.0 - pole]), np.array([1.0, -pole])
+
+    def lp(y: NDArray[np.float64]) -> NDArray[np.float64]:
+        return signal.lfilter(b, a, signal.lfilter(b, a, y))
+
+    var = lp(x * x) - lp(x) ** 2
+    return np.sqrt(2.0 * np.clip(var, 0.0, None))

@@ -1,0 +1,150 @@
+"""Candidate effects: what a nominal model may lack, as grey-box extensions of it.
+
+======================  =========  ============================================  ===============
+effect                  subsystem  parameters (reported, SI)                     form
+======================  =========  ============================================  ===============
+actuator_delay          actuator   delay [s] beyond the nominal (> 1 sample)     pure delay
+rate_limit              actuator   velocity_limit [m/s]                          flow limit
+coulomb_friction        specimen   friction [N], presliding_stiffness [N/m]      elasto-plastic
+backlash                specimen   gap [m] (total clearance), stiffness [N/m]    dead zone +
+                                   (contact), contact_damping [N s/m]            Kelvin-Voigt
+internal_stiffness      specimen   stiffness [N/m], series_damping [N s/m],      series spring
+                                   frequency [Hz]                                (S0 Eq.12)
+amplitude_damping       specimen   c1 [N s], c2 [m] of ``c1/(A + c2)``           S0 Eq.17-18
+======================  =========  ============================================  ===============
+
+A channel's model is its re-calibrated baseline (NOMINAL.toml's own parameters) extended by a
+set of effects, built by :func:`models_for`:
+
+``measured``  :class:`~rths.diagnose.effects.actuator.ActuatorModel` (any subset).
+``force``     without a series element (no backlash / internal stiffness) the rigid family
+              :class:`~rths.diagnose.effects.specimen.RigidSpecimen` (friction, amplitude
+              damping -- linear in their levels, fast); with one the inertial chain
+              :class:`~rths.diagnose.effects.chain.SeriesChain` (drive -> element -> body
+              carrying damping, friction, amplitude damping); friction behind a clearance is
+              also tried as the massless play of :class:`RigidSpecimen` (a friction damper
+              whose inertia is negligible).  Backlash and internal stiffness share the
+              element, so a model holds at most one of them.
+``displacement``  the specimen the other way round, force -> displacement
+              (:class:`~rths.diagnose.effects.compliance.ComplianceModel`): a stiff series
+              element, which no displacement-driven replay can follow, seen from the force.
+
+An effect is named "present" by the greedy selection of :mod:`rths.diagnose.search.selection`
+only when it closes enough of the held-out gap for its parameters.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from rths.core.errors import ParameterError
+from rths.diagnose.effects.actuator import ActuatorModel
+from rths.diagnose.effects.chain import SeriesChain
+from rths.diagnose.effects.compliance import ComplianceModel
+from rths.diagnose.effects.model import Columns, Model, Param, Theta
+from rths.diagnose.effects.specimen import RigidSpecimen
+
+__all__ = [
+    "CHANNEL_EFFECTS",
+    "EFFECTS",
+    "ActuatorModel",
+    "ComplianceModel",
+    "Columns",
+    "Effect",
+    "Model",
+    "Param",
+    "RigidSpecimen",
+    "SeriesChain",
+    "Theta",
+    "baseline_for",
+    "compatible",
+    "models_for",
+]
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One candidate effect.
+
+    Attributes
+    ----------
+    name
+        The verdict name users see.
+    subsystem
+        ``actuator`` or ``specimen``.
+    params
+        The reported parameter names (SI).
+    n_params
+        Parameters counted by the selection's price (the identified ones).
+    """
+
+    name: str
+    subsystem: str
+    params: tuple[str, ...]
+    n_params: int
+
+
+#: The candidate effects by verdict name.
+EFFECTS: dict[str, Effect] = {
+    e.name: e
+    for e in (
+        Effect("internal_stiffness", "specimen", ("stiffness", "series_damping", "frequency"), 2),
+        Effect("backlash", "specimen", ("gap", "stiffness", "contact_damping"), 3),
+        Effect("coulomb_friction", "specimen", ("friction", "presliding_stiffness"), 2),
+        Effect("amplitude_damping", "specimen", ("c1", "c2"), 2),
+        Effect("actuator_delay", "actuator", ("delay",), 1),
+        Effect("rate_limit", "actuator", ("velocity_limit",), 1),
+    )
+}
+
+_ELEMENTS = frozenset({"backlash", "internal_stiffness"})
+
+
+def compatible(effects: tuple[str, ...]) -> bool:
+    """Whether one model can hold all of ``effects`` (one subsystem, one series element)."""
+    if len({EFFECTS[e].subsystem for e in effects}) > 1:
+        return False
+    return len(_ELEMENTS.intersection(effects)) <= 1
+
+
+#: The effects each channel's models can hold.
+CHANNEL_EFFECTS: dict[str, tuple[str, ...]] = {
+    "measured": ("actuator_delay", "rate_limit"),
+    "force": ("internal_stiffness", "backlash", "coulomb_friction", "amplitude_damping"),
+    "displacement": ("internal_stiffness", "backlash"),
+}
+
+
+def baseline_for(channel: str) -> Model:
+    """The re-calibrated nominal model of a channel (``measured``, ``force``,
+    ``displacement``)."""
+    if channel == "measured":
+        return ActuatorModel()
+    return ComplianceModel() if channel == "displacement" else RigidSpecimen()
+
+
+def models_for(channel: str, effects: tuple[str, ...]) -> list[Model]:
+    """The model structures of a channel that hold ``effects`` (module docstring); tried in
+    turn.
+
+    Raises
+    ------
+    ParameterError
+        For an unknown or incompatible set, or one the channel's models cannot hold.
+    """
+    allowed = CHANNEL_EFFECTS.get(channel, ())
+    if not compatible(effects) or any(e not in allowed for e in effects):
+        raise ParameterError(f"no {channel} channel model holds the effects {effects!r}")
+    if channel == "measured":
+        return [ActuatorModel(effects)]
+    if channel == "displacement":
+        return [ComplianceModel(effects)]
+    element = _ELEMENTS.intersection(effects)
+    if not element:
+        return [RigidSpecimen(effects)]
+    out: list[Model] = [SeriesChain(effects)]
+    if "coulomb_friction" in effects:
+        out.append(SeriesChain(effects, friction_at="drive"))
+        if element == {"backlash"}:
+            out.append(RigidSpecimen(effects))  # massless friction behind a clearance
+    return out

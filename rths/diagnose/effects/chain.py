@@ -1,0 +1,201 @@
+"""Specimen-channel models with a series element: the inertial chain drive -> element -> body.
+
+.. math::
+
+    F = m\\,e(x; \\omega, \\zeta, g, c/m, k/m, F_c/m, \\delta, c_1/m, c_2) + m_r\\,\\ddot x + b_r
+
+with ``e`` the force per unit body inertance of :func:`rths.diagnose.effects.kernels.
+series_chain`: the element (``internal_stiffness``: a series spring ``k_e = m omega^2`` with its
+own damping ``c_e = 2 zeta omega m``, S0 Eq.12 with a Kelvin-Voigt element; ``backlash``: a
+clearance ``g`` before a contact of that stiffness and damping which only pushes, S0 Table 6,
+S1 Eq.11) drives the body, which carries the re-calibrated nominal damping and spring and, as
+further effects, an elasto-plastic friction and an amplitude-dependent damping ``c_1/(A +
+c_2)`` (S0 Eq.17-18).  The body inertance ``m`` and a direct inertance ``m_r`` ahead of the
+element (a rod, a load-cell adapter) are linear; the rest is searched.  For fixed per-mass
+parameters the force is linear in ``m``.  Friction may also sit at the driven end, ahead of the
+element (a seal, a guide: S0 Eq.1's ``F_r``), as a second structure (``friction_at="drive"``):
+then it is the rigid family's linear term ``F_c phi(x; delta)``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rths.diagnose.channels.channel import Channel, Segment
+from rths.diagnose.effects.kernels import series_chain
+from rths.diagnose.effects.model import Columns, Model, Param, Theta
+from rths.diagnose.effects.specimen import (
+    NOMINAL_PRESLIDING,
+    amplitude,
+    amplitude_space,
+    drive_scale,
+    friction_column,
+    rigid_columns,
+)
+
+__all__ = ["MIN_INERTIAL_SHARE", "STIFFNESS_RANGE", "SeriesChain"]
+
+#: Smallest share of the force the body's inertia must carry for a chain to apply.
+MIN_INERTIAL_SHARE: float = 0.05
+#: Element stiffness searched [N/m] (issue range), mapped to frequencies with the inertance.
+STIFFNESS_RANGE: tuple[float, float] = (1e5, 1e10)
+
+
+class SeriesChain(Model):
+    """The inertial chain with a series element (module docstring).
+
+    Parameters
+    ----------
+    effects
+        The effects (one of backlash / internal stiffness, optionally friction and amplitude
+        damping).
+    friction_at
+        ``"body"`` (behind the element) or ``"drive"`` (ahead of it).
+    """
+
+    subsystem = "specimen"
+
+    def __init__(self, effects: tuple[str, ...] = (), friction_at: str = "body") -> None:
+        super().__init__(effects)
+        self.backlash = "backlash" in effects
+        self.friction = "coulomb_friction" in effects
+        self.on_body = self.friction and friction_at == "body"
+        self.structure = "chain" if not self.friction else f"chain, friction at the {friction_at}"
+        self.amplitude = "amplitude_damping" in effects
+        self.polish = self.backlash
+        self._base: dict[str, float] = {}
+
+    def prepare(self, channel: Channel, base: dict[str, float]) -> None:
+        self._base = dict(base)
+
+    def applicable(self, channel: Channel, base: dict[str, float]) -> bool:
+        """Only for a specimen whose inertia matters: the re-calibrated inertance times the
+        drive's RMS acceleration at least :data:`MIN_INERTIAL_SHARE` of the RMS force."""
+        m = base.get("inertance", 0.0)
+        if m <= 0.0:
+            return False
+        a = float(np.sqrt(np.mean(channel.stack("a") ** 2)))
+        f = float(np.sqrt(np.mean(channel.stack("observed") ** 2)))
+        return m * a >= MIN_INERTIAL_SHARE * f
+
+    def _mass(self, channel: Channel) -> float:
+        m = self._base.get("inertance", 0.0)
+        return m if m > 0.0 else max(channel.nominal.specimen.inertance, 1e-6)
+
+    def space(self, channel: Channel) -> list[Param]:
+        m = self._mass(channel)
+        f_lo = max(0.5, math.sqrt(STIFFNESS_RANGE[0] / m) / (2 * math.pi))
+        f_hi = min(0.45 / channel.dt, math.sqrt(STIFFNESS_RANGE[1] / m) / (2 * math.pi))
+        f_lo = min(f_lo, 0.5 * f_hi)
+        c0 = max(self._base.get("damping", 0.0), 0.0) / m
+        k0 = self._base.get("stiffness", 0.0) / m
+        w_hi = 2 * math.pi * f_hi
+        out = [
+            Param("frequency", f_lo, f_hi, grid=12 if self.backlash else 24),
+            Param("zeta", 0.005, 2.0, grid=4 if self.backlash else 5, start=0.1),
+        ]
+        if self.backlash:
+            hi = max(drive_scale(channel), 5e-3)  # up to the travel's RMS (>= 5 mm)
+            out.append(Param("gap", min(1e-6, 1e-3 * hi), hi, grid=10))
+        out += [
+            Param("body_damping", 0.0, max(10.0 * c0, 0.2 * w_hi), log=False, start=c0),
+            Param(
+                "body_stiffness",
+                -abs(k0) - 1.0,
+                10.0 * abs(k0) + (0.05 * w_hi) ** 2,
+                log=False,
+                start=k0,
+            ),
+        ]
+        if self.on_body:
+            # friction level per unit inertance: 0.5-60 % of the peak inertial force per mass
+            peak = max(float(np.max(np.abs(s.signals["a"]))) for s in channel.segments)
+            out += [
+                Param("friction_level", 0.005 * peak, 0.6 * peak, grid=6),
+                Param("presliding", 1e-8, 0.5 * drive_scale(channel), grid=4),
+            ]
+        elif self.friction:
+            out.append(Param("presliding", 1e-8, 0.5 * drive_scale(channel), grid=6))
+        if self.amplitude:
+            out += amplitude_space(channel)
+            peak_c = max(c0, 1.0) * 10.0 * drive_scale(channel)
+            out.append(Param("c1_per_mass", 1e-4 * peak_c, 10.0 * peak_c, grid=5))
+        return out
+
+    def _damping(self, seg: Segment, theta: Theta) -> float | NDArray[np.float64]:
+        c = max(float(theta["body_damping"]), 0.0)
+        if not self.amplitude:
+            return c
+        return c + theta["c1_per_mass"] / (amplitude(seg, theta["memory"]) + theta["c2"])
+
+    def columns(self, channel: Channel, seg: Segment, theta: Theta) -> Columns:
+        s = seg.signals
+        per_mass = series_chain(
+            s["x"],
+            s["v"],
+            seg.dt,
+            omega=2.0 * math.pi * theta["frequency"],
+            zeta=theta["zeta"],
+            gap=theta.get("gap", 0.0),
+            damping=self._damping(seg, theta),
+            stiffness=float(theta["body_stiffness"]),
+            friction=theta.get("friction_level", 0.0) if self.on_body else 0.0,
+            presliding=theta.get("presliding", 1.0),
+        )
+        cols = [seg.h(per_mass), rigid_columns(seg)[0]]
+        if self.friction and not self.on_body:
+            cols.append(friction_column(seg, theta["presliding"]))
+        elif channel.nominal.specimen.friction > 0.0 and not self.friction:
+            cols.append(friction_column(seg, NOMINAL_PRESLIDING * drive_scale(channel)))
+        return np.column_stack(cols), np.zeros_like(seg.observed)
+
+    def prior(self, channel: Channel) -> NDArray[np.float64]:
+        s = channel.nominal.specimen
+        out = [s.inertance, 0.0]
+        if (s.friction > 0.0 and not self.friction) or (self.friction and not self.on_body):
+            out.append(s.friction)
+        return np.array(out, dtype=float)
+
+    def describe(self, channel: Channel, theta: Theta, beta: NDArray[np.float64]):
+        m, m_r = float(beta[0]), float(beta[1])
+        w = 2.0 * math.pi * theta["frequency"]
+        k_e, c_e = m * w * w, 2.0 * theta["zeta"] * w * m
+        base = {
+            "inertance": m,
+            "direct_inertance": m_r,
+            "damping": m * max(float(theta["body_damping"]), 0.0),
+            "stiffness": m * float(theta["body_stiffness"]),
+        }
+        if len(beta) > 2 and not self.friction:
+            base["friction"] = float(beta[2])
+        params: dict[str, dict[str, float]] = {}
+        if self.backlash:
+            params["backlash"] = {"gap": theta["gap"], "stiffness": k_e, "contact_damping": c_e}
+        else:
+            params["internal_stiffness"] = {
+                "stiffness": k_e,
+                "series_damping": c_e,
+                "frequency": theta["frequency"],
+            }
+        if self.friction:
+            fc = m * theta["friction_level"] if self.on_body else float(beta[2])
+            params["coulomb_friction"] = {
+                "friction": fc,
+                "presliding_stiffness": fc / theta["presliding"],
+            }
+        if self.amplitude:
+            params["amplitude_damping"] = {
+                "c1": m * theta["c1_per_mass"],
+                "c2": theta["c2"],
+                "memory": theta["memory"],
+            }
+        return params, base
+
+    def physical(self, channel: Channel, params: dict[str, dict[str, float]]) -> bool:
+        element = params.get("backlash") or params.get("internal_stiffness") or {}
+        if self.friction and params["coulomb_friction"]["friction"] <= 0.0:
+            return False
+        return element.get("stiffness", 0.0) > 0.0

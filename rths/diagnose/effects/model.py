@@ -1,0 +1,137 @@
+"""The model interface of the diagnosis: a channel's baseline and its extensions by effects.
+
+Every model predicts its channel's observation as
+
+.. math:: \\hat y(\\theta, \\beta) = X(\\theta)\\,\\beta + f(\\theta) + b_r
+
+with a few nonlinear parameters ``theta`` (named, searched globally over orders of magnitude
+and refined by :mod:`rths.diagnose.search.identify`), linear ones ``beta`` (least squares for
+each ``theta``: variable projection) and one offset ``b_r`` per record (the fitter's).  A model
+holds the baseline -- the nominal model's own parameters re-calibrated -- and a set of effects
+(possibly empty): effects are always fitted *jointly* with the re-calibrated baseline, so none
+gets credit for a mis-calibration.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import ClassVar, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rths.diagnose.channels.channel import Channel, Segment
+
+__all__ = ["Columns", "Model", "Param", "Theta"]
+
+Columns = tuple[NDArray[np.float64], NDArray[np.float64]]
+#: Nonlinear parameters by name.
+Theta = dict[str, float]
+
+
+@dataclass(frozen=True)
+class Param:
+    """One nonlinear parameter of a model and how the global search treats it.
+
+    Attributes
+    ----------
+    name
+        Name (unique within the model).
+    lo, hi
+        Bounds (SI units of the parameter).
+    log
+        Searched and refined on a logarithmic scale (then ``lo > 0``).
+    grid
+        Points of the global grid along this parameter (geometric for ``log``); 0: the
+        parameter stays at ``start`` in the global stage and is only refined.
+    start
+        Starting value when not gridded (default the geometric or arithmetic middle).
+    """
+
+    name: str
+    lo: float
+    hi: float
+    log: bool = True
+    grid: int = 0
+    start: float | None = None
+
+    def middle(self) -> float:
+        """The start value."""
+        if self.start is not None:
+            return float(np.clip(self.start, self.lo, self.hi))
+        return float(np.sqrt(self.lo * self.hi) if self.log else 0.5 * (self.lo + self.hi))
+
+    def values(self) -> NDArray[np.float64]:
+        """The grid values (``[start]`` when not gridded)."""
+        if self.grid <= 1:
+            return np.array([self.middle()])
+        if self.log:
+            return np.geomspace(self.lo, self.hi, self.grid)
+        return np.linspace(self.lo, self.hi, self.grid)
+
+
+class Model(ABC):
+    """A channel's re-calibrated baseline extended by a set of effects (module docstring).
+
+    Parameters
+    ----------
+    effects
+        Names of the effects the model holds (empty: the baseline).
+    """
+
+    #: ``"actuator"`` or ``"specimen"``: the channel the model explains.
+    subsystem: ClassVar[Literal["actuator", "specimen"]]
+    #: Polish the refinement with Nelder-Mead (cost surfaces with kinks: limiters, dead zones).
+    polish: bool = False
+    #: Structure tag (two models of one effect set may differ in structure).
+    structure: str = ""
+    #: Largest global grid (a larger Cartesian grid is subsampled, seeded).
+    max_grid: int = 240
+
+    def __init__(self, effects: tuple[str, ...] = ()) -> None:
+        self.effects = tuple(effects)
+
+    @property
+    def name(self) -> str:
+        """``"baseline"`` or the effects joined by ``+``."""
+        return "+".join(self.effects) if self.effects else "baseline"
+
+    def prepare(self, channel: Channel, base: dict[str, float]) -> None:
+        """Take what the model needs from the re-calibrated baseline (default: nothing)."""
+
+    def applicable(self, channel: Channel, base: dict[str, float]) -> bool:
+        """Whether the structure can describe the channel at all (default: yes)."""
+        return True
+
+    def space(self, channel: Channel) -> list[Param]:
+        """The nonlinear parameters (empty: none)."""
+        return []
+
+    def starts(self, channel: Channel) -> list[Theta]:
+        """Extra starting points of the global search (e.g. the nominal values)."""
+        return []
+
+    @abstractmethod
+    def columns(self, channel: Channel, seg: Segment, theta: Theta) -> Columns:
+        """Regressors ``X`` (shape ``(n, p)``) and fixed part ``f`` (shape ``(n,)``)."""
+
+    def nuisance(self, channel: Channel, seg: Segment, theta: Theta) -> NDArray[np.float64] | None:
+        """Per-record nuisance columns besides the offset (initial states, a load cell's
+        offset), calibrated on each record itself, held-out ones included (default: none)."""
+        return None
+
+    @abstractmethod
+    def prior(self, channel: Channel) -> NDArray[np.float64]:
+        """Nominal values of ``beta`` (the ridge pulls towards them where the data do not
+        determine ``beta``, e.g. inertance against stiffness under a single sine)."""
+
+    @abstractmethod
+    def describe(
+        self, channel: Channel, theta: Theta, beta: NDArray[np.float64]
+    ) -> tuple[dict[str, dict[str, float]], dict[str, float]]:
+        """``({effect: its parameters}, re-calibrated baseline)`` named in SI units."""
+
+    def physical(self, channel: Channel, params: dict[str, dict[str, float]]) -> bool:
+        """False when identified effect parameters are unphysical or contradicted by the data."""
+        return True

@@ -1,0 +1,194 @@
+"""Specimen-channel models without a series element: the re-calibrated nominal specimen and its
+rigid extensions by friction, amplitude-dependent damping and friction behind a clearance.
+
+.. math::
+
+    F = m\\,\\ddot x + c\\,\\dot x + k\\,x + F_c\\,\\varphi(x; \\delta, g)
+        + \\frac{c_1}{A(t) + c_2}\\,\\dot x + b_r
+
+* baseline: ``m, c, k`` (and the nominal friction ``F_r sign(x')`` or amplitude law when
+  NOMINAL.toml declares them) re-calibrated, S0 Eq.1 with a parallel spring;
+* ``coulomb_friction``: ``F_c phi``, ``phi`` the elasto-plastic operator of
+  :func:`rths.diagnose.effects.kernels.friction_operator` (presliding displacement ``delta``,
+  presliding stiffness ``F_c/delta``; ``delta -> 0`` is Coulomb's ``sign(x')`` with memory);
+* ``amplitude_damping``: ``c_1/(A + c_2)``, S0 Eq.17-18's form, ``A`` the running load
+  amplitude of :func:`rths.diagnose.channels.signals.running_amplitude` with memory ``tau``;
+* ``backlash`` together with friction (a friction device of negligible inertia): the friction
+  element sits behind a clearance ``g``; its stiffness ``F_c/delta`` is the contact's in series
+  with the presliding spring.
+
+Every term but the offsets is linear in its level for given ``delta, g, c_2, tau``: one
+least-squares solve per point of the (small) nonlinear search.  Model outputs pass through the
+channel's smoother like the observed force.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rths.diagnose.channels.channel import Channel, Segment
+from rths.diagnose.channels.signals import running_amplitude
+from rths.diagnose.effects.kernels import friction_operator
+from rths.diagnose.effects.model import Columns, Model, Param, Theta
+
+__all__ = ["RigidSpecimen", "drive_scale", "smoothed"]
+
+#: Presliding displacement of the nominal friction ``F_r sign(x')``, as a fraction of the
+#: drive's standard deviation (a sign with memory, immune to noise reversals).
+NOMINAL_PRESLIDING: float = 1e-3
+
+
+#: Shortest memory [s] of the running load amplitude (a cycle at 10 Hz).
+MIN_MEMORY: float = 0.1
+
+
+def smoothed(seg: Segment, key: str, make: Callable[[], NDArray]) -> NDArray:
+    """Cached ``h * make()`` on a segment."""
+    if key not in seg.cache:
+        seg.cache[key] = seg.h(make())
+    return seg.cache[key]
+
+
+def drive_scale(channel: Channel) -> float:
+    """Standard deviation of the drive displacement over all records [m]."""
+    return max(float(np.std(channel.stack("x"))), 1e-9)
+
+
+def rigid_columns(seg: Segment) -> list[NDArray]:
+    """``h a, h v, h x`` of the drive."""
+    s = seg.signals
+    return [
+        smoothed(seg, "a", lambda: s["a"]),
+        smoothed(seg, "v", lambda: s["v"]),
+        smoothed(seg, "x", lambda: s["x"]),
+    ]
+
+
+def friction_column(seg: Segment, delta: float, gap: float = 0.0) -> NDArray:
+    """``h phi(x; delta, gap)`` (cached per parameter pair)."""
+    return smoothed(
+        seg, f"phi:{delta!r}:{gap!r}", lambda: friction_operator(seg.signals["x"], delta, gap)
+    )
+
+
+def amplitude(seg: Segment, tau: float) -> NDArray:
+    """Running load amplitude of the drive [m] (cached per memory ``tau``)."""
+    key = f"amp:{tau!r}"
+    if key not in seg.cache:
+        seg.cache[key] = running_amplitude(seg.signals["x"], seg.dt, tau)
+    return seg.cache[key]
+
+
+def amplitude_column(seg: Segment, c2: float, tau: float) -> NDArray:
+    """``h (x' / (A + c2))`` [1/s]: the regressor of ``c1``."""
+    return smoothed(
+        seg, f"ad:{c2!r}:{tau!r}", lambda: seg.signals["v"] / (amplitude(seg, tau) + c2)
+    )
+
+
+def amplitude_space(channel: Channel, grid: bool = True) -> list[Param]:
+    """``c2`` [m] and the amplitude memory ``tau`` [s]: orders of magnitude around the drive.
+
+    The memory is at least :data:`MIN_MEMORY`: an amplitude is a property of a cycle, and a
+    shorter memory would turn the law into a position-dependent damping.
+    """
+    scale = drive_scale(channel)
+    return [
+        Param("c2", 1e-3 * scale, 30.0 * scale, grid=8 if grid else 0),
+        Param("memory", MIN_MEMORY, 3.0, grid=3 if grid else 0, start=0.3),
+    ]
+
+
+def friction_space(channel: Channel, backlash: bool, grid: bool = True) -> list[Param]:
+    """Presliding displacement ``delta`` [m] (and the clearance ``gap`` [m] for backlash)."""
+    scale = drive_scale(channel)
+    out = [Param("presliding", 1e-8, 0.5 * scale, grid=14 if grid else 0)]
+    if backlash:
+        hi = max(scale, 5e-3)  # up to the travel's RMS (>= 5 mm)
+        out.append(Param("gap", min(1e-6, 1e-3 * hi), hi, grid=14 if grid else 0))
+    return out
+
+
+class RigidSpecimen(Model):
+    """The rigid specimen family (module docstring)."""
+
+    subsystem = "specimen"
+
+    def __init__(self, effects: tuple[str, ...] = ()) -> None:
+        super().__init__(effects)
+        self.friction = "coulomb_friction" in effects
+        self.backlash = "backlash" in effects
+        self.amplitude = "amplitude_damping" in effects
+        self.structure = "massless" if self.backlash else "rigid"
+        self.polish = self.backlash
+
+    def _nominal_friction(self, channel: Channel) -> bool:
+        return channel.nominal.specimen.friction > 0.0 and not self.friction
+
+    def _nominal_amplitude(self, channel: Channel) -> bool:
+        return channel.nominal.specimen.declares_amplitude_damping and not self.amplitude
+
+    def space(self, channel: Channel) -> list[Param]:
+        out: list[Param] = []
+        if self.friction:
+            out += friction_space(channel, self.backlash)
+        if self.amplitude:
+            out += amplitude_space(channel)
+        elif self._nominal_amplitude(channel):
+            c2 = channel.nominal.specimen.amplitude_c2
+            out += [
+                Param("c2", c2 / 30, 30 * c2, start=c2),
+                Param("memory", MIN_MEMORY, 3.0, start=0.3),
+            ]
+        return out
+
+    def columns(self, channel: Channel, seg: Segment, theta: Theta) -> Columns:
+        cols = rigid_columns(seg)
+        if self.friction:
+            cols.append(friction_column(seg, theta["presliding"], theta.get("gap", 0.0)))
+        elif self._nominal_friction(channel):
+            cols.append(friction_column(seg, NOMINAL_PRESLIDING * drive_scale(channel)))
+        if self.amplitude or self._nominal_amplitude(channel):
+            cols.append(amplitude_column(seg, theta["c2"], theta["memory"]))
+        return np.column_stack(cols), np.zeros_like(seg.observed)
+
+    def prior(self, channel: Channel) -> NDArray[np.float64]:
+        s = channel.nominal.specimen
+        out = [s.inertance, s.damping, s.stiffness]
+        if self.friction or self._nominal_friction(channel):
+            out.append(s.friction)
+        if self.amplitude or self._nominal_amplitude(channel):
+            out.append(s.amplitude_c1)
+        return np.array(out, dtype=float)
+
+    def describe(self, channel: Channel, theta: Theta, beta: NDArray[np.float64]):
+        b = [float(q) for q in beta]
+        base = {"inertance": b[0], "damping": b[1], "stiffness": b[2]}
+        params: dict[str, dict[str, float]] = {}
+        i = 3
+        if self.friction:
+            fc, delta = b[i], theta["presliding"]
+            params["coulomb_friction"] = {"friction": fc, "presliding_stiffness": fc / delta}
+            if self.backlash:
+                params["backlash"] = {
+                    "gap": theta["gap"],
+                    "stiffness": fc / delta,
+                    "contact_damping": 0.0,
+                }
+            i += 1
+        elif self._nominal_friction(channel):
+            base["friction"] = b[i]
+            i += 1
+        if self.amplitude:
+            params["amplitude_damping"] = {"c1": b[i], "c2": theta["c2"], "memory": theta["memory"]}
+        elif self._nominal_amplitude(channel):
+            base["amplitude_c1"], base["amplitude_c2"] = b[i], theta["c2"]
+        return params, base
+
+    def physical(self, channel: Channel, params: dict[str, dict[str, float]]) -> bool:
+        if self.friction and params["coulomb_friction"]["friction"] <= 0.0:
+            return False
+        return not (self.amplitude and params["amplitude_damping"]["c1"] <= 0.0)

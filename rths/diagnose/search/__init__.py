@@ -1,0 +1,34 @@
+"""Identification and selection: fit models globally, score them on held-out data, pick effects.
+
+identify    variable projection; global grid over orders of magnitude, refinement, held-out
+            scoring with per-record offsets
+floors      the noise floor a model would leave if it were exact (per model)
+selection   greedy addition of effects per channel; ``unexplained`` when they do not close
+            half of a significant gap
+"""
+
+from rths.diagnose.search.floors import noise_floor
+from rths.diagnose.search.identify import RIDGE, Fit, fit_model
+from rths.diagnose.search.selection import (
+    MIN_CLOSED,
+    PRICE,
+    Candidate,
+    ChannelResult,
+    held_parts,
+    held_runs,
+    select,
+)
+
+__all__ = [
+    "MIN_CLOSED",
+    "PRICE",
+    "RIDGE",
+    "Candidate",
+    "ChannelResult",
+    "Fit",
+    "fit_model",
+    "held_parts",
+    "held_runs",
+    "noise_floor",
+    "select",
+]

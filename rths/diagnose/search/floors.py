@@ -1,0 +1,62 @@
+"""Noise floors: the held-out mean squared residual a fitted model would leave if it were exact.
+
+Actuator channel: the analytic floor (:meth:`rths.diagnose.channels.channel.Channel.
+floor_variance`: displacement noise plus command noise through the nominal TF).
+
+Specimen channel: the smoothed force noise, plus -- when the drive is the measured (noisy)
+displacement -- the noise the model propagates from its drive: the model is driven a second
+time with a synthetic copy of the estimated displacement noise added (white, the estimated
+RMS, smoothed like the record) and the change of its output is that noise.  A resonant model
+(internal stiffness) propagates far more than a rigid one, which is why the floor is per model.
+``repeats`` independent copies are averaged (seeded: the diagnosis is reproducible).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rths.diagnose.channels.channel import Channel, Segment
+from rths.diagnose.channels.signals import derivatives, impulse_kernel, smooth
+from rths.diagnose.search.identify import Fit
+
+__all__ = ["noise_floor"]
+
+
+def noise_floor(fit: Fit, channel: Channel, seed: int = 0, repeats: int = 2) -> float:
+    """Held-out noise floor [unit^2] of ``fit`` on ``channel`` (module docstring).
+
+    Parameters
+    ----------
+    fit
+        The fitted model.
+    channel
+        Its channel.
+    seed
+        Seed of the synthetic drive noise.
+    repeats
+        Independent noise copies averaged.
+    """
+    if channel.name != "force":
+        return channel.floor_variance()
+    rng = np.random.default_rng(seed)
+    sigma_x = channel.noise["drive"]
+    acc, count = 0.0, 0
+    for _ in range(repeats if sigma_x > 0.0 else 0):
+        for s, p in zip(channel.segments, fit.prediction, strict=True):
+            if not np.any(s.held):
+                continue
+            sos = channel.drive_sos if channel.drive_sos is not None else s.sos
+            assert sos is not None
+            x = s.signals["x"] + smooth(sigma_x * rng.standard_normal(s.observed.size), sos)
+            v, a = derivatives(x, s.dt)
+            twin = Segment(
+                s.name, s.index, s.dt, s.observed, {"x": x, "v": v, "a": a}, s.ident, s.held, s.sos
+            )
+            cols, fixed = fit.model.columns(channel, twin, fit.theta)
+            d = (cols @ fit.beta + fixed + fit.offsets[s.index] - p)[s.held]
+            acc += float(np.sum(d * d))
+            count += d.size
+    sos = channel.segments[0].sos
+    assert sos is not None
+    force = channel.noise["force"] ** 2 * float(np.sum(impulse_kernel(sos, channel.dt) ** 2))
+    return acc / max(count, 1) + force

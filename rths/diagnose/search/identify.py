@@ -1,0 +1,416 @@
+"""Identify a model on the identification samples and score it on the held-out ones.
+
+Variable projection: for given nonlinear parameters ``theta`` the linear ones ``beta`` (the
+re-calibrated baseline and the effects' levels) and one offset per record are the
+least-squares solution, so the search runs over ``theta`` only, in three stages:
+
+1. global: every point of the model's grid (:class:`rths.diagnose.effects.model.Param`:
+   orders of magnitude on a log scale) and every warm start is scored on short windows of
+   the identification records (:data:`SEARCH_SECONDS` each, where the drive moves most);
+2. refine: ``scipy.optimize.least_squares`` (trust-region reflective, bounded, on the log
+   scale for log parameters) from the :data:`REFINE_STARTS` best distinct points, on longer
+   windows (:data:`REFINE_SECONDS`); kinked cost surfaces (dead zones, limiters) are polished
+   by Nelder-Mead;
+3. final: ``beta`` on all identification samples, predictions of every record, held-out
+   residuals with each held-out record's offset calibrated on that record (its mean residual).
+
+A window restarts the model at rest on the drive; its first :data:`WARMUP_SECONDS` and the
+smoother's edges are not scored.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import optimize
+
+from rths.core.errors import NumericalError
+from rths.diagnose.channels.channel import Channel, Segment
+from rths.diagnose.effects.model import Model, Param, Theta
+
+__all__ = [
+    "POLISH_EVALUATIONS",
+    "REFINE_EVALUATIONS",
+    "REFINE_SECONDS",
+    "REFINE_STARTS",
+    "RIDGE",
+    "SEARCH_SECONDS",
+    "WARMUP_SECONDS",
+    "Fit",
+    "fit_model",
+    "nuisance_columns",
+    "stride_for",
+]
+
+#: Relative weight of the pull towards the nominal linear parameters (see ``_Problem.solve``).
+RIDGE: float = 1e-3
+#: Length [s] of the global-search window per identification record.
+SEARCH_SECONDS: float = 3.0
+#: Length [s] of the refinement window per identification record.
+REFINE_SECONDS: float = 8.0
+#: Unscored start of every window [s] (the model restarts at rest there).
+WARMUP_SECONDS: float = 0.5
+#: Distinct grid points refined.
+REFINE_STARTS: int = 2
+#: Evaluations per nonlinear parameter of one least-squares refinement (finite differences
+#: included).
+REFINE_EVALUATIONS: int = 12
+#: Further evaluations per parameter of the Nelder-Mead polish.
+POLISH_EVALUATIONS: int = 16
+
+
+@dataclass(frozen=True)
+class Fit:
+    """A model identified on a channel.
+
+    Attributes
+    ----------
+    model
+        The model.
+    theta, beta
+        Nonlinear (by name) and linear parameters (without the offsets).
+    params
+        Effect parameters by effect (SI, named per design.md section 7).
+    baseline
+        Re-calibrated nominal parameters.
+    offsets
+        Per record: the offset and any nuisance terms of the model (identified with the
+        model or, for held-out records, calibrated on the record), whole-record arrays.
+    ident_mse, held_mse
+        Mean squared residual on the identification and on the held-out samples.
+    prediction
+        Model output per record (whole records, offsets included).
+    """
+
+    model: Model
+    theta: Theta
+    beta: NDArray[np.float64]
+    params: dict[str, dict[str, float]]
+    baseline: dict[str, float]
+    offsets: list[NDArray[np.float64]]
+    ident_mse: float
+    held_mse: float
+    prediction: list[NDArray[np.float64]] = field(repr=False)
+
+    @property
+    def name(self) -> str:
+        """The model's name."""
+        return self.model.name
+
+    @property
+    def effects(self) -> tuple[str, ...]:
+        """The effects the model holds."""
+        return self.model.effects
+
+    def residuals(self, channel: Channel) -> list[NDArray[np.float64]]:
+        """Observed minus predicted, per record."""
+        return [s.observed - p for s, p in zip(channel.segments, self.prediction, strict=True)]
+
+
+def _window(seg: Segment, seconds: float, edge: int) -> Segment:
+    """The ``seconds`` of ``seg``'s identification samples where the drive moves most."""
+    idx = np.flatnonzero(seg.ident)
+    n = int(round(seconds / seg.dt))
+    warm = int(round(WARMUP_SECONDS / seg.dt))
+    if idx.size <= n + warm:
+        lo, hi = max(0, idx[0] - warm), idx[-1] + 1
+    else:
+        motion = seg.signals.get("x", seg.signals.get("command", seg.observed))
+        energy = np.diff(motion) ** 2
+        csum = np.concatenate([[0.0], np.cumsum(energy * seg.ident[1:])])
+        starts = idx[idx + n < idx[-1] + 1]
+        gains = csum[starts + n] - csum[starts]
+        lo = max(0, int(starts[int(np.argmax(gains))]) - warm)
+        hi = lo + warm + n
+    mask = seg.ident[lo:hi].copy()
+    mask[: warm + (edge if lo > 0 else 0)] = False
+    if hi < seg.observed.size:
+        mask[-edge:] = False
+    return Segment(
+        seg.name,
+        seg.index,
+        seg.dt,
+        seg.observed[lo:hi],
+        {k: (v[lo:hi] if v.size == seg.observed.size else v) for k, v in seg.signals.items()},
+        mask,
+        np.zeros(hi - lo, dtype=bool),
+        seg.sos,
+    )
+
+
+def stride_for(channel: Channel) -> int:
+    """Row stride of the search stages: ~8 samples per period of the channel's band edge (the
+    specimen smoother's cutoff; 256 Hz for the actuator channel)."""
+    top = channel.cutoff if channel.cutoff is not None else 256.0
+    return max(1, int(1.0 / (8.0 * top * channel.dt)))
+
+
+class _Problem:
+    """Stacked regression of one model over identification samples (every ``stride``-th)."""
+
+    def __init__(
+        self, model: Model, channel: Channel, segments: list[Segment], stride: int = 1
+    ) -> None:
+        self.model, self.channel = model, channel
+        self.segments = [s for s in segments if np.any(s.ident)]
+        self.rows = []
+        for s in self.segments:
+            rows = np.flatnonzero(s.ident)[::stride]
+            self.rows.append(rows)
+        self.y = np.concatenate(
+            [s.observed[r] for s, r in zip(self.segments, self.rows, strict=True)]
+        )
+        self.records = sorted({s.index for s in self.segments})
+        self.prior = model.prior(channel)
+
+    def design(self, theta: Theta) -> tuple[NDArray, NDArray, NDArray]:
+        xs, fs, nuis = [], [], []
+        for s, rows in zip(self.segments, self.rows, strict=True):
+            x, f = self.model.columns(self.channel, s, theta)
+            xs.append(x[rows])
+            fs.append(f[rows])
+            nuis.append(nuisance_columns(self.model, self.channel, s, theta)[rows])
+        width = sum(n.shape[1] for n in nuis)
+        o = np.zeros((sum(r.size for r in self.rows), width))
+        i = j = 0
+        for n in nuis:  # block-diagonal: every segment its own nuisance terms
+            o[i : i + n.shape[0], j : j + n.shape[1]] = n
+            i, j = i + n.shape[0], j + n.shape[1]
+        return np.concatenate(xs), np.concatenate(fs), o
+
+    def solve(self, theta: Theta) -> tuple[NDArray, NDArray, NDArray]:
+        """``(residual, beta, offsets)``; ridge ``RIDGE * ||d_j (beta_j - prior_j)||^2``
+        with ``d_j`` the column norms (negligible where the data determine ``beta``)."""
+        x, f, o = self.design(theta)
+        p = x.shape[1]
+        a = np.hstack([x, o])
+        target = self.y - f
+        # normal equations on unit-norm columns (the Gram matrix is tiny); the ridge acts on
+        # the model columns only
+        norms = np.linalg.norm(a, axis=0)
+        norms[norms == 0.0] = 1.0
+        an = a / norms
+        gram = an.T @ an
+        rhs = an.T @ target
+        prior = np.concatenate([self.prior, np.zeros(o.shape[1])]) * norms
+        ridge = np.concatenate([np.full(p, RIDGE), np.zeros(o.shape[1])])
+        gram[np.diag_indices_from(gram)] += ridge + 1e-12
+        sol = np.linalg.solve(gram, rhs + ridge * prior) / norms
+        beta, off = sol[:p], sol[p:]
+        return target - x @ beta - o @ off, beta, off
+
+    def cost(self, theta: Theta) -> float:
+        try:
+            r = self.solve(theta)[0]
+        except (np.linalg.LinAlgError, ValueError):
+            return math.inf
+        c = float(np.mean(r * r))
+        return c if math.isfinite(c) else math.inf
+
+
+def nuisance_columns(model: Model, channel: Channel, seg: Segment, theta: Theta) -> NDArray:
+    """The offset column and the model's nuisance columns of a segment."""
+    extra = model.nuisance(channel, seg, theta)
+    ones = np.ones((seg.observed.size, 1))
+    return ones if extra is None else np.hstack([ones, extra])
+
+
+class _Coords:
+    """Map between named parameters and the search's unit coordinates (log or scaled)."""
+
+    def __init__(self, space: list[Param]) -> None:
+        self.space = space
+        self.lo = np.array([math.log(p.lo) if p.log else p.lo for p in space])
+        self.hi = np.array([math.log(p.hi) if p.log else p.hi for p in space])
+        self.width = np.maximum(self.hi - self.lo, 1e-12)
+
+    def to_z(self, theta: Theta) -> NDArray:
+        v = np.array(
+            [math.log(max(theta[p.name], p.lo)) if p.log else theta[p.name] for p in self.space]
+        )
+        return np.clip((v - self.lo) / self.width, 0.0, 1.0)
+
+    def to_theta(self, z: NDArray) -> Theta:
+        v = self.lo + np.clip(z, 0.0, 1.0) * self.width
+        return {
+            p.name: float(math.exp(q) if p.log else q) for p, q in zip(self.space, v, strict=True)
+        }
+
+
+def _grid(space: list[Param], starts: list[Theta], limit: int) -> list[Theta]:
+    axes = [p.values() for p in space]
+    points = list(itertools.product(*axes))
+    if len(points) > limit:
+        rng = np.random.default_rng(0)
+        keep = rng.choice(len(points), limit, replace=False)
+        points = [points[i] for i in sorted(keep)]
+    grid = [{p.name: float(v) for p, v in zip(space, q, strict=True)} for q in points]
+    for s in starts:
+        grid.append({p.name: float(s.get(p.name, p.middle())) for p in space})
+    return grid
+
+
+class _Budget(Exception):
+    """Raised inside an optimiser when its evaluation budget is spent."""
+
+
+class _Tracker:
+    """Counts evaluations of a problem's residual, keeps the best point, enforces a budget."""
+
+    def __init__(self, problem: _Problem, coords: _Coords, budget: int) -> None:
+        self.problem, self.coords, self.budget = problem, coords, budget
+        self.count = 0
+        self.best_z: NDArray | None = None
+        self.best = math.inf
+
+    def residual(self, z: NDArray) -> NDArray:
+        if self.count >= self.budget:
+            raise _Budget
+        self.count += 1
+        try:
+            r = self.problem.solve(self.coords.to_theta(z))[0]
+        except (np.linalg.LinAlgError, ValueError):
+            return np.full(self.problem.y.size, 1e150)
+        if not np.all(np.isfinite(r)):
+            return np.full(self.problem.y.size, 1e150)
+        c = float(np.mean(r * r))
+        if c < self.best:
+            self.best, self.best_z = c, np.array(z, dtype=float)
+        return r
+
+    def cost(self, z: NDArray) -> float:
+        return float(np.mean(self.residual(z) ** 2))
+
+
+def _refine(problem: _Problem, coords: _Coords, z0: NDArray, polish: bool) -> tuple[NDArray, float]:
+    """Trust-region least squares (then Nelder-Mead if ``polish``) from ``z0`` within
+    :data:`REFINE_EVALUATIONS` evaluations per parameter; the best point seen and its cost."""
+    track = _Tracker(problem, coords, REFINE_EVALUATIONS * z0.size)
+    scale = math.sqrt(max(track.cost(z0), 1e-300))
+    try:
+        optimize.least_squares(
+            lambda z: track.residual(z) / scale,
+            z0,
+            bounds=(np.zeros(z0.size), np.ones(z0.size)),
+            diff_step=1e-3,
+            x_scale=np.full(z0.size, 0.05),
+        )
+    except _Budget:
+        pass
+    z = track.best_z if track.best_z is not None else z0
+    if polish:
+        track.budget += POLISH_EVALUATIONS * z0.size
+        try:
+            optimize.minimize(
+                track.cost,
+                z,
+                method="Nelder-Mead",
+                bounds=[(0.0, 1.0)] * z.size,
+                options={
+                    "xatol": 1e-4,
+                    "fatol": 0.0,
+                    "initial_simplex": np.vstack(
+                        [z] + [np.clip(z + 0.02 * e, 0.0, 1.0) for e in np.eye(z.size)]
+                    ),
+                },
+            )
+        except _Budget:
+            pass
+    assert track.best_z is not None
+    return track.best_z, track.best
+
+
+def fit_model(
+    model: Model,
+    channel: Channel,
+    base: dict[str, float] | None = None,
+    starts: list[Theta] | None = None,
+) -> Fit:
+    """Identify ``model`` on ``channel`` and score it on the held-out samples.
+
+    Parameters
+    ----------
+    model
+        Baseline or extended model.
+    channel
+        The channel with its identification/held-out masks.
+    base
+        The re-calibrated baseline (starting values and scales of the model).
+    starts
+        Warm starts (e.g. the parameters of nested fits), added to the global grid.
+
+    Raises
+    ------
+    NumericalError
+        If the identification gives non-finite parameters.
+    """
+    model.prepare(channel, base or {})
+    space = model.space(channel)
+    edge = int(round(4.0 / (channel.cutoff or 0.25 / channel.dt) / channel.dt)) + 1
+    theta: Theta = {}
+    if space:
+        coords = _Coords(space)
+        stride = stride_for(channel)
+        windows = [_window(s, SEARCH_SECONDS, edge) for s in channel.segments if np.any(s.ident)]
+        search = _Problem(model, channel, windows, stride)
+        grid = _grid(space, [*model.starts(channel), *(starts or [])], model.max_grid)
+        costs = np.array([search.cost(t) for t in grid])
+        order = np.argsort(costs)
+        picked: list[NDArray] = []
+        for i in order:
+            z = coords.to_z(grid[i])
+            if all(np.max(np.abs(z - q)) > 0.05 for q in picked) and math.isfinite(costs[i]):
+                picked.append(z)
+            if len(picked) == REFINE_STARTS:
+                break
+        windows = [_window(s, REFINE_SECONDS, edge) for s in channel.segments if np.any(s.ident)]
+        refine = _Problem(model, channel, windows, stride)
+        best, best_cost = None, math.inf
+        for z0 in picked:
+            z, c = _refine(refine, coords, z0, model.polish)
+            if c < best_cost:
+                best, best_cost = z, c
+        if best is None:
+            raise NumericalError(f"identification of '{model.name}' failed: no finite cost")
+        theta = coords.to_theta(best)
+    full = _Problem(model, channel, channel.segments)
+    _, beta, _ = full.solve(theta)
+    if not (np.all(np.isfinite(beta)) and all(math.isfinite(v) for v in theta.values())):
+        raise NumericalError(f"identification of '{model.name}' gave non-finite parameters")
+    params, baseline = model.describe(channel, theta, beta)
+    offsets: list[NDArray[np.float64]] = []
+    prediction, ident_sq, held_sq, n_ident, n_held = [], 0.0, 0.0, 0, 0
+    for s in channel.segments:
+        x, f = model.columns(channel, s, theta)
+        p = x @ beta + f
+        nuis = nuisance_columns(model, channel, s, theta)
+        # offsets and nuisance terms (a record's transducer zeros, a body's initial state) are
+        # calibrated on the record's own scored samples, held-out ones included
+        mask = s.ident | s.held
+        if np.any(mask):
+            coef = np.linalg.lstsq(nuis[mask], (s.observed - p)[mask], rcond=None)[0]
+        else:
+            coef = np.zeros(nuis.shape[1])
+        offsets.append(nuis @ coef)
+        p = p + offsets[-1]
+        prediction.append(p)
+        r = s.observed - p
+        ident_sq += float(np.sum(r[s.ident] ** 2))
+        held_sq += float(np.sum(r[s.held] ** 2))
+        n_ident += int(np.sum(s.ident))
+        n_held += int(np.sum(s.held))
+    return Fit(
+        model,
+        theta,
+        beta,
+        params,
+        baseline,
+        offsets,
+        ident_sq / max(n_ident, 1),
+        held_sq / n_held if n_held else math.nan,
+        prediction,
+    )

@@ -1,0 +1,254 @@
+"""Greedy selection of a channel's effects on held-out data.
+
+For a channel, ``J_0`` is the held-out mean squared residual of the re-calibrated baseline and
+``N_0`` its noise floor.  When the baseline's held-out residual is not significant against the
+floor (:func:`rths.diagnose.residuals.decompose`) the channel is at its noise floor: no effect.
+Otherwise effects are added one at a time:
+
+1. every candidate effect is identified jointly with the baseline (each of its model
+   structures, the best on the identification data);
+2. the candidate that closes most of the remaining held-out gap ``J_S - N_S`` is added if it
+   closes at least :data:`PRICE` per identified parameter (it "buys its parameters") and its
+   parameters are physical;
+3. while the residual of the set is still significant, each remaining compatible candidate is
+   identified *together* with the set (warm-started from the set's and its own single fit)
+   and step 2 repeats.
+
+Effects that only act together (friction behind a clearance: neither alone describes the
+device) would stall step 2: when no single effect buys its parameters, every compatible pair
+is identified and priced as one step (its parameters counted together).
+
+The set's share of the channel's reducible gap is ``rho = (J_0 - J_S)/(J_0 - N_0)``.  When the
+set is empty or closes less than :data:`MIN_CLOSED` of a significant gap, the channel's gap is
+``unexplained``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rths.diagnose.channels.channel import Channel
+from rths.diagnose.effects import CHANNEL_EFFECTS, EFFECTS, baseline_for, compatible, models_for
+from rths.diagnose.residuals import Decomposition, decompose
+from rths.diagnose.search.floors import noise_floor
+from rths.diagnose.search.identify import Fit, fit_model
+
+__all__ = ["MIN_CLOSED", "PRICE", "Candidate", "ChannelResult", "held_parts", "held_runs", "select"]
+
+#: Fraction of the remaining reducible gap an added effect must close per identified parameter.
+PRICE: float = 0.1
+#: Smallest share of a significant reducible gap the selected effects must close together.
+MIN_CLOSED: float = 0.5
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A model tried on a channel, scored on held-out data.
+
+    Attributes
+    ----------
+    fit
+        The identified model.
+    floor
+        Its held-out noise floor [unit^2].
+    closed
+        Share of the channel's reducible gap it closes (``rho``).
+    gain
+        Share of the then remaining gap it closed when tried as the next addition.
+    accepted
+        Whether the selection took it.
+    physical
+        Whether its parameters are physical.
+    """
+
+    fit: Fit = field(repr=False)
+    floor: float
+    closed: float
+    gain: float
+    accepted: bool
+    physical: bool
+
+    @property
+    def name(self) -> str:
+        """The model's name (its effects joined by ``+``)."""
+        return self.fit.name
+
+
+@dataclass(frozen=True)
+class ChannelResult:
+    """One channel's baseline, decomposition and selected effects."""
+
+    channel: Channel = field(repr=False)
+    baseline: Fit = field(repr=False)
+    floor_mse: float
+    decomposition: Decomposition
+    candidates: list[Candidate]
+    effects: tuple[str, ...]
+    final: Fit = field(repr=False)
+    closed: float
+    verdict: str
+
+    @property
+    def excess(self) -> float:
+        """``J_0 - N_0`` (held-out) [unit^2]."""
+        return self.baseline.held_mse - self.floor_mse
+
+    @property
+    def relative_gap(self) -> float:
+        """Reducible gap as a fraction of the held-out observation's mean square."""
+        return max(self.excess, 0.0) / max(self.observed_ms, 1e-300)
+
+    @property
+    def observed_ms(self) -> float:
+        """Mean square of the held-out observation."""
+        return float(
+            np.mean(
+                np.concatenate(
+                    held_parts(self.channel, [s.observed for s in self.channel.segments])
+                )
+                ** 2
+            )
+        )
+
+    def nrmse(self, mse: float) -> float:
+        """Held-out NRMSE of a mean squared residual."""
+        return math.sqrt(max(mse, 0.0) / max(self.observed_ms, 1e-300))
+
+
+def held_runs(mask: NDArray[np.bool_]) -> list[slice]:
+    """Contiguous runs of a boolean mask as slices."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
+    return [slice(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
+def held_parts(channel: Channel, arrays: list[NDArray]) -> list[NDArray]:
+    """The held-out samples of per-record arrays, one part per contiguous run."""
+    return [
+        a[run] for s, a in zip(channel.segments, arrays, strict=True) for run in held_runs(s.held)
+    ]
+
+
+def _decompose(channel: Channel, fit: Fit, floor_scale: float = 1.0) -> Decomposition:
+    if channel.name == "force":
+        b = fit.baseline
+        linear = (b["inertance"], b["damping"], b["stiffness"])
+        drive = [s.signals["x"] for s in channel.segments]
+        f_max = 1.5 * float(channel.cutoff or 0.0)
+    elif channel.name == "displacement":
+        linear = None
+        drive = [s.observed for s in channel.segments]
+        f_max = 1.5 * float(channel.cutoff or 0.0)
+    else:
+        linear = None
+        drive = [s.observed for s in channel.segments]
+        f_max = 0.45 / channel.dt
+    f, psd = channel.floor_psd(linear)
+    times = [np.arange(s.observed.size) * s.dt for s in channel.segments]
+    return decompose(
+        held_parts(channel, fit.residuals(channel)),
+        held_parts(channel, [s.observed for s in channel.segments]),
+        held_parts(channel, drive),
+        held_parts(channel, times),
+        channel.dt,
+        (f, psd * floor_scale),
+        f_max,
+    )
+
+
+def _best(fits: list[Fit]) -> Fit:
+    return min(fits, key=lambda f: f.ident_mse)
+
+
+def select(
+    channel: Channel, effects: tuple[str, ...], seed: int = 0, price: float = PRICE
+) -> ChannelResult:
+    """Identify the baseline and select the channel's effects (module docstring).
+
+    Parameters
+    ----------
+    channel
+        The channel.
+    effects
+        Candidate effect names of the channel's subsystem.
+    seed
+        Seed of the synthetic noise of the per-model floors.
+    price
+        :data:`PRICE`.
+    """
+    base = fit_model(baseline_for(channel.name), channel)
+    n0 = noise_floor(base, channel, seed)
+    dec = _decompose(channel, base)
+    excess0 = base.held_mse - n0
+    candidates: list[Candidate] = []
+    if not dec.significant or excess0 <= 0.0:
+        return ChannelResult(channel, base, n0, dec, candidates, (), base, 0.0, "none")
+    names = [e for e in effects if e in CHANNEL_EFFECTS[channel.name]]
+    singles: dict[str, Fit] = {}
+    current, current_floor = base, n0
+    chosen: tuple[str, ...] = ()
+    tried: set[tuple[str, ...]] = set()
+
+    def trial(add: tuple[str, ...]) -> tuple[float, Candidate] | None:
+        """Identify ``chosen + add`` jointly (warm-started), score it, record the candidate."""
+        starts = [dict(current.theta)]
+        for e in add:
+            if e in singles:
+                starts.append({**singles[e].theta, **current.theta})
+                starts.append({**current.theta, **singles[e].theta})
+        models = [
+            m
+            for m in models_for(channel.name, (*chosen, *add))
+            if m.applicable(channel, base.baseline)
+        ]
+        if not models:
+            return None
+        tried.add(tuple(sorted((*chosen, *add))))
+        fit = _best([fit_model(m, channel, base.baseline, starts) for m in models])
+        if not chosen and len(add) == 1:
+            singles[add[0]] = fit
+        floor = noise_floor(fit, channel, seed)
+        remaining = max(current.held_mse - current_floor, 1e-300)
+        gain = ((current.held_mse - current_floor) - (fit.held_mse - floor)) / remaining
+        closed = (excess0 - (fit.held_mse - floor)) / excess0
+        ok = fit.model.physical(channel, fit.params)
+        cand = Candidate(fit, floor, closed, gain, False, ok)
+        candidates.append(cand)
+        n_params = sum(EFFECTS[e].n_params for e in add)
+        return (gain, cand) if ok and gain >= price * n_params else None
+
+    while True:
+        trials = [
+            t
+            for e in names
+            if e not in chosen and compatible((*chosen, e))
+            for t in [trial((e,))]
+            if t is not None
+        ]
+        if not trials and not chosen:
+            # effects that act only together (a friction device's clearance, say): when no
+            # single effect buys its parameters, every compatible pair is tried as one step
+            pairs = [
+                (a, b)
+                for i, a in enumerate(names)
+                for b in names[i + 1 :]
+                if compatible((a, b)) and tuple(sorted((a, b))) not in tried
+            ]
+            trials = [t for pair in pairs for t in [trial(pair)] if t is not None]
+        if not trials:
+            break
+        gain, cand = max(trials, key=lambda t: t[0])
+        candidates[candidates.index(cand)] = Candidate(
+            cand.fit, cand.floor, cand.closed, cand.gain, True, True
+        )
+        current, current_floor = cand.fit, cand.floor
+        chosen = cand.fit.effects
+        if not _decompose(channel, current, current_floor / max(n0, 1e-300)).significant:
+            break
+    closed = (excess0 - (current.held_mse - current_floor)) / excess0
+    verdict = chosen[0] if chosen and closed >= MIN_CLOSED else "unexplained"
+    candidates.sort(key=lambda c: (not c.accepted, -c.closed))
+    return ChannelResult(channel, base, n0, dec, candidates, chosen, current, closed, verdict)
