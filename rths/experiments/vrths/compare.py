@@ -27,6 +27,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from plants.frame.cases import CASES
 from plants.frame.ground_motion import DEFAULT_INTENSITY, GroundMotion, ground_motion
@@ -207,11 +208,23 @@ def trial_specs(
 def run_one(job: TrialSpec) -> TrialResult:
     """Run and score one trial (top-level and pure, so any executor can map it).
 
+    BLAS runs on one thread during the trial: the scoring's long dot products (J1's 50 lags of
+    ~170,000 samples) would otherwise start BLAS threads that spin for work on a machine whose
+    cores are already busy with the other trials (measured: 1.2 s of CPU per trial on the 2-core
+    VM, 40 times the single-threaded cost), and a sum split across threads depends on the
+    thread count, which must not change a result.  (The campaign executor limits its workers
+    likewise; this covers any other caller.)
+
     Parameters
     ----------
     job
         The trial (:func:`trial_specs`).
     """
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _run_one(job)
+
+
+def _run_one(job: TrialSpec) -> TrialResult:
     start = time.perf_counter()
     ground = _ground(job.ground, job.package, job.chirp)
     case = CASES[job.case]
