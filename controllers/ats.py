@@ -35,7 +35,9 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+from numpy.typing import NDArray
 
+from controllers._ats_kernel import CONSTS, ats_step
 from controllers._lti import inverse_taylor, siso_polynomials
 from controllers.base import Compensator
 from rths.core.errors import (
@@ -130,6 +132,9 @@ class AdaptiveTimeSeries(Compensator):
         Loop time step [s].
     settings
         Tuning; :class:`ATSSettings` defaults when omitted.
+    use_jit
+        Step with the compiled kernel (:func:`controllers._ats_kernel.ats_step`, default; the
+        coefficients equal the Python path's to round-off) or in Python (the reference path).
     """
 
     @classmethod
@@ -151,8 +156,11 @@ class AdaptiveTimeSeries(Compensator):
             options = replace(options, initial=start)  # type: ignore[arg-type]
         return cls(dt, options)
 
-    def __init__(self, dt: float, settings: ATSSettings | None = None) -> None:
+    def __init__(
+        self, dt: float, settings: ATSSettings | None = None, *, use_jit: bool = True
+    ) -> None:
         super().__init__(dt)
+        self.use_jit: bool = bool(use_jit)
         self.settings = ATSSettings() if settings is None else settings
         if not isinstance(self.settings, ATSSettings):
             raise ParameterError(f"settings must be an ATSSettings; got {self.settings!r}")
@@ -170,11 +178,34 @@ class AdaptiveTimeSeries(Compensator):
         self._lo = np.array([b[0] for b in s.bounds])
         self._hi = np.array([b[1] for b in s.bounds])
         self._step_limit = np.asarray(s.max_rate) * s.update_every * self.dt
+        self._sos = (
+            LowPass(s.cutoff_hz, self.dt, s.filter_order).sos.copy()
+            if s.cutoff_hz is not None
+            else np.zeros((1, 6))
+        )
+        self._consts = np.array(
+            [2.0 * self.dt, self.dt**2, s.threshold, float(s.cutoff_hz is not None),
+             float(s.update_every), *self._lo, *self._hi, *self._step_limit]
+        )  # fmt: skip
+        assert self._consts.size == len(CONSTS)
         self.reset()
+
+    @property
+    def coefficients(self) -> NDArray[np.float64]:
+        """The current ``(a0, a1, a2)`` [-, s, s^2] (a copy)."""
+        if self.use_jit:
+            return self._kstate[:3].copy()
+        return self._coefficients.copy()
 
     def _reset_impl(self) -> None:
         """Return to rest with the initial coefficients and empty history."""
-        self.coefficients = np.asarray(self.settings.start, dtype=float)
+        self._coefficients = np.asarray(self.settings.start, dtype=float)
+        self._kstate = np.array([*self.settings.start, 0.0])  # compiled path: a0..a2, u_prev
+        self._zf = np.zeros((2, self._sos.shape[0], 2))
+        self._window = np.zeros((2, self._n_window))
+        self._counters = np.zeros(3, dtype=np.int64)
+        # the same doubles as Python floats: the per-step command without NumPy scalars
+        self._coefficient_floats: tuple[float, ...] = tuple(self._coefficients.tolist())
         self._u_buf = np.zeros(self._n_window)
         self._y_buf = np.zeros(self._n_window)
         self._i = 0
@@ -215,20 +246,42 @@ class AdaptiveTimeSeries(Compensator):
         if np.linalg.cond(normal) > 1e12:  # e.g. a single sine: a0 and a2 not separable
             return
         a = np.linalg.solve(normal, xs.T @ u[1:-1]) / scale
-        step = np.clip(a - self.coefficients, -self._step_limit, self._step_limit)
-        self.coefficients = np.clip(self.coefficients + step, self._lo, self._hi)
+        step = np.clip(a - self._coefficients, -self._step_limit, self._step_limit)
+        self._coefficients = np.clip(self._coefficients + step, self._lo, self._hi)
+        self._coefficient_floats = tuple(self._coefficients.tolist())
         self._updates += 1
 
     def _step_impl(self, target: Kinematics, measured: float) -> float:
+        if self.use_jit:
+            d, v, a = target
+            return ats_step(self._sos, self._zf, self._window, self._counters, self._kstate,
+                            self._consts, d, v, a, measured)  # fmt: skip
         self._record(self._u_prev, measured)
         if self._count >= self._n_window and self._count % self.settings.update_every == 0:
             self._identify()
-        a0, a1, a2 = self.coefficients
+        a0, a1, a2 = self._coefficient_floats
         u = a0 * target.displacement + a1 * target.velocity + a2 * target.acceleration
         self._u_prev = u
-        return float(u)
+        return u
 
     def state(self) -> dict[str, float]:
         """Coefficients a0 [-], a1 [s], a2 [s^2], delay estimate a1/a0 [s], update count."""
-        a0, a1, a2 = map(float, self.coefficients)
-        return {"a0": a0, "a1": a1, "a2": a2, "delay": a1 / a0, "updates": float(self._updates)}
+        a0, a1, a2 = self._own_coefficients()
+        return {
+            "a0": a0,
+            "a1": a1,
+            "a2": a2,
+            "delay": a1 / a0,
+            "updates": float(self._count_updates()),
+        }
+
+    def _own_coefficients(self) -> tuple[float, ...]:
+        return tuple(self._kstate[:3].tolist()) if self.use_jit else self._coefficient_floats
+
+    def _count_updates(self) -> int:
+        return int(self._counters[2]) if self.use_jit else self._updates
+
+    def write_channels(self, out: NDArray[np.float64]) -> None:
+        """Write :meth:`state`'s values into ``out`` (no dict: this runs every step)."""
+        a0, a1, a2 = self._own_coefficients()
+        out[0], out[1], out[2], out[3], out[4] = a0, a1, a2, a1 / a0, self._count_updates()

@@ -32,6 +32,7 @@ import control
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from controllers._pi_lead_kernel import PARAMS, STATE, pi_lead_step
 from controllers.base import Compensator
 from rths.core.channels import Channel
 from rths.core.errors import ParameterError, check_nonnegative, check_positive
@@ -179,6 +180,9 @@ class PILeadCompensator(Compensator):
         Converter limit [m] (benchmark 3.8); ``inf`` disables it.
     lookahead
         Feed ``G_T`` the target for the end of the step instead of the benchmark's current one.
+    use_jit
+        Step with the compiled kernel (:func:`controllers._pi_lead_kernel.pi_lead_step`,
+        default; bit for bit the Python path) or in Python (the reference path).
     """
 
     def __init__(
@@ -192,6 +196,7 @@ class PILeadCompensator(Compensator):
         quantization: float = QUANTIZATION,
         saturation: float = SATURATION,
         lookahead: bool = False,
+        use_jit: bool = True,
     ) -> None:
         super().__init__(dt)
         kp = check_nonnegative(proportional, "PI proportional gain")
@@ -210,6 +215,14 @@ class PILeadCompensator(Compensator):
         self.lookahead: bool = lookahead
         self.lead: FirstOrderSection = tustin_section(lead_num, lead_den, self.dt)
         self.tracking: FirstOrderSection = tustin_section([kp, ki], [1.0, 0.0], self.dt)
+        self.use_jit: bool = bool(use_jit)
+        lead, pi = self.lead, self.tracking
+        self._params = np.array(
+            [lead.b0, lead.b1, lead.a1, pi.b0, pi.b1, pi.a1, self.quantization, self.saturation,
+             1.0 if lookahead else 0.0]
+        )  # fmt: skip
+        assert self._params.size == len(PARAMS)
+        self._state = np.zeros(len(STATE))
         self.reset()
 
     @classmethod
@@ -225,6 +238,7 @@ class PILeadCompensator(Compensator):
         self._pi_in = self._pi_out = 0.0
         self._previous_target = 0.0
         self._reference = self._error = self._command = 0.0
+        self._state[:] = 0.0
 
     def _adc(self, value: float) -> float:
         """Saturate, then quantise (the benchmark's *A/D Converter* subsystem)."""
@@ -239,6 +253,8 @@ class PILeadCompensator(Compensator):
         return min(max(v, -self.saturation), self.saturation)
 
     def _step_impl(self, target: Kinematics, measured: float) -> float:
+        if self.use_jit:
+            return pi_lead_step(self._params, self._state, target.displacement, measured)
         r = target.displacement if self.lookahead else self._previous_target
         self._previous_target = target.displacement
         lead, pi = self.lead, self.tracking
@@ -256,6 +272,9 @@ class PILeadCompensator(Compensator):
     def state(self) -> dict[str, float]:
         """``reference`` (phase-lead output ``y_p``), ``error`` (``y_p - x_m`` after the A/D) and
         ``command`` [m]."""
+        if self.use_jit:
+            reference, error, command = self._state[5:].tolist()
+            return {"reference": reference, "error": error, "command": command}
         return {"reference": self._reference, "error": self._error, "command": self._command}
 
     def channels(self) -> tuple[Channel, ...]:
@@ -264,4 +283,7 @@ class PILeadCompensator(Compensator):
 
     def write_channels(self, out: NDArray[np.float64]) -> None:
         """Write :meth:`state`'s values into ``out`` (no dict)."""
+        if self.use_jit:
+            out[:] = self._state[5:]
+            return
         out[0], out[1], out[2] = self._reference, self._error, self._command

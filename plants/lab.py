@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from plants.base import Actuator, Kinematics
+from plants.lab_kernel import convert_counting
 from rths.core.channels import Channel
 from rths.core.errors import (
     ParameterError,
@@ -196,6 +197,9 @@ class EmulatedLab:
         DAC/ADC channels and calibrations.
     seed
         Seed of the noise generator (``None``: fresh OS entropy, recorded in :attr:`seed`).
+    use_jit
+        Convert with the compiled kernel (:func:`plants.lab_kernel.convert_counting`, default;
+        bit for bit :func:`convert`) or with :func:`convert` (the reference path).
     """
 
     def __init__(
@@ -204,6 +208,7 @@ class EmulatedLab:
         converters: LabConverters | None = None,
         *,
         seed: int | None = None,
+        use_jit: bool = True,
     ) -> None:
         if not isinstance(actuator, Actuator):
             raise ParameterError(f"actuator must be a plants.base.Actuator; got {actuator!r}")
@@ -219,6 +224,8 @@ class EmulatedLab:
             [c.command.noise_rms, c.displacement.noise_rms, c.force.noise_rms]
         )
         self._constants = (c.command.constants, c.displacement.constants, c.force.constants)
+        self.use_jit: bool = bool(use_jit)
+        self._constant_table = np.array(self._constants, dtype=float)  # compiled path
         self.reset()
 
     #: Steps of noise drawn at once; the sequence equals per-step draws (tested), only faster.
@@ -247,7 +254,7 @@ class EmulatedLab:
     @property
     def saturation_counts(self) -> dict[str, int]:
         """Number of saturated conversions per channel since :meth:`reset`."""
-        return dict(zip(_CHANNELS, self._saturations))
+        return dict(zip(_CHANNELS, (int(n) for n in self._saturations)))
 
     def reset(self) -> None:
         """Back to rest at ``t = 0``; the noise generator restarts from :attr:`seed`."""
@@ -255,7 +262,7 @@ class EmulatedLab:
         self._rng = np.random.default_rng(self._seed_sequence)
         self._noise_block: list[list[float]] = []
         self._noise_next = 0
-        self._saturations = [0, 0, 0]  # per channel of _CHANNELS
+        self._saturations = np.zeros(3, dtype=np.int64)  # per channel of _CHANNELS
         self._steps = 0
         self._kinematics = Kinematics(0.0, 0.0, 0.0)
         self._force = 0.0
@@ -278,6 +285,19 @@ class EmulatedLab:
             self._noise_block, self._noise_next = draws.tolist(), 0
         noise = self._noise_block[self._noise_next]
         self._noise_next += 1
+        if self.use_jit:
+            table, saturations = self._constant_table, self._saturations
+            command_dac = convert_counting(command, noise[0], table, 0, saturations)
+            kinematics, force = self.actuator.step(command_dac)
+            measured = (
+                convert_counting(kinematics.displacement, noise[1], table, 1, saturations),
+                convert_counting(force, noise[2], table, 2, saturations),
+            )
+            self._steps += 1
+            self._kinematics, self._force = kinematics, force
+            self._command, self._command_dac = command, command_dac
+            self._measured = measured
+            return measured
         command_dac, sat_u = convert(command, noise[0], *dac)
         kinematics, force = self.actuator.step(command_dac)
         displacement, sat_x = convert(kinematics.displacement, noise[1], *adc_x)

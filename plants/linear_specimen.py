@@ -132,6 +132,21 @@ class LinearSpecimen(Specimen):
         self._displacement = u
         return self.mass * a + self.damping * v + self.stiffness * u
 
+    def stepped_by_kernel(self, displacement: float, steps: int) -> None:
+        """Record ``steps`` steps that a compiled actuator kernel took with this specimen's force
+        law inline (:func:`plants.actuator.kernel.servo_hydraulic_step`), the last to
+        ``displacement`` [m]: :attr:`steps` and :meth:`state` stay as if :meth:`step` had run.
+
+        Parameters
+        ----------
+        displacement
+            Drive displacement [m] of the last of those steps.
+        steps
+            Number of steps taken.
+        """
+        self._displacement = displacement
+        self._steps += steps
+
     def state(self) -> dict[str, float]:
         """The spring force ``k u`` [N] (the part an actuator feeds back explicitly)."""
         return {"spring_force": self.stiffness * self._displacement}

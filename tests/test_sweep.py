@@ -18,6 +18,7 @@ from plants.tmdi import (
     s1_configuration,
 )
 from plants.tmdi.inerter import IdealInerter
+from rths.campaign import Cluster
 from rths.cli import main
 from rths.core.errors import ConfigError, ParameterError
 from rths.experiments.s1_shake_table.report import frf_table, loops_figure, summarise
@@ -273,6 +274,14 @@ def test_scenario_file_errors(tmp_path: Path) -> None:
 def test_tiny_sweep_runs_and_reports() -> None:
     cfg = parse_sweep(TINY, "tiny.toml")
     result = run_sweep(cfg, progress=True)
+    # the same jobs as a campaign on Dask workers (threads here): the same FRFs, bit for bit
+    on_dask = run_sweep(cfg, cluster=Cluster(workers=2, processes=False))
+    assert [(r.model, r.direction, r.pga) for r in on_dask.runs] == [
+        (r.model, r.direction, r.pga) for r in result.runs
+    ]
+    for a, b in zip(result.runs, on_dask.runs, strict=True):
+        for name in a.frf.channels:
+            np.testing.assert_array_equal(a.frf.response[name], b.frf.response[name])
     # coarse 0.5 Hz lattice + ends, and the 0.25 Hz points within 0.9-1.1 x the linearised
     # f1 (2.245 Hz rack-and-pinion, 2.238 Hz ideal) and f0 (2.577 Hz, the calibrated PS):
     # 2.25 and 2.5, 2.75
@@ -306,7 +315,10 @@ def test_cli_writes_table_summary_and_figures(tmp_path: Path, capsys) -> None:
         encoding="utf-8",
     )
     out = tmp_path / "out"
-    assert main(["sweep", str(scenario), "--pga", "0.05", "--out", str(out), "--json"]) == 0
+    assert (
+        main(["sweep", str(scenario), "--pga", "0.05", "--out", str(out), "--json", "--in-process"])
+        == 0
+    )
     summary = json.loads(capsys.readouterr().out)
     assert list(summary["pga"]) == ["0.05"] and summary["scenario"] == "tiny"
     assert json.loads((out / "summary.json").read_text()) == summary
@@ -325,7 +337,17 @@ def test_cli_writes_table_summary_and_figures(tmp_path: Path, capsys) -> None:
         "ps_displacement.png",
     ]
     assert (
-        main(["sweep", str(scenario), "--out", str(tmp_path / "o2"), "--no-figures", "--quiet"])
+        main(
+            [
+                "sweep",
+                str(scenario),
+                "--out",
+                str(tmp_path / "o2"),
+                "--no-figures",
+                "--quiet",
+                "--in-process",
+            ]
+        )
         == 0
     )
     text = capsys.readouterr().out

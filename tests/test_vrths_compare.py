@@ -8,17 +8,19 @@ import pickle
 import numpy as np
 import pytest
 
+from rths.campaign import Cluster
 from rths.core.errors import ParameterError
 from rths.experiments.vrths.compare import run_comparison, run_one, trial_specs
 from rths.experiments.vrths.tables import nominal_table, plot_j2, render, worst_j2_table
 
 CHIRP = {"f_start": 0.5, "f_end": 6.0, "duration": 1.0}
+THREADS = Cluster(workers=1, processes=False)  # quick to start; processes: test_compare_campaign
 
 
 @pytest.fixture(scope="module")
 def comparison():
     return run_comparison(["pi_lead", "ff_lqg"], [1, 4], ground="chirp", perturbed=1,
-                          chirp=CHIRP, workers=1)  # fmt: skip
+                          chirp=CHIRP, cluster=THREADS)  # fmt: skip
 
 
 def test_every_trial_is_run_and_scored(comparison) -> None:

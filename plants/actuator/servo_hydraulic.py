@@ -33,6 +33,7 @@ from typing import Any
 import control
 import numpy as np
 
+from plants.actuator.kernel import SERVO_OUTPUTS, SERVO_PARAMS, servo_hydraulic_step
 from plants.actuator.linear import (
     check_stable,
     close_remainder,
@@ -103,6 +104,11 @@ class ServoHydraulicActuator(Actuator):
     velocity_limit
         Flow limit ``v_max = Q_max / A`` [m/s] of the displacement, applied per sub-step after
         the linear dynamics; ``None`` for none.
+    use_jit
+        With a :class:`LinearSpecimen` (exactly that class), run each loop step as one compiled
+        call (:func:`plants.actuator.kernel.servo_hydraulic_step`: sub-steps, limiter and the
+        specimen's force law; equal to the Python path to round-off); ``False`` (or any other
+        specimen) steps in Python, the reference path.
 
     Attributes
     ----------
@@ -131,6 +137,7 @@ class ServoHydraulicActuator(Actuator):
         substeps: int | None = None,
         delay: float = 0.0,
         velocity_limit: float | None = None,
+        use_jit: bool = True,
     ) -> None:
         if not isinstance(parameters, BenchmarkParameters):
             raise ParameterError(f"parameters must be BenchmarkParameters; got {parameters!r}")
@@ -174,6 +181,25 @@ class ServoHydraulicActuator(Actuator):
         self._by_command = np.ascontiguousarray(gain[:, 0])
         self._by_remainder = np.ascontiguousarray(gain[:, 1])
         self._n_states = m.A.shape[0]
+        # the compiled path (plants.base hot-path convention): the specimen's force law inline
+        self.use_jit: bool = bool(use_jit) and type(specimen) is LinearSpecimen
+        self._gain = np.ascontiguousarray(
+            np.column_stack([self._advance, self._by_command, self._by_remainder])
+        )
+        self._params = np.zeros(len(SERVO_PARAMS))
+        if self.use_jit:
+            assert isinstance(specimen, LinearSpecimen)
+            self._specimen_stepped = specimen.stepped_by_kernel
+            limiter = self.limiter
+            self._params[:] = (
+                self.substeps, self.rigid_mass, self.rigid_damping,
+                specimen.mass, specimen.damping, specimen.stiffness,
+                0.0 if limiter is None else 1.0,
+                0.0 if limiter is None else limiter.velocity_limit * limiter.dt,
+                0.0 if limiter is None else limiter.velocity_limit,
+            )  # fmt: skip
+        self._state = np.zeros(self._n_states + 3)
+        self._out = np.zeros(len(SERVO_OUTPUTS))
         self.reset()
 
     @classmethod
@@ -236,8 +262,11 @@ class ServoHydraulicActuator(Actuator):
         self._outputs = (0.0, 0.0, 0.0, 0.0)
         self._kinematics = Kinematics(0.0, 0.0, 0.0)
         self._force = 0.0
+        self._state[:] = 0.0
 
     def _step_impl(self, command: float) -> tuple[Kinematics, float]:
+        if self.use_jit:
+            return self._step_compiled(command)
         u = command
         n, h = self._n_states, self.substep
         m_r, c_r, limiter = self.rigid_mass, self.rigid_damping, self.limiter
@@ -256,6 +285,21 @@ class ServoHydraulicActuator(Actuator):
             remainder = force - m_r * a - c_r * v
         self._z, self._remainder = z, remainder
         self._outputs = tuple(outputs)
+        self._kinematics, self._force = Kinematics(x, v, a), force
+        return self._kinematics, force
+
+    def _step_compiled(self, command: float) -> tuple[Kinematics, float]:
+        """:meth:`_step_impl` as one compiled call; the specimen and the limiter are told the
+        state the kernel left them in (for their ``state()`` and step counts)."""
+        state = self._state
+        servo_hydraulic_step(self._gain, state, self._params, self._out, command)
+        x, v, a, force, x_lin, v_lin, a_lin, f_a = self._out.tolist()
+        self._outputs = (x_lin, v_lin, a_lin, f_a)
+        self._specimen_stepped(x, self.substeps)
+        limiter = self.limiter
+        if limiter is not None:
+            n = self._n_states
+            limiter.output, limiter.limiting = float(state[n + 1]), int(state[n + 2])
         self._kinematics, self._force = Kinematics(x, v, a), force
         return self._kinematics, force
 

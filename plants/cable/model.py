@@ -227,6 +227,7 @@ class Cable(Substructure):
         resonance = self.load.mode * properties.omega0
         frequency = self.load.frequency
         self._load_frequency = resonance if frequency is None else frequency
+        self._load_end = math.inf if self.load.duration is None else self.load.duration
         # two state buffers (u, v, a, flywheel (x [m], x' [m/s], x'' [m/s^2]) in row 3), the
         # current one by parity; the flywheel is zero without a series branch
         self._state = np.zeros((2, 4, size))
@@ -259,7 +260,7 @@ class Cable(Substructure):
             options.damper_position,
             dt,
             elements=n,
-            load=DistributedLoad(amplitude=load.amplitude, mode=load.mode, frequency=omega),
+            load=DistributedLoad(load.amplitude, load.mode, omega, load.duration),
             intrinsic_damping=RayleighDamping(damping) if damping else None,
             damper=device,
         )
@@ -347,6 +348,8 @@ class Cable(Substructure):
         """Advance ``state[parity]`` to ``state[1 - parity]`` for the device force ``force``
         [N] and write the outputs (:data:`plants.cable.kernel.OUTPUTS`) into ``out``."""
         load_scale = math.sin(self._load_frequency * (self.steps + 1) * self.dt)
+        if (self.steps + 1) * self.dt > self._load_end:  # the load has stopped
+            load_scale = 0.0
         j, series = self._index, self._series
         if self.use_numba:
             cable_step(self._ops, state, parity, self._params, j, load_scale, -force, out)
@@ -366,7 +369,9 @@ class Cable(Substructure):
     # ------------------------------------------------------------------ state and views
     def nodal_load(self, t: float) -> NDArray[np.float64]:
         """Consistent nodal forces [N] of the distributed load (S0 Eq.22) at time ``t`` [s]."""
-        return math.sin(self._load_frequency * check_finite(t, "time t")) * self._load_shape
+        t = check_finite(t, "time t")
+        scale = math.sin(self._load_frequency * t) if t <= self._load_end else 0.0
+        return scale * self._load_shape
 
     def set_state(
         self,

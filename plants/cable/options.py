@@ -24,17 +24,23 @@ class CableLoadOptions:
         Mode shape of the load, >= 1.
     frequency
         Load frequency [Hz]; default: the undamped cable's mode-``mode`` frequency.
+    duration
+        Time [s] after which the load stops and the cable vibrates freely (a free-decay test:
+        ``rths study`` reads the modal damping from it); default: the load lasts the whole run.
     """
 
     amplitude: float = 0.0
     mode: int = 1
     frequency: float | None = None
+    duration: float | None = None
 
     def __post_init__(self) -> None:
         if self.mode < 1:
             raise ParameterError(f"mode must be >= 1; got {self.mode!r}")
         if self.frequency is not None:
             check_positive(self.frequency, "frequency")
+        if self.duration is not None:
+            check_positive(self.duration, "load duration")
 
 
 @dataclass(frozen=True)

@@ -180,17 +180,22 @@ class DistributedLoad:
         ``n``, the mode whose shape the load has.
     frequency
         ``Omega`` [rad/s]; ``None`` means resonance with the string, ``n omega0``.
+    duration
+        Time [s] after which the load is zero (free vibration); ``None``: it never stops.
     """
 
     amplitude: float = 0.0
     mode: int = 1
     frequency: float | None = None
+    duration: float | None = None
 
     def __post_init__(self) -> None:
         _store(self, "amplitude", check_finite(self.amplitude, "load amplitude p0"))
         check_positive_int(self.mode, "load mode n")
         if self.frequency is not None:
             _store(self, "frequency", check_nonnegative(self.frequency, "load frequency Omega"))
+        if self.duration is not None:
+            _store(self, "duration", check_positive(self.duration, "load duration"))
 
 
 @dataclass(frozen=True, slots=True)

@@ -39,6 +39,7 @@ from plants.base import Substructure
 from plants.frame._discrete import discretise_structure, state_matrices
 from plants.frame.cases import CASES, BenchmarkCase
 from plants.frame.ground_motion import DEFAULT_INTENSITY, GroundMotion, ground_motion
+from plants.frame.kernel import OUTPUTS, frame_step
 from plants.linear_specimen import LinearSpecimen
 from rths.core.channels import Channel
 from rths.core.errors import ParameterError, check_nonnegative, check_positive
@@ -184,6 +185,9 @@ class FrameSubstructure(Substructure):
     force_delay
         Whole steps between the force measurement and the step it acts on (0 or 1; the
         benchmark's *Unit Delay* is 1).
+    use_jit
+        Step with the compiled kernel (:func:`plants.frame.kernel.frame_step`, default) or with
+        the NumPy expressions (the reference path; equal to round-off).
 
     Notes
     -----
@@ -207,6 +211,7 @@ class FrameSubstructure(Substructure):
         *,
         intensity: float = DEFAULT_INTENSITY,
         force_delay: int = 1,
+        use_jit: bool = True,
     ) -> None:
         super().__init__(dt)
         if not isinstance(ground, GroundMotion):
@@ -233,6 +238,9 @@ class FrameSubstructure(Substructure):
         self._step_matrix = g
         self._ag = ground.sampled(self.dt, self.n_steps + 2, self.intensity)
         self._input = np.zeros(9)
+        self.use_jit: bool = bool(use_jit)
+        self._state = np.zeros(8)  # compiled path: z, held, pending (plants.frame.kernel)
+        self._out = np.zeros(len(OUTPUTS))
         self.reset()
 
     @classmethod
@@ -252,6 +260,9 @@ class FrameSubstructure(Substructure):
         self._held = 0.0  # force acting over the current step
         self._pending = 0.0  # force measured last, acting from the next step (delay 1)
         self._interface = Kinematics(0.0, 0.0, 0.0)
+        self._state[:] = 0.0
+        self._out[:] = 0.0
+        self._out[6] = self._ground(0)
 
     @property
     def interface(self) -> Kinematics:
@@ -261,7 +272,7 @@ class FrameSubstructure(Substructure):
     @property
     def floor_displacements(self) -> FloatArray:
         """Displacements [m] of floors 1-3 relative to the ground, shape ``(3,)`` (a copy)."""
-        return self._z[:3].copy()
+        return (self._state if self.use_jit else self._z)[:3].copy()
 
     def _ground(self, k: int) -> float:
         ag = self._ag
@@ -278,6 +289,13 @@ class FrameSubstructure(Substructure):
         return z, held, Kinematics(float(z[0]), float(z[3]), float(out[6]))
 
     def _step_impl(self, restoring_force: float) -> Kinematics:
+        if self.use_jit:
+            out = self._out
+            frame_step(self._step_matrix, self._ag, self._state, restoring_force,
+                       self._steps, self.force_delay, out)  # fmt: skip
+            x, v, a = out[:3].tolist()
+            self._interface = kin = Kinematics(x, v, a)
+            return kin
         z, held, kin = self._advance(restoring_force)
         self._z, self._held, self._pending = z, held, restoring_force
         self._interface = kin
@@ -285,11 +303,17 @@ class FrameSubstructure(Substructure):
 
     def predict(self, restoring_force: float) -> Kinematics:
         """The floor-1 kinematics one step ahead, without committing the step."""
+        if self.use_jit:
+            out = np.zeros(len(OUTPUTS))
+            frame_step(self._step_matrix, self._ag, self._state.copy(), float(restoring_force),
+                       self._steps, self.force_delay, out)  # fmt: skip
+            x, v, a = out[:3].tolist()
+            return Kinematics(x, v, a)
         return self._advance(float(restoring_force))[2]
 
     def outputs(self) -> dict[str, float]:
         """Floor displacements ``x1``-``x3`` [m] and ground acceleration ``ag`` [m/s^2]."""
-        z = self._z
+        z = self._state if self.use_jit else self._z
         ag = self._ground(self.steps)
         return {"x1": float(z[0]), "x2": float(z[1]), "x3": float(z[2]), "ag": ag}
 
@@ -299,6 +323,9 @@ class FrameSubstructure(Substructure):
 
     def write_channels(self, out: FloatArray) -> None:
         """Write :meth:`outputs`' values into ``out`` (no dict)."""
+        if self.use_jit:
+            out[:] = self._out[3:]
+            return
         out[:3] = self._z[:3]
         out[3] = self._ground(self.steps)
 

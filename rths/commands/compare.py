@@ -3,7 +3,10 @@
 Prints, per compensator, the benchmark's evaluation table (F4's J1-J9, cases as columns) on the
 nominal plant and the median / worst over the perturbed plants with interlocks and the actuator
 force against its 8.9 kN capacity, then the worst J2 of every compensator and case and the wall
-time; writes a figure of J2 per case (:mod:`rths.experiments.vrths`).
+time; writes a figure of J2 per case (:mod:`rths.experiments.vrths`).  The trials run as a
+campaign (:mod:`rths.campaign`): an embedded Dask cluster by default (``--workers``), or
+``--scheduler``; one row per trial in ``--table`` (default
+``runs/compare-<ground>-x<intensity>-p<N>-seed<S>.parquet``), and re-running the command resumes.
 """
 
 from __future__ import annotations
@@ -12,6 +15,8 @@ import argparse
 import json
 import sys
 from pathlib import Path
+
+from rths.commands._campaign import add_options, cluster, summary_line
 
 __all__ = ["add_parser", "run"]
 
@@ -49,50 +54,55 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         "--package",
         help="benchmark package (default $RTHS_VRTHS_PACKAGE, else $RTHS_DATA/vrths-benchmark)",
     )
-    p.add_argument("--workers", type=int, help="worker processes (default: CPU count)")
     p.add_argument("--json", type=Path, metavar="OUT", help="write every trial's result as JSON")
     p.add_argument(
         "--figure", type=Path, default=Path("vrths_j2.png"), help="J2 figure (vrths_j2.png)"
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_options(p)
     return p
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the comparison and print its tables; 0."""
-    from tqdm import tqdm
-
+    """Run the comparison and print its tables; 0 (1 if some trials failed)."""
+    from rths.campaign import ResultTable
     from rths.core.errors import ConfigError
     from rths.experiments.vrths.compare import run_comparison
     from rths.experiments.vrths.tables import plot_j2, render
 
     if args.perturbed < 0:
         raise ConfigError(f"--perturbed must be >= 0; got {args.perturbed!r}")
-    if args.workers is not None and args.workers < 1:
-        raise ConfigError(f"--workers must be >= 1; got {args.workers!r}")
-    bar = tqdm(unit="trial", file=sys.stderr, disable=True if args.no_progress else None)
-
-    def progress(result: object, done: int, total: int) -> None:
-        bar.total = total
-        bar.update(done - bar.n)
-
-    try:
-        comparison = run_comparison(
-            args.compensators,
-            args.cases,
-            ground=args.ground,
-            perturbed=args.perturbed,
-            intensity=args.intensity,
-            seed=args.seed,
-            package=args.package,
-            workers=args.workers,
-            progress=progress,
-        )
-    finally:
-        bar.close()
+    where = cluster(args)
+    path = args.table or Path("runs") / (
+        f"compare-{args.ground}-x{args.intensity:g}-p{args.perturbed}-seed{args.seed}.parquet"
+    )
+    table = ResultTable(path)
+    comparison = run_comparison(
+        args.compensators,
+        args.cases,
+        ground=args.ground,
+        perturbed=args.perturbed,
+        intensity=args.intensity,
+        seed=args.seed,
+        package=args.package,
+        cluster=where,
+        table=table,
+        progress=not args.no_progress,
+        retry_failed=args.retry_failed,
+    )
     print(render(comparison))
     print(f"J2 figure -> {plot_j2(comparison, args.figure)}")
     if args.json is not None:
         args.json.write_text(json.dumps(comparison.to_dict(), indent=1, default=float))
         print(f"results -> {args.json}")
+    stats = comparison.stats
+    assert stats is not None
+    print(summary_line(stats, table, where, comparison.keys))
+    if stats.failed:
+        print(
+            f"rths compare: {stats.failed} trial(s) failed (rows with status = error; "
+            "--retry-failed runs them again)",
+            file=sys.stderr,
+        )
+        return 1
     return 0

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from rths.commands._campaign import add_options, cluster, summary_line
 from rths.core.errors import ConfigError
 
 if TYPE_CHECKING:
@@ -119,6 +120,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    add_options(p)
+    p.add_argument(
+        "--no-figures",
+        action="store_true",
+        help="with --monte-carlo: no J2 figure beside the table",
+    )
     return p
 
 
@@ -216,24 +223,53 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _monte_carlo(scn: Scenario, args: argparse.Namespace) -> int:
-    """``rths run SCENARIO --monte-carlo N [--compensator KIND|all] [--json]``."""
+    """``rths run SCENARIO --monte-carlo N [--compensator KIND|all] [--json]``: a campaign of
+    draws x compensators; the table (default ``runs/<name>-mc<N>-seed<S>.parquet``) and the J2
+    figure beside it."""
     from controllers.factory import kinds
-    from rths.analysis.montecarlo import run_draws
+    from rths.analysis.montecarlo import j2_figure, run_draws
+    from rths.campaign import ResultTable
     from rths.config import build
+    from rths.core.errors import format_choices
     from rths.session.budget import check_budget, step_cost
 
     draws = args.monte_carlo or scn.monte_carlo_draws
     if draws < 1:
         raise ConfigError(f"--monte-carlo needs a number of draws >= 1; got {args.monte_carlo!r}")
     kind = args.compensator or scn.compensator.kind
-    chosen = list(kinds()) if kind == "all" else [kind]
+    known = list(kinds())
+    if kind != "all" and kind not in known:
+        raise ConfigError(
+            f"--compensator must be one of {format_choices([*known, 'all'])}; got {kind!r}"
+        )
+    chosen = known if kind == "all" else [kind]
     seed = scn.run.seed if args.seed is None else args.seed
     if seed < 0:
         raise ConfigError(f"--seed must be >= 0; got {seed}")
     cost = step_cost(build.substructure(scn), build.compensator(scn, chosen[0]), build.lab(scn))
     check_budget(scn, "fast", cost, runs=draws * len(chosen))
-    result = run_draws(scn, chosen, draws, seed, progress=not args.no_progress)
+    where = cluster(args)
+    path = args.table or Path("runs") / f"{scn.run.name}-mc{draws}-seed{seed}.parquet"
+    table = ResultTable(path)
+    result = run_draws(
+        scn,
+        chosen,
+        draws,
+        seed,
+        progress=not args.no_progress,
+        cluster=where,
+        table=table,
+        retry_failed=args.retry_failed,
+    )
+    figure = None
+    if not args.no_figures:
+        figure = j2_figure(
+            result,
+            path.with_name(path.stem + "_j2.png"),
+            f"{scn.run.name}: J2 over {draws} perturbed labs (seed {seed})",
+        )
     rows = result.table()
+    keys = [str(r["run"]) for r in result.rows]
     if args.json:
         print(
             json.dumps(
@@ -243,6 +279,10 @@ def _monte_carlo(scn: Scenario, args: argparse.Namespace) -> int:
                     "seed": seed,
                     "rows": rows,
                     "j2": {k: v.tolist() for k, v in result.j2.items()},
+                    "table": str(path),
+                    "digest": table.digest(keys),
+                    "wall_s": result.stats.wall,
+                    "workers": result.stats.workers,
                 },
                 indent=2,
             )
@@ -254,4 +294,8 @@ def _monte_carlo(scn: Scenario, args: argparse.Namespace) -> int:
             med = "-" if r["median"] is None else f"{100 * r['median']:.3f}"
             worst = "-" if r["worst"] is None else f"{100 * r['worst']:.3f}"
             print(f"{r['kind']:<12} {med:>9} {worst:>9} {r['stopped']:>8}")
+        print(
+            summary_line(result.stats, table, where, keys)
+            + ("" if figure is None else f"; figure {figure}")
+        )
     return 0

@@ -5,8 +5,9 @@ Examples::
     rths sweep scenarios/tmdi_shake_table.toml
     rths sweep scenarios/tmdi_shake_table.toml --pga 0.1 --out out/ --json
 
-Runs every model of the scenario up and down at each PGA in process
-(:mod:`rths.experiments.s1_shake_table.sweep`) and writes into ``--out`` (default ``<scenario
+Runs every model of the scenario up and down at each PGA -- each PGA and direction a task on an
+embedded Dask cluster (or ``--scheduler``'s; :mod:`rths.experiments.s1_shake_table.sweep`) --
+and writes into ``--out`` (default ``<scenario
 name>_sweep``):
 
 ``frf.csv``       the normalised FRFs of every run
@@ -28,6 +29,8 @@ import json
 import sys
 from pathlib import Path
 from typing import Any
+
+from rths.commands._campaign import add_options, cluster
 
 __all__ = ["add_parser", "run"]
 
@@ -58,6 +61,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_options(p, table=False)
     return p
 
 
@@ -123,7 +127,9 @@ def run(args: argparse.Namespace) -> int:
     from rths.experiments.s1_shake_table.sweep import load_sweep, run_sweep
 
     config = load_sweep(args.scenario)
-    result = run_sweep(config, pga=args.pga, progress=not args.quiet and sys.stderr.isatty())
+    result = run_sweep(
+        config, pga=args.pga, progress=not args.quiet and sys.stderr.isatty(), cluster=cluster(args)
+    )
     out = Path(args.out if args.out else f"{config.name}_sweep")
     out.mkdir(parents=True, exist_ok=True)
     header, rows = frf_table(result)

@@ -15,6 +15,8 @@ examples users copy)::
     [loop]         correction_filter [Hz], stroke [m] (interlock), max_velocity and
                    ramp_velocity [m/s] (the specimen side's guard), max_lag [steps] (watchdog)
     [monte_carlo]  draws (perturbed benchmark plants)
+    [study]        a parameter study over this scenario's keys (``rths study``; read and
+                   checked by :mod:`rths.analysis.study`, kept here as given)
 
 The four component tables name a registered kind (:mod:`rths.core.registry`; ``rths kinds``
 lists them with their options): the kind's frozen options dataclass says which keys the table
@@ -28,7 +30,9 @@ consistency that needs the plants built (e.g. a stable actuator) is checked when
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -197,7 +201,9 @@ class LoopSpec:
 class Scenario:
     """A parsed scenario (see the module docstring).
 
-    ``model`` is the ``[model]`` device at specimen scale, or None for ``kind = "none"``.
+    ``model`` is the ``[model]`` device at specimen scale, or None for ``kind = "none"``;
+    ``study`` is the ``[study]`` table as parsed (None without one); ``overrides`` are the
+    dotted-key overrides applied on top of ``text`` (:func:`parse_scenario`), in order.
 
     Attributes
     ----------
@@ -227,6 +233,10 @@ class Scenario:
         ``[loop]``.
     monte_carlo_draws : int
         ``[monte_carlo] draws``: number of perturbed benchmark plants, >= 0 (default 0).
+    study : mapping or None
+        ``[study]`` as parsed (``rths study``'s keys, values and sampling); None without one.
+    overrides : tuple of (str, object)
+        Dotted keys and values applied on top of ``text`` (:func:`parse_scenario`), in order.
     """
 
     source: str
@@ -241,6 +251,8 @@ class Scenario:
     compensator: Component
     loop: LoopSpec
     monte_carlo_draws: int = 0
+    study: Mapping[str, Any] | None = None
+    overrides: tuple[tuple[str, Any], ...] = ()
 
     @property
     def compensator_kind(self) -> str:
@@ -248,20 +260,26 @@ class Scenario:
         return self.compensator.kind
 
 
-def load_scenario(path: str | Path) -> Scenario:
+def load_scenario(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Scenario:
     """Read and validate a scenario file (:class:`rths.core.errors.ConfigError` on any problem).
 
     Parameters
     ----------
     path : str or pathlib.Path
         The scenario's TOML file.
+    overrides : mapping of str to object, optional
+        Dotted keys and values replacing the file's (:func:`parse_scenario`).
     """
     doc, text = load_toml(path)
+    if overrides:
+        return parse_scenario(text, doc.source, overrides)
     return _parse(doc, text)
 
 
-def parse_scenario(text: str, source: str = "<scenario>") -> Scenario:
-    """Validate scenario text (for tests and for logs that carry the scenario).
+def parse_scenario(
+    text: str, source: str = "<scenario>", overrides: Mapping[str, Any] | None = None
+) -> Scenario:
+    """Validate scenario text (for tests, logs that carry the scenario and campaigns).
 
     Parameters
     ----------
@@ -269,8 +287,38 @@ def parse_scenario(text: str, source: str = "<scenario>") -> Scenario:
         The scenario's TOML text.
     source : str
         Name used for the scenario in error messages (default ``"<scenario>"``).
+    overrides : mapping of str to object, optional
+        Dotted keys replacing values of the text before it is validated, e.g.
+        ``{"specimen.inertance": 1200.0, "substructure.load.amplitude": 20.0}``: the value is
+        checked like the file's own (a key the table does not take is an error naming it).  The
+        returned scenario keeps ``text`` as given and the overrides in ``overrides``.
     """
-    return _parse(parse_toml(text, source), text)
+    doc = parse_toml(text, source)
+    if not overrides:
+        return _parse(doc, text)
+    data = tomllib.loads(text)
+    for key, value in overrides.items():
+        _override(data, key, value, source)
+    return replace(_parse(Table(data, "", source), text), overrides=tuple(overrides.items()))
+
+
+def _override(data: dict[str, Any], key: str, value: Any, source: str) -> None:
+    """Set the dotted ``key`` of a parsed TOML document to ``value`` (tables created as needed)."""
+    parts = key.split(".")
+    if not key or any(not p for p in parts):
+        raise ConfigError(
+            f"{source}: override key must be dotted names like 'run.seed'; got {key!r}"
+        )
+    table = data
+    for i, part in enumerate(parts[:-1]):
+        nxt = table.setdefault(part, {})
+        if not isinstance(nxt, dict):
+            where = ".".join(parts[: i + 1])
+            raise ConfigError(f"{source}: override {key!r}: {where!r} is a value, not a table")
+        table = nxt
+    if isinstance(table.get(parts[-1]), dict):
+        raise ConfigError(f"{source}: override {key!r} names a table, not a value")
+    table[parts[-1]] = value
 
 
 def _parse(doc: Table, text: str) -> Scenario:
@@ -314,6 +362,9 @@ def _parse(doc: Table, text: str) -> Scenario:
     t = doc.table("monte_carlo", {})
     draws = t.integer("draws", 0, minimum=0)
     t.finish()
+    study = doc.raw("study", None)
+    if study is not None and not isinstance(study, dict):
+        raise doc.error("study", f"must be a table; got {study!r}")
     doc.finish()
     if loop.correction_filter and loop.correction_filter >= 0.5 * run.rate:
         raise doc.table("loop").error(
@@ -322,7 +373,19 @@ def _parse(doc: Table, text: str) -> Scenario:
             f"got {loop.correction_filter!r}",
         )
     return Scenario(
-        doc.source, text, run, scaling, sub, specimen, actuator, lab, model, comp, loop, draws
+        doc.source,
+        text,
+        run,
+        scaling,
+        sub,
+        specimen,
+        actuator,
+        lab,
+        model,
+        comp,
+        loop,
+        draws,
+        study,
     )
 
 

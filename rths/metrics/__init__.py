@@ -11,6 +11,7 @@ substructure asked for, the *measured* displacement ``x_m`` [m] of the specimen 
 * tracking indicator = signed area enclosed in the synchronisation subspace plot [m^2]
 * frequency evaluation index = weighted spectrum ratio -> amplitude ratio [-], delay [s]
 * energy error = ``int F (dx_m/dt - dx_t/dt) dt`` [J]
+* damping ratios and frequencies of the modes in a free decay (:func:`free_decay`, matrix pencil)
 
 The vRTHS benchmark's own criteria J1-J9, exactly as its ``F4_evaluation.m`` computes them (std
 instead of RMS, integer lags 0-49, rounding, percent), are in :mod:`rths.metrics.vrths`; they are
@@ -26,6 +27,7 @@ Mosqueda, Stojadinovic & Mahin (2007), J. Struct. Eng. 133(8), 1100-1108 (energy
 """
 
 from rths.metrics._records import MIN_SAMPLES
+from rths.metrics.decay import DecayMode, free_decay
 from rths.metrics.indicators import (
     FrequencyEvaluation,
     energy_error,
@@ -45,10 +47,12 @@ from rths.metrics.tracking import (
 __all__ = [
     "DEFAULT_MAX_DELAY",
     "MIN_SAMPLES",
+    "DecayMode",
     "FrequencyEvaluation",
     "TrackingSummary",
     "energy_error",
     "energy_error_ratio",
+    "free_decay",
     "frequency_evaluation_index",
     "normalised_peak_error",
     "normalised_rms_error",

@@ -199,7 +199,12 @@ def run_metadata(
     """
     s = scn.scaling
     return {
-        "scenario": {"path": scn.source, "text": scn.text, "name": scn.run.name},
+        "scenario": {
+            "path": scn.source,
+            "text": scn.text,
+            "name": scn.run.name,
+            **({"overrides": repr(dict(scn.overrides))} if scn.overrides else {}),
+        },
         "rths": {"version": __version__, "run_id": run_id, "python": sys.version.split()[0]},
         "run": {
             "clock": clock,

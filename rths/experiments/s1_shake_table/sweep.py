@@ -13,6 +13,10 @@ Per PGA and direction::
                                 TMDI with the ideal inerter of S1 §4.2; HDRBs per ``hdrb``)
     responses ──► frf.estimate_frf (S1 Eq.7) + the last cycle of every step (loops)
 
+Each PGA and direction is one job (:class:`SweepJob`, :func:`sweep_level`: the table motion,
+then every model on it); with a ``cluster`` the jobs run as a campaign on Dask workers
+(:func:`rths.campaign.map_tasks`), with the same result as in this process.
+
 The table signal does not depend on the specimen (no control-structure interaction: the table
 transfer function is understood as identified with the specimen on it), so it is computed once
 per PGA and direction and shared by the specimens.  The scenario file is described in
@@ -44,6 +48,7 @@ from plants.tmdi import (
     linearised_frequencies,
     s1_configuration,
 )
+from rths.campaign import Cluster, map_tasks
 from rths.core.errors import ParameterError, check_positive, format_choices
 from rths.experiments.s1_shake_table.config import (
     DIRECTIONS,
@@ -73,6 +78,7 @@ __all__ = [
     "SteppedSine",
     "SweepConfig",
     "SweepResult",
+    "SweepJob",
     "SweepRun",
     "TableMotion",
     "TableSpec",
@@ -87,6 +93,7 @@ __all__ = [
     "run_sweep",
     "step_frequencies",
     "stepped_sine_acceleration",
+    "sweep_level",
     "sweep_structure",
 ]
 
@@ -336,8 +343,52 @@ def run_model(
     return SweepRun(model, direction, pga, frf, cycles)
 
 
+@dataclass(frozen=True)
+class SweepJob:
+    """One PGA and direction of a sweep: every model of ``config`` driven by one table motion
+    (the unit of work :func:`run_sweep` hands to a campaign).
+
+    Parameters
+    ----------
+    config
+        The scenario.
+    grid
+        Step frequencies [Hz] (:func:`step_frequencies`).
+    pga
+        Target PGA [g].
+    direction
+        ``"up"`` or ``"down"``.
+    """
+
+    config: SweepConfig
+    grid: NDArray[np.float64]
+    pga: float
+    direction: str
+
+
+def sweep_level(job: SweepJob) -> tuple[SweepRun, ...]:
+    """Run one :class:`SweepJob`: the table motion, then every model of the scenario.
+
+    Parameters
+    ----------
+    job
+        The PGA and direction.
+    """
+    config = job.config
+    table = build_table(config.table, config.dt)
+    sine = SteppedSine.sweep(job.grid, job.direction, config.cycles)
+    amplitudes = command_amplitudes(
+        table, sine.frequencies, job.pga, config.dt, config.table.amplitude_correction
+    )
+    motion = table.run(sine, amplitudes, config.dt)
+    return tuple(run_model(m, motion, sine, config, job.pga, job.direction) for m in config.models)
+
+
 def run_sweep(
-    config: SweepConfig, pga: Sequence[float] | None = None, progress: bool = False
+    config: SweepConfig,
+    pga: Sequence[float] | None = None,
+    progress: bool = False,
+    cluster: Cluster | None = None,
 ) -> SweepResult:
     """Run every model of ``config`` in every direction at every PGA [g].
 
@@ -348,7 +399,11 @@ def run_sweep(
     pga
         PGAs [g] overriding ``config.pga``.
     progress
-        Show a tqdm progress bar (simulated seconds) on stderr.
+        Show a progress bar (over PGA x direction) on stderr.
+    cluster
+        Run the PGA x direction jobs as a campaign on this Dask cluster
+        (:func:`rths.campaign.map_tasks`); None: one after the other in this process.  The
+        result is the same either way.
     """
     from tqdm import tqdm
 
@@ -357,21 +412,17 @@ def run_sweep(
         raise ParameterError("at least one PGA is needed; got none")
     start = time.perf_counter()
     grid = step_frequencies(config)
-    table = build_table(config.table, config.dt)
-    sines = {d: SteppedSine.sweep(grid, d, config.cycles) for d in config.directions}
-    total = sum(s.duration for s in sines.values()) * len(pgas) * len(config.models)
-    runs = []
-    with tqdm(
-        total=round(total), unit="s", desc=f"sweep {config.name}", disable=not progress, leave=False
-    ) as bar:
-        for level in pgas:
-            for direction, sine in sines.items():
-                amplitudes = command_amplitudes(
-                    table, sine.frequencies, level, config.dt, config.table.amplitude_correction
-                )
-                motion = table.run(sine, amplitudes, config.dt)
-                for model in config.models:
-                    bar.set_postfix_str(f"{level:g} g {direction} {model}")
-                    runs.append(run_model(model, motion, sine, config, level, direction))
-                    bar.update(round(sine.duration))
-    return SweepResult(config, grid, tuple(runs), time.perf_counter() - start)
+    jobs = [SweepJob(config, grid, level, d) for level in pgas for d in config.directions]
+    if cluster is not None:
+        levels = map_tasks(
+            sweep_level, jobs, cluster, progress=progress, desc=f"sweep {config.name}"
+        )
+    else:
+        levels = [
+            sweep_level(job)
+            for job in tqdm(
+                jobs, unit="level", desc=f"sweep {config.name}", disable=not progress, leave=False
+            )
+        ]
+    runs = tuple(run for level in levels for run in level)
+    return SweepResult(config, grid, runs, time.perf_counter() - start)

@@ -10,26 +10,30 @@ measured one (F4's J2 has a floor of ``std(noise)/std(target)``: the LVDT noise 
 is 1.3-2.5 % of the first floor's motion under El Centro at intensity 0.4).
 
 Trials are independent: :func:`trial_specs` lists them (:class:`TrialSpec`, plain picklable
-data) and :func:`run_one` runs and scores one, so a campaign can map ``run_one`` over
-``trial_specs(...)`` on any executor (``dask.distributed``: ``client.map(run_one, specs)``);
-:func:`run_comparison` does it with worker processes.  Tables are built by
-:mod:`~rths.experiments.vrths.tables`.
+data) and :func:`run_one` runs and scores one.  :func:`run_comparison` runs them as a campaign
+(:mod:`rths.campaign`): one run = one case x plant draw x compensator
+(:func:`comparison_campaign`), on an embedded Dask ``LocalCluster`` or a cluster, one table row
+per trial (:func:`trial_row`: J1-J9, noise-free J2, noise floor, peak force, interlock, wall and
+CPU time), resumable; the rows give back exactly the trials run in this process
+(:func:`trial_from_row`).  Tables are built by :mod:`~rths.experiments.vrths.tables`.
 """
 
 from __future__ import annotations
 
 import math
-import os
 import time
-from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from plants.frame.cases import CASES
 from plants.frame.ground_motion import DEFAULT_INTENSITY, GroundMotion, ground_motion
+from rths.campaign import Campaign, CampaignStats, Cluster, ResultTable, Run, execute
+from rths.campaign.runs import run_key
+from rths.campaign.table import Row
 from rths.core.errors import ParameterError, RTHSError, format_choices
 from rths.experiments.vrths.draws import PlantDraw, draw_plants
 from rths.experiments.vrths.rig import benchmark_compensator, reference_for, run_trial, score
@@ -40,8 +44,11 @@ __all__ = [
     "Comparison",
     "TrialResult",
     "TrialSpec",
+    "comparison_campaign",
     "run_comparison",
     "run_one",
+    "trial_from_row",
+    "trial_row",
     "trial_specs",
 ]
 
@@ -201,11 +208,23 @@ def trial_specs(
 def run_one(job: TrialSpec) -> TrialResult:
     """Run and score one trial (top-level and pure, so any executor can map it).
 
+    BLAS runs on one thread during the trial: the scoring's long dot products (J1's 50 lags of
+    ~170,000 samples) would otherwise start BLAS threads that spin for work on a machine whose
+    cores are already busy with the other trials (measured: 1.2 s of CPU per trial on the 2-core
+    VM, 40 times the single-threaded cost), and a sum split across threads depends on the
+    thread count, which must not change a result.  (The campaign executor limits its workers
+    likewise; this covers any other caller.)
+
     Parameters
     ----------
     job
         The trial (:func:`trial_specs`).
     """
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _run_one(job)
+
+
+def _run_one(job: TrialSpec) -> TrialResult:
     start = time.perf_counter()
     ground = _ground(job.ground, job.package, job.chirp)
     case = CASES[job.case]
@@ -232,6 +251,103 @@ def run_one(job: TrialSpec) -> TrialResult:
                        time.perf_counter() - start)  # fmt: skip
 
 
+#: Result columns of a trial's row, in order (J's are NaN when an interlock stopped the run).
+RESULT_COLUMNS: tuple[str, ...] = (
+    *CRITERIA,
+    "j2_noise_free",
+    "noise_floor",
+    "peak_force",
+    "over_capacity",
+    "stopped",
+)
+
+
+def trial_row(job: TrialSpec) -> Row:
+    """The campaign's task: :func:`run_one` as a table row (:data:`RESULT_COLUMNS` and
+    ``status``: ``ok``, ``interlock`` or ``rejected``, a plant whose loop could not be built).
+
+    Parameters
+    ----------
+    job
+        The trial (a run's payload).
+    """
+    r = run_one(job)
+    scores = r.scores or {}
+    row: Row = {name: scores.get(name, math.nan) for name in CRITERIA}
+    row.update(
+        j2_noise_free=r.j2_noise_free,
+        noise_floor=r.noise_floor,
+        peak_force=r.peak_force,
+        over_capacity=r.over_capacity,
+        stopped=r.stopped,
+    )
+    if r.stopped is not None:
+        row["status"] = "rejected" if r.stopped.startswith("rejected:") else "interlock"
+    return row
+
+
+def trial_from_row(row: Row) -> TrialResult:
+    """The :class:`TrialResult` a campaign row holds (bit for bit: floats travel unchanged;
+    ``wall`` is the row's ``wall_s``).  A failed row (``status = "error"``) is a trial stopped
+    by its error.
+
+    Parameters
+    ----------
+    row
+        A row of :func:`comparison_campaign`'s table.
+    """
+
+    def number(name: str) -> float:
+        value = row.get(name)
+        return float(value) if isinstance(value, int | float) else math.nan
+
+    stopped = row.get("stopped")
+    if row.get("status") == "error":
+        stopped = f"error: {row.get('error')}"
+    scores = None if stopped is not None else {name: number(name) for name in CRITERIA}
+    return TrialResult(
+        str(row["compensator"]),
+        int(number("case")),
+        int(number("plant")),
+        scores,
+        number("j2_noise_free"),
+        number("noise_floor"),
+        number("peak_force"),
+        None if stopped is None else str(stopped),
+        number("wall_s"),
+    )
+
+
+def _inputs(job: TrialSpec) -> dict[str, Any]:
+    inputs: dict[str, Any] = {
+        "compensator": job.kind,
+        "case": job.case,
+        "plant": job.plant_index,
+        "ground": job.ground,
+        "intensity": job.intensity,
+        "seed": job.seed,
+    }
+    inputs.update(asdict(job.plant))
+    inputs.update({f"chirp.{k}": v for k, v in job.chirp})
+    return inputs
+
+
+def comparison_campaign(specs: Sequence[TrialSpec]) -> Campaign:
+    """The comparison as a campaign: one run per trial (case x plant draw x compensator), keyed
+    by everything that determines its result (not the package's path), task :func:`trial_row`.
+
+    Parameters
+    ----------
+    specs
+        The trials (:func:`trial_specs`), in table order.
+    """
+    runs = []
+    for job in specs:
+        inputs = _inputs(job)
+        runs.append(Run(run_key("vrths-compare", inputs), inputs, job))
+    return Campaign("vRTHS comparison", runs, trial_row)
+
+
 @dataclass
 class Comparison:
     """All trials of a comparison and how it was run.
@@ -250,6 +366,11 @@ class Comparison:
         Wall time of the whole comparison [s].
     workers
         Worker processes used.
+    stats
+        What the campaign did (runs resumed from the table, failures, timing), if it ran as one.
+    keys
+        The campaign's run keys, in the order of :attr:`results` (their rows' digest:
+        :meth:`rths.campaign.ResultTable.digest`).
     """
 
     ground: str
@@ -258,6 +379,8 @@ class Comparison:
     results: list[TrialResult] = field(default_factory=list)
     wall: float = 0.0
     workers: int = 1
+    stats: CampaignStats | None = None
+    keys: list[str] = field(default_factory=list)
 
     @property
     def kinds(self) -> list[str]:
@@ -305,10 +428,12 @@ def run_comparison(
     seed: int = 123,
     package: str | None = None,
     chirp: dict[str, float] | None = None,
-    workers: int | None = None,
-    progress: Callable[[TrialResult, int, int], None] | None = None,
+    cluster: Cluster | None = None,
+    table: ResultTable | None = None,
+    progress: bool = False,
+    retry_failed: bool = False,
 ) -> Comparison:
-    """Run every (kind, case, plant) trial.
+    """Run every (kind, case, plant) trial as a campaign (:func:`comparison_campaign`).
 
     Parameters
     ----------
@@ -325,30 +450,41 @@ def run_comparison(
     seed
         Seed of the plant draws and of the sensor noise.
     package
-        Benchmark package folder for the records (default: ``RTHS_VRTHS_PACKAGE``).
+        Benchmark package folder for the records (default: ``RTHS_VRTHS_PACKAGE``, else
+        ``RTHS_DATA``'s); on a cluster, every worker must see the records at this path (or
+        through its own environment).
     chirp
         Chirp options (``f_start``, ``f_end``, ``duration``) when ``ground = "chirp"``.
-    workers
-        Worker processes (default: the CPU count); 1 runs in this process.
+    cluster
+        Where the trials run (default: an embedded ``LocalCluster``, one worker per core).
+    table
+        Results table (default: in memory); trials it already holds are not run again.
     progress
-        Called as ``progress(result, done, total)`` after each trial.
+        A progress bar over trials on stderr (when it is a terminal).
+    retry_failed
+        Run again the trials whose rows say ``status = "error"``.
     """
-    jobs = trial_specs(kinds, cases, ground=ground, perturbed=perturbed, intensity=intensity,
-                       seed=seed, package=package, chirp=chirp)  # fmt: skip
-    n_workers = max(1, min(workers or os.cpu_count() or 1, len(jobs)))
-    result = Comparison(ground, intensity, perturbed, workers=n_workers)
-    start = time.perf_counter()
-    if n_workers == 1:
-        done = map(run_one, jobs)
-        for r in done:
-            result.results.append(r)
-            if progress:
-                progress(r, len(result.results), len(jobs))
-    else:
-        with ProcessPoolExecutor(max_workers=n_workers) as pool:
-            for r in pool.map(run_one, jobs, chunksize=1):
-                result.results.append(r)
-                if progress:
-                    progress(r, len(result.results), len(jobs))
-    result.wall = time.perf_counter() - start
-    return result
+    specs = trial_specs(
+        kinds,
+        cases,
+        ground=ground,
+        perturbed=perturbed,
+        intensity=intensity,
+        seed=seed,
+        package=package,
+        chirp=chirp,
+    )
+    campaign = comparison_campaign(specs)
+    table = table if table is not None else ResultTable(None)
+    stats = execute(campaign, table, cluster, progress=progress, retry_failed=retry_failed)
+    rows = table.rows([run.key for run in campaign.runs])  # in campaign order (reindexed)
+    return Comparison(
+        ground,
+        intensity,
+        perturbed,
+        [trial_from_row(r) for r in rows],
+        wall=stats.wall,
+        workers=stats.workers,
+        stats=stats,
+        keys=[str(r["run"]) for r in rows],
+    )

@@ -144,8 +144,11 @@ def render(c: Comparison) -> str:
     if c.perturbed:
         blocks.append(worst_j2_table(c))
     n = len(c.results)
-    blocks.append(f"{n} trials in {c.wall:.0f} s wall time on {c.workers} worker process(es); "
-                  f"capacity {ACTUATOR_CAPACITY / 1e3:g} kN")  # fmt: skip
+    ran = n if c.stats is None else c.stats.ran
+    done = f"{n} trials" if ran == n else f"{n} trials ({n - ran} from the table)"
+    if ran:
+        done += f", {ran} run in {c.wall:.0f} s wall time on {c.workers} worker(s)"
+    blocks.append(f"{done}; capacity {ACTUATOR_CAPACITY / 1e3:g} kN")
     return "\n\n".join(blocks)
 
 
