@@ -21,10 +21,7 @@ import pytest
 
 from rths.core.errors import ParameterError
 from rths.diagnose import Options, diagnose, load_nominal, load_record
-from rths.diagnose.channels.channel import actuator_channel
 from rths.diagnose.data.synthetic import LabCase, band_limited_command, lab_record
-from rths.diagnose.effects.actuator import ActuatorModel
-from rths.diagnose.verdict import DEFAULT_CUTOFF
 
 DT = 1.0 / 1024.0
 M, C = 1589.0, 2 * 0.15 * 1589.0 * 2 * math.pi * 20.0  # zeta 0.15 at 20 Hz (S0 Eq.18 range)
@@ -67,21 +64,6 @@ def test_own_lab_noise_and_miscalibration_only_is_none():
     assert d.shrink == 0.0 and d.before == d.after
     spec = d.channels["force"].baseline.baseline  # the baseline absorbed the mis-calibration
     assert spec["inertance"] == pytest.approx(M, rel=0.01)
-
-
-def test_rate_limit_check_reads_the_motion_at_the_records_own_gain():
-    # the limit lies 12 % below the motion's peak speed and the nominal's gain is 10 % low: at
-    # the nominal gain the linear motion hardly exceeds the limit (the check had nothing to
-    # read and rejected the true limit); at the record's own gain -- the one the model's
-    # limiter sees -- it does, and the measured speed holds the limit there
-    probe = _records(LabCase("none", 0.0, M, C), n=1)[0]
-    limit = float(np.max(np.abs(np.diff(probe.measured)))) / DT / 1.12
-    case = LabCase("rate_limit", limit, M, C)
-    channel = actuator_channel(_records(case), case.nominal(M, C, 0.9), DEFAULT_CUTOFF)
-    model = ActuatorModel(("rate_limit",))
-    assert model.physical(channel, {"rate_limit": {"velocity_limit": limit}})
-    # a limit twice the peak speed is never reached: nothing holds it
-    assert not model.physical(channel, {"rate_limit": {"velocity_limit": 2.24 * limit}})
 
 
 def test_independent_generator_case_is_named_with_its_parameter(tmp_path):
