@@ -71,7 +71,18 @@ CHANNELS: tuple[Channel, ...] = (
 
 def round_half_away(x: float) -> float:
     """Round to the nearest integer, halves away from zero (MATLAB ``round``, Simulink
-    *Quantizer*)."""
+    *Quantizer*).
+
+    Parameters
+    ----------
+    x
+        The value to round, in any unit (e.g. a converter's input in quantisation steps [-]).
+
+    Returns
+    -------
+    float
+        The nearest integer, as a float with the sign of ``x`` (``-0.0`` for ``-0.4``).
+    """
     return math.copysign(math.floor(abs(x) + 0.5), x)
 
 

@@ -122,7 +122,20 @@ def close_remainder(
 
 
 def check_stable(poles: ArrayLike, what: str) -> None:
-    """Raise :class:`ParameterError` naming the poles [rad/s] of ``what`` with Re >= 0."""
+    """Raise :class:`ParameterError` naming the poles [rad/s] of ``what`` with Re >= 0.
+
+    Parameters
+    ----------
+    poles
+        Poles [rad/s] of a continuous-time model (real or complex; a scalar counts as one).
+    what
+        How the model is named in the error message.
+
+    Raises
+    ------
+    ParameterError
+        If a pole has a non-negative real part (marginal stability counts as unstable).
+    """
     p = np.atleast_1d(np.asarray(poles, dtype=complex))
     bad = p[p.real >= 0.0]
     if bad.size:
@@ -137,6 +150,17 @@ def siso_transfer_function(model: control.StateSpace) -> control.TransferFunctio
     i.e. spurious far-away zeros that would become poles of an inverse-model compensator.
     Building the polynomials from the eigenvalues and the (generalised-eigenvalue) transmission
     zeros avoids that; the gain is matched at ``s = 1j`` rad/s.
+
+    Parameters
+    ----------
+    model
+        A continuous-time, single-input single-output model, e.g. :func:`close_remainder`'s
+        with only its ``displacement`` output kept [m/m].
+
+    Returns
+    -------
+    control.TransferFunction
+        The same dynamics, input ``command`` [m], output ``displacement`` [m].
     """
     poles, zeros = model.poles(), model.zeros()
     s0 = 1.0j
@@ -149,7 +173,16 @@ def siso_transfer_function(model: control.StateSpace) -> control.TransferFunctio
 
 @dataclass(frozen=True, slots=True)
 class DiscreteModel:
-    """Zero-order-hold discretisation ``z+ = A z + B w``, ``y = C z + D w`` over ``step`` [s]."""
+    """Zero-order-hold discretisation ``z+ = A z + B w``, ``y = C z + D w`` over ``step`` [s].
+
+    Attributes
+    ----------
+    A, B, C, D
+        Discrete state, input, output and feed-through matrices; ``z`` and ``w`` keep the units
+        of the continuous model's states and inputs, ``y`` those of its outputs.
+    step
+        Sampling step [s] over which the input ``w`` is held.
+    """
 
     A: NDArray[np.float64]
     B: NDArray[np.float64]
@@ -159,7 +192,20 @@ class DiscreteModel:
 
 
 def discretise(model: control.StateSpace, step: float) -> DiscreteModel:
-    """ZOH discretisation with :func:`control.c2d` (exact for inputs held over ``step`` [s])."""
+    """ZOH discretisation with :func:`control.c2d` (exact for inputs held over ``step`` [s]).
+
+    Parameters
+    ----------
+    model
+        Continuous-time state-space model (e.g. :func:`servo_hydraulic_model`).
+    step
+        Sampling step [s], > 0: the loop step, or a sub-step of it.
+
+    Returns
+    -------
+    DiscreteModel
+        The float64 matrices of the discretised model.
+    """
     d = control.c2d(model, step, method="zoh")
     return DiscreteModel(
         np.asarray(d.A, dtype=float),

@@ -71,6 +71,23 @@ def numerical_matrices(
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """``(M_N, C_N, K_N)`` of the numerical substructure: the case minus the specimen at floor 1.
 
+    ``M_N = M - m_e e_1 e_1^T``, ``C_N = C - c_e e_1 e_1^T``, ``K_N = K - k_e e_1 e_1^T`` (the
+    module's partitioning, ``F1_input_file.m``).
+
+    Parameters
+    ----------
+    case
+        The reference frame: its ``mass`` ``M`` [kg], ``damping`` ``C`` [N s/m] and
+        ``stiffness`` ``K`` [N/m], shape ``(3, 3)``.
+    specimen
+        The physical specimen at the first floor: ``mass`` ``m_e`` [kg], ``damping`` ``c_e``
+        [N s/m], ``stiffness`` ``k_e`` [N/m] (a perturbed run's drawn ``k_e`` included).
+
+    Returns
+    -------
+    M_N, C_N, K_N
+        Mass [kg], damping [N s/m] and stiffness [N/m] matrices, shape ``(3, 3)``; new arrays.
+
     Raises
     ------
     ParameterError

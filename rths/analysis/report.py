@@ -71,7 +71,32 @@ def _load_period(scn: Any) -> float:
 
 
 def write_report(log: Path, out: Path, cycles: float = 3.0, mock: bool = True) -> dict[str, Any]:
-    """Write the report files for ``log`` into ``out``; return the metrics document."""
+    """Write the report files for ``log`` into ``out``; return the metrics document.
+
+    Parameters
+    ----------
+    log
+        MCAP log written by ``rths run`` (at least 16 ``rths/loop`` samples).
+    out
+        Output directory, created if missing; existing report files in it are overwritten.
+    cycles
+        Number of load periods [-] at the end of the record shown in the time-history figure
+        (S0 Fig.32) and the mock comparison (S0 Fig.34); the period is the substructure's
+        ``excitation_period`` [s] if it has one, else 1 s.
+    mock
+        Re-run the fully numerical mock variants and draw S0 Fig.34 (``rths_vs_mock.png``);
+        ignored for a vRTHS benchmark-frame log, which is compared with its reference frame.
+
+    Returns
+    -------
+    dict
+        The ``metrics.json`` document (also written to ``out``).
+
+    Raises
+    ------
+    DataError
+        If the log is unreadable, breaks the log contract or has fewer than 16 samples.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -155,7 +180,37 @@ def _reference(scn: Any) -> Any:
 def benchmark_section(
     plt: Any, log: Path, loop: dict[str, np.ndarray], reference: Any, dt: float, out: Path
 ) -> dict[str, Any]:
-    """F4's J1-J9 of a vRTHS benchmark log, the peak hydraulic force and the floors figure."""
+    """F4's J1-J9 of a vRTHS benchmark log, the peak hydraulic force and the floors figure.
+
+    Parameters
+    ----------
+    plt
+        ``matplotlib.pyplot`` (already set to a non-interactive backend).
+    log
+        The MCAP log (named in errors; its ``rths/specimen`` topic gives the hydraulic force).
+    loop
+        Its ``rths/loop`` topic (:func:`~rths.log.reader.read_loop`): ``t`` [s], ``measured``
+        [m] and the floors ``sub_x1`` .. ``sub_x3`` [m].
+    reference
+        The substructure's ``reference_response(n)``: floor displacements [m] of the
+        unpartitioned frame at ``t_k = k dt``, shape ``(n, 3)``.
+    dt
+        Loop step [s].
+    out
+        Directory where ``benchmark_floors.png`` is written.
+
+    Returns
+    -------
+    dict
+        J1-J9 (:class:`~rths.metrics.vrths.BenchmarkScores`), and when the log has the
+        hydraulic force: ``peak_actuator_force`` [N], ``capacity`` [N] (8.9 kN) and
+        ``capacity_exceeded``.
+
+    Raises
+    ------
+    DataError
+        If ``loop`` lacks a floor field (not a benchmark-frame log).
+    """
     for key in ("sub_x1", "sub_x2", "sub_x3"):
         if key not in loop:
             raise DataError(f"'{log}': rths/loop has no field {key!r}; not a benchmark-frame log")

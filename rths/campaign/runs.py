@@ -55,7 +55,20 @@ def _canonical(value: Any) -> Any:
 
 def run_key(*parts: Any) -> str:
     """A stable 16-hex-digit key of ``parts`` (strings, numbers, sequences and mappings of them):
-    the same parts give the same key on any machine and in any process."""
+    the same parts give the same key on any machine and in any process.
+
+    Parameters
+    ----------
+    *parts
+        Everything that determines a run's result (e.g. scenario text, compensator, seed,
+        draw), in a fixed order: the key depends on the order of ``parts`` but not on the order
+        of a mapping's keys.
+
+    Returns
+    -------
+    str
+        The first 16 hex digits of the SHA-256 of the parts' canonical JSON.
+    """
     text = json.dumps(_canonical(list(parts)), sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 

@@ -22,7 +22,13 @@ __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
-    """Register ``rths compare``."""
+    """Register ``rths compare``.
+
+    Parameters
+    ----------
+    subparsers
+        The ``rths`` sub-command parsers.
+    """
     from rths.experiments.vrths.compare import COMPENSATORS
 
     p = subparsers.add_parser(
@@ -64,7 +70,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the comparison and print its tables; 0 (1 if some trials failed)."""
+    """Run the comparison and print its tables; 0 (1 if some trials failed).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line of ``rths compare`` (the options :func:`add_parser`
+        declares).
+    """
     from rths.campaign import ResultTable
     from rths.core.errors import ConfigError
     from rths.experiments.vrths.compare import run_comparison
