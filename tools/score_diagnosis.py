@@ -22,6 +22,10 @@ rest are held out).  Reported:
 - held-out shrink: quantiles of the share of the reducible gap the effects close;
 - false ``none`` (an effect present) and false ``unexplained`` rates; time per case.
 
+With ``--json`` the suite's file also holds every case's diagnosis (``results``: the
+``rths diagnose --json`` document, every candidate tried with its held-out scores), so a miss
+can be read without diagnosing the case again.
+
 ``friction-damper`` diagnoses the real friction damper with backlash (ARTS Laboratory,
 University of South Carolina; Downey et al., Engineering Structures 113 (2016) 287-298,
 CC BY-SA 4.0): per band tension, each record in turn is held out and the others of that
@@ -82,7 +86,6 @@ def _diagnose_case(args: tuple[str, tuple[str, ...] | None]) -> dict:
             Options(held_out=held),
         )
         out = d.to_dict()
-        out.pop("candidates", None)
     except Exception as e:
         out = {"verdict": "error", "error": f"{type(e).__name__}: {e}", "effects": []}
     out["seconds"] = time.perf_counter() - t0
@@ -235,7 +238,10 @@ def cmd_suite(args: argparse.Namespace) -> int:
     summary = summarize(scores)
     _print_summary(str(args.dir), summary, scores)
     if args.json:
-        args.json.write_text(json.dumps({"summary": summary, "cases": scores}, indent=1))
+        results_by_case = dict(zip(cases, results, strict=True))
+        args.json.write_text(
+            json.dumps({"summary": summary, "cases": scores, "results": results_by_case}, indent=1)
+        )
     return 0
 
 
