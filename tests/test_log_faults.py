@@ -204,10 +204,16 @@ while seen < 2000:  # the loop runs and its first chunks are on the disk
         seen = read_topic(log, "rths/loop")["sequence"].size
     except DataError:
         seen = 0
-st = os.statvfs(disk)
-free = st.f_bavail * st.f_frsize
 with open(os.path.join(disk, "filler"), "wb") as f:  # another process fills the disk
-    os.posix_fallocate(f.fileno(), 0, free - (1 << 20))
+    for margin in (1 << 20, 2 << 20, 4 << 20):  # < the 8 MiB reserve: the run must stop
+        st = os.statvfs(disk)
+        try:
+            os.posix_fallocate(f.fileno(), 0, st.f_bavail * st.f_frsize - margin)
+            break
+        except OSError:  # the run wrote more than the margin meanwhile: leave it more
+            f.truncate(0)
+    else:
+        raise SystemExit("could not fill the disk")
 _, err = run.communicate(timeout=120)
 with open(os.path.join(out, "result.txt"), "w") as f:
     f.write(f"{run.returncode}\n{err}")
