@@ -79,14 +79,17 @@ def test_non_finite_measurement_trips_the_interlock():
 
 
 class _SlowLink:
-    """Answers zeros and tells the test when step 50 has been reached."""
+    """Answers zeros; at step 50 tells the test and holds the loop there until the test has
+    asked it to stop (an event, not a race between the loop and the asking thread)."""
 
     def __init__(self) -> None:
         self.reached = threading.Event()
+        self.asked = threading.Event()
 
     def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
         if seq == 50:
             self.reached.set()
+            assert self.asked.wait(60.0), "the stop request never came"
         return LinkSample(0.0, 0.0, 0, seq)
 
 
@@ -94,9 +97,15 @@ def test_stop_from_another_thread_reports_the_reason():
     scn = parse_scenario(short(5.0))
     link = _SlowLink()
     loop = Loop(build.substructure(scn), build.compensator(scn), link, scn.scaling, scn.run.steps)
-    threading.Thread(target=lambda: (link.reached.wait(), loop.stop("specimen went away"))).start()
+
+    def ask() -> None:
+        link.reached.wait()
+        loop.stop("specimen went away")
+        link.asked.set()
+
+    threading.Thread(target=ask).start()
     result = loop.run()
-    assert result.stopped == "specimen went away" and result.steps < scn.run.steps
+    assert result.stopped == "specimen went away" and result.steps == 51 < scn.run.steps
 
 
 def test_time_steps_must_agree():

@@ -292,6 +292,10 @@ def run_over_zenoh(
                     result = loop.run(on_progress)
                 finally:
                     watcher.finish()
+                if watcher.lost and result.stopped == watcher.reason:
+                    # the loop saw the stop between two steps rather than in its wait for a
+                    # measurement: a dead specimen is an error whichever way it was noticed
+                    raise TransportError(watcher.reason)
                 return result, _security(client, presence, bridge)
             except RTHSError as exc:
                 presence.request_stop(f"coordinator failed: {exc}")
@@ -374,6 +378,8 @@ class _PeerWatch(threading.Thread):
         super().__init__(name="rths-peer-watch", daemon=True)
         self.presence, self.loop, self.abort, self.process = presence, loop, abort, process
         self.reason = ""
+        #: the specimen died (exited, or its token went away unasked), rather than asking to stop
+        self.lost = False
         self._done = threading.Event()
 
     def run(self) -> None:
@@ -381,10 +387,14 @@ class _PeerWatch(threading.Thread):
             if self._done.is_set():
                 return
             if self.process is not None and self.process.poll() is not None:
+                if self.presence.stop.wait(_WATCH):
+                    break  # it asked to stop before it exited: its request is the reason
                 self.reason = f"specimen process exited with code {self.process.returncode}"
+                self.lost = True
                 break
         if self._done.is_set():
             return
+        self.lost = self.lost or bool(getattr(self.presence, "peer_gone", False))
         self.reason = self.reason or self.presence.stop_reason or "specimen stopped"
         self.loop.stop(self.reason)
         try:

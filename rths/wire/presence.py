@@ -96,6 +96,8 @@ class Presence:
         self.where = where
         self.stop = threading.Event()
         self.stop_reason = ""
+        #: True once the peer's token went away without a stop request first (it died)
+        self.peer_gone = False
         self._session = session
         self._keys = keys
         self._peer_up = threading.Event()
@@ -117,6 +119,8 @@ class Presence:
             self._peer_up.set()
         elif self._peer_up.is_set():
             self._peer_up.clear()
+            if not self.stop.is_set():
+                self.peer_gone = True
             self._set_stop(f"{self.peer} process went away")
 
     @property
