@@ -25,6 +25,10 @@ pooled over ``--rounds`` interleaved rounds.  Mechanisms (``*`` = what rths.wire
 * ``sync-shm``       the same with zenoh's shared-memory transport on and the specimen's
   measurements written into SHM buffers (``zenoh.shm.ShmProvider``)
 * ``sync-poll``      SyncClient on a FIFO channel polled every 20 µs (timer slack 1 µs)
+* ``sync-cb*``       SyncClient against a :class:`CallbackServer` (the specimen answers inside
+  its zenoh callback: what ``rths specimen`` does)
+* ``sync-cb-lowlatency`` the same on ``transport/unicast/lowlatency`` sessions (no tx thread)
+* ``sync-cb-spin``   SyncClient busy-polling its FIFO channel (``poll=0``) against the callback
 * ``recording``      rths while a :class:`Recorder` records one rths/loop message per step
   (its writer thread competes for the GIL; CPython's default switch interval is 5 ms)
 * ``recording-si``   the same after ``sys.setswitchinterval(1e-4)`` in the coordinator
@@ -56,6 +60,7 @@ from rths.runtime.clocks import realtime_thread
 from rths.wire.auth import RunSecret
 from rths.wire.codec import Command, Measurement
 from rths.wire.transport import (
+    CallbackServer,
     LockstepClient,
     LockstepServer,
     Presence,
@@ -81,9 +86,20 @@ MECHANISMS = (
     "sync-lowlatency",
     "sync-shm",
     "sync-poll",
+    "sync-cb",
+    "sync-cb-lowlatency",
+    "sync-cb-spin",
 )
 RTHS_LINKS = ("rths", "batched", "lowlatency", "recording", "recording-si")
-SYNC_LINKS = ("sync", "sync-lowlatency", "sync-shm", "sync-poll")
+SYNC_LINKS = (
+    "sync",
+    "sync-lowlatency",
+    "sync-shm",
+    "sync-poll",
+    "sync-cb",
+    "sync-cb-lowlatency",
+    "sync-cb-spin",
+)
 #: A fixed secret for the benchmark's sealed links (both processes know it).
 BENCH_SECRET = RunSecret(b"rths-bench-secret-not-for-runs!!")
 WARMUP = 300
@@ -95,7 +111,7 @@ def config(endpoints: ZenohEndpoints, mechanism: str) -> zenoh.Config:
     if mechanism == "sync-shm":
         cfg.insert_json5("transport/shared_memory/enabled", "true")
         cfg.insert_json5("transport/shared_memory/transport_optimization/enabled", "true")
-    if mechanism in ("lowlatency", "sync-lowlatency"):
+    if mechanism in ("lowlatency", "sync-lowlatency", "sync-cb-lowlatency"):
         cfg.insert_json5("transport/unicast/lowlatency", "true")
         cfg.insert_json5("transport/unicast/qos/enabled", "false")
     return cfg
@@ -122,6 +138,17 @@ def run_echo(mechanism: str, endpoint: str, run_id: str) -> None:
     ep, keys = ZenohEndpoints(connect=(endpoint,)), RunKeys(run_id)
     session = zenoh.open(config(ep, mechanism))
     try:
+        if mechanism.startswith("sync-cb"):
+            holder: list[CallbackServer] = []
+
+            def respond(c: Command) -> None:
+                holder[0].reply(Measurement.unpack(echo_measurement(c.pack())))
+
+            holder.append(CallbackServer(session, keys, respond, BENCH_SECRET))
+            presence = Presence(session, keys, "specimen", ep.describe())
+            presence.wait_for_peer(30.0, [holder[0].publisher])
+            presence.stop.wait()
+            return
         if mechanism in SYNC_LINKS:
             server = LockstepServer(session, keys, BENCH_SECRET)
             if mechanism == "sync-shm":
@@ -250,7 +277,7 @@ def round_trips(mechanism: str, steps: int) -> tuple[list[float], list[float]]:
 
             stop = lambda: pub.put(STOP)
         elif mechanism in SYNC_LINKS:
-            poll = 20e-6 if mechanism == "sync-poll" else None
+            poll = {"sync-poll": 20e-6, "sync-cb-spin": 0.0}.get(mechanism)
             sync = SyncClient(session, keys, BENCH_SECRET, poll=poll)
             realtime_thread()
             presence = Presence(session, keys, "coordinator", ep.describe())
@@ -376,7 +403,7 @@ def main() -> None:
     )
     for mechanism, times in pooled.items():
         p50, p90, p99 = np.percentile(times, [50, 90, 99])
-        star = "*" if mechanism in ("rths", "sync") else ""
+        star = "*" if mechanism in ("rths", "sync-cb") else ""
         cpu = pooled_cpu[mechanism]
         print(
             f"{mechanism + star:<16}{p50:>10.1f}{p90:>10.1f}{p99:>10.1f}{max(times):>10.0f}"

@@ -47,6 +47,7 @@ from rths.runtime.clocks import (
     Pacer,
     QuietGC,
     WallClock,
+    background_thread,
     realtime_priority,
     realtime_thread,
 )
@@ -138,6 +139,7 @@ class _Progress(threading.Thread):
         self._stop = threading.Event()
 
     def run(self) -> None:
+        background_thread()
         while not self._stop.wait(0.2):
             self.report(self.done, self.total)
 

@@ -13,7 +13,7 @@ from typing import Any, Protocol
 
 import zenoh
 
-from rths.core.errors import TransportError, check_positive
+from rths.core.errors import TransportError, check_nonnegative, check_positive
 from rths.wire.auth import Opener, RunSecret, Sealer
 from rths.wire.codec import Command, Measurement
 from rths.wire.inbox import Inbox, Latest, Mailbox, declare_hot_publisher
@@ -21,6 +21,7 @@ from rths.wire.inbox import Inbox, Latest, Mailbox, declare_hot_publisher
 __all__ = [
     "COMMAND_DOMAIN",
     "MEASUREMENT_DOMAIN",
+    "CallbackServer",
     "LockstepClient",
     "LockstepServer",
     "RealtimeClient",
@@ -217,6 +218,87 @@ class LockstepServer(_Link):
         return served
 
 
+class CallbackServer:
+    """Specimen end that answers each command inside zenoh's subscriber callback.
+
+    Each command is opened, decoded and handed to ``respond`` on zenoh's receiving thread;
+    ``respond`` steps the specimen and publishes the measurement with :meth:`reply` from there
+    at once.  No hand-over to another thread, so a round trip costs the specimen process one
+    wake-up instead of two (the fastest receive path in ``tools/bench_zenoh.py``, mechanism
+    ``reply-in-cb``).  Callbacks of one subscriber run one at a time, in arrival order.  An
+    exception in ``respond`` or a malformed payload is kept in :attr:`error` (and ``on_error``
+    is called), never lost in zenoh's thread; later commands are then dropped.
+
+    Parameters
+    ----------
+    session, keys
+        Open session and the run's keys.
+    respond
+        ``respond(command)``, run on zenoh's thread with the GIL held: keep it short.
+    secret
+        The run's secret (commands opened, measurements sealed); None for plain records.
+    on_error
+        Called (on zenoh's thread) with the exception that ended serving; None: nothing.
+    """
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        keys: _HotKeys,
+        respond: Callable[[Command], None],
+        secret: RunSecret | None = None,
+        on_error: Callable[[BaseException], None] | None = None,
+    ) -> None:
+        self.sealer, _ = _sealed(secret, MEASUREMENT_DOMAIN)
+        self.opener, decode = _opened(secret, COMMAND_DOMAIN, Command.unpack)
+        self.dropped = 0  #: frames the opener refused (forged, replayed)
+        self.error: BaseException | None = None  #: what ended serving, if anything did
+        self.publisher = declare_hot_publisher(session, keys.measurement)
+        self._seal = None if self.sealer is None else self.sealer.seal
+        self._put = self.publisher.put
+
+        def on_sample(sample: zenoh.Sample) -> None:  # zenoh's thread, GIL held
+            if self.error is not None:
+                return
+            try:
+                command = decode(sample.payload.to_bytes())
+                if command is None:
+                    self.dropped += 1
+                    return
+                respond(command)
+            except BaseException as exc:  # kept for the serving thread; zenoh would only print
+                self.error = exc
+                if on_error is not None:
+                    on_error(exc)
+
+        self._subscriber = session.declare_subscriber(
+            keys.command, zenoh.handlers.Callback(on_sample, indirect=False)
+        )
+
+    def reply(self, measurement: Measurement) -> None:
+        """Publish the measurement for the command being answered.
+
+        Parameters
+        ----------
+        measurement
+            The specimen's answer (same ``seq`` as the command).
+        """
+        payload = measurement.pack()
+        self._put(payload if self._seal is None else self._seal(payload))
+
+    def close(self) -> None:
+        """Undeclare the subscriber and the publisher (``respond`` should refuse work by then:
+        a callback already running may still finish)."""
+        self._subscriber.undeclare()
+        self.publisher.undeclare()
+
+    def __enter__(self) -> CallbackServer:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
 class RealtimeClient(_Link):
     """Coordinator end for the realtime clock: publish commands, read the newest measurement.
 
@@ -301,7 +383,8 @@ class SyncClient:
     poll
         None (default): the callback and timed wait above.  A period [s]: instead, a FIFO
         channel filled without the GIL, polled with ``try_recv`` and short sleeps until the
-        deadline (compared in ``tools/bench_zenoh.py``).
+        deadline; 0: polled without sleeping (a busy wait that only yields the GIL).  Compared
+        in ``tools/bench_zenoh.py``.
     """
 
     def __init__(
@@ -316,7 +399,7 @@ class SyncClient:
         self.opener, self._decode = _opened(secret, MEASUREMENT_DOMAIN, Measurement.unpack)
         self._clock = clock
         self._queue: queue.SimpleQueue[bytes] = queue.SimpleQueue()
-        self._poll = None if poll is None else check_positive(poll, "poll period")
+        self._poll = None if poll is None else check_nonnegative(poll, "poll period")
         self._subscriber: Any
         if self._poll is not None:
             self._subscriber = session.declare_subscriber(

@@ -17,7 +17,11 @@ from rths.core.errors import ParameterError, TransportError, check_positive
 from rths.wire.auth import RunSecret
 from rths.wire.keys import ROLES, Role
 
-__all__ = ["ROLES", "Presence", "Role", "wait_matched"]
+__all__ = ["ROLES", "WARMUP_BYTES", "Presence", "Role", "wait_matched"]
+
+#: Size [bytes] of the warm-up frame each side sends once the handshake is done (just under
+#: zenoh's 64 KiB batch, so it also fits the low-latency transport).
+WARMUP_BYTES = 60_000
 
 
 def wait_matched(publisher: zenoh.Publisher, timeout: float | None) -> bool:
@@ -55,6 +59,8 @@ class _ControlKeys(Protocol):
 
     def ready(self, role: Role) -> str: ...
 
+    def warmup(self, role: Role) -> str: ...
+
 
 class Presence:
     """This process's readiness, its peer's, and the stop signal.
@@ -62,7 +68,14 @@ class Presence:
     Declare the links first, then create the :class:`Presence` and call :meth:`wait_for_peer`:
     it declares this side's liveliness token (``control/ready/<role>``), waits for the peer's,
     and waits until every given hot publisher is matched by the peer's subscriber, so step 0
-    cannot be lost.  :attr:`stop` is set when the peer publishes a stop request or its token
+    cannot be lost.  Then both sides *warm the link up*: each sends one large frame
+    (:data:`WARMUP_BYTES`, on ``control/warmup/<role>``) and waits for the peer's.  The first
+    large message a zenoh session sends or receives stalls the whole process for 10-20 ms
+    (measured: the specimen's first block of rows held every command back for 15-19 ms, its
+    first live-copy block held the coordinator likewise, tripping the watchdogs of real-time
+    runs at 1-4 kHz every time); paid here, before step 0, it costs nothing.  The frame's
+    content is ignored, so it is not sealed: a forged one can only end the wait early.
+    :attr:`stop` is set when the peer publishes a stop request or its token
     disappears (process ended or crashed); :attr:`stop_reason` says which.
 
     Parameters
@@ -113,6 +126,21 @@ class Presence:
             zenoh.handlers.Callback(self._on_stop, indirect=False),
             allowed_origin=zenoh.Locality.REMOTE,
         )
+        self._warmed = threading.Event()
+        self._warm_sub = session.declare_subscriber(
+            keys.warmup(self.peer),
+            zenoh.handlers.Callback(self._on_warmup, indirect=False),
+            allowed_origin=zenoh.Locality.REMOTE,
+        )
+        # the side streams' settings (reliable, blocking, batched, default priority)
+        self._warm_pub = session.declare_publisher(
+            keys.warmup(role),
+            congestion_control=zenoh.CongestionControl.BLOCK,
+            reliability=zenoh.Reliability.RELIABLE,
+        )
+
+    def _on_warmup(self, sample: zenoh.Sample) -> None:
+        self._warmed.set()
 
     def _on_liveliness(self, sample: zenoh.Sample) -> None:
         if sample.kind == zenoh.SampleKind.PUT:
@@ -158,12 +186,14 @@ class Presence:
     def wait_for_peer(
         self, timeout: float = 10.0, publishers: Sequence[zenoh.Publisher] = ()
     ) -> None:
-        """Announce readiness and block until the peer is up and matches ``publishers``.
+        """Announce readiness, block until the peer is up and matches ``publishers``, then warm
+        the link up (see the class docstring).
 
         Parameters
         ----------
         timeout
-            Longest wait [s] for the peer's token and for every subscriber match.
+            Longest wait [s] for the peer's token, for every subscriber match and for the
+            peer's warm-up frame.
         publishers
             This side's hot publishers; each must be matched by a subscriber of the peer
             before the first message is sent on it.
@@ -172,7 +202,7 @@ class Presence:
         ------
         TransportError
             ``"specimen process did not come up within 10 s on listen tcp/..."`` or, if it came
-            up but never subscribed, which key is unmatched.
+            up but never subscribed, which key is unmatched, or that it sent no warm-up frame.
         """
         check_positive(timeout, "handshake timeout")
         self.announce()
@@ -181,19 +211,34 @@ class Presence:
             raise TransportError(
                 f"{self.peer} process did not come up within {timeout:g} s on {self.where}"
             )
-        for pub in publishers:
+        for pub in (*publishers, self._warm_pub):
             if not wait_matched(pub, max(deadline - time.monotonic(), 0.0)):
                 raise TransportError(
                     f"{self.peer} process is up but did not subscribe to '{pub.key_expr}' "
                     f"within {timeout:g} s on {self.where}"
                 )
+        self._warm_pub.put(bytes(WARMUP_BYTES))
+        if not self._warmed.wait(max(deadline - time.monotonic(), 0.0)):
+            raise TransportError(
+                f"{self.peer} process is up but sent no link warm-up frame within {timeout:g} s "
+                f"on {self.where}"
+            )
 
     def request_stop(self, reason: str = "done") -> None:
         """Ask the peer to stop (it sees ``"<role> requested stop: <reason>"``)."""
         payload = json.dumps({"reason": reason, "pid": os.getpid()}).encode()
         if self._sealer is not None:
             payload = self._sealer.seal(payload)
-        self._session.put(self._keys.stop, payload)
+        # express at the hot path's priority: sent at once, so it cannot be overtaken by the
+        # withdrawal of this side's token when the process ends right after (the peer would
+        # then report "went away" instead of the reason)
+        self._session.put(
+            self._keys.stop,
+            payload,
+            congestion_control=zenoh.CongestionControl.BLOCK,
+            priority=zenoh.Priority.REAL_TIME,
+            express=True,
+        )
 
     def close(self) -> None:
         """Withdraw the token and undeclare the subscribers."""
@@ -202,6 +247,8 @@ class Presence:
             self._token = None
         self._watch.undeclare()
         self._stop_sub.undeclare()
+        self._warm_sub.undeclare()
+        self._warm_pub.undeclare()
 
     def __enter__(self) -> Presence:
         return self

@@ -13,6 +13,9 @@ Building blocks (all context managers; closing a session undeclares everything o
   or only the newest one and its age (realtime).
 * :class:`LockstepClient` / :class:`LockstepServer` -- coordinator and specimen ends of the
   lockstep link: command ``k`` out, measurement ``k`` back, with a timeout.
+* :class:`SyncClient` / :class:`CallbackServer` -- the ends ``rths run`` and ``rths specimen``
+  use: command ``k`` out, measurement ``k`` back until a deadline; the specimen answers inside
+  zenoh's subscriber callback.
 * :class:`RealtimeClient` / :class:`RealtimeServer` -- the same keys for free-running clocks:
   publish without waiting, read the latest sample of the other side.
 * :class:`Presence` -- readiness handshake (liveliness tokens plus a check that the peer's hot
@@ -52,6 +55,7 @@ from rths.core.errors import ParameterError, TransportError
 from rths.wire.inbox import Inbox, Latest, Mailbox, declare_hot_publisher
 from rths.wire.keys import RunKeys, new_run_id
 from rths.wire.links import (
+    CallbackServer,
     LockstepClient,
     LockstepServer,
     RealtimeClient,
@@ -73,6 +77,7 @@ __all__ = [
     "Inbox",
     "Latest",
     "LockstepClient",
+    "CallbackServer",
     "LockstepServer",
     "LogBridge",
     "LogPublisher",
