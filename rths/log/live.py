@@ -24,7 +24,6 @@ from typing import Any
 
 from rths.core.errors import ConfigError, DataError
 from rths.log.mcap_writer import block_messages
-from rths.runtime.clocks import background_thread
 
 __all__ = ["DEFAULT_LIVE", "LiveServer", "parse_where"]
 
@@ -154,7 +153,6 @@ class LiveServer:
         return channel
 
     def _run(self) -> None:
-        background_thread()
         while True:
             time.sleep(POLL)
             while True:

@@ -40,7 +40,6 @@ from mcap.writer import CompressionType, Writer
 from rths import __version__
 from rths.core.errors import DataError
 from rths.log.logfile import LogFile
-from rths.runtime.clocks import background_thread
 from rths.wire.codec import LogRecord
 
 __all__ = [
@@ -307,7 +306,6 @@ class WriterThread(threading.Thread):
 
     def run(self) -> None:
         """Write the header and metadata, drain the queue until :data:`STOP`, finish the file."""
-        background_thread()
         try:
             self._writer.start(profile="", library=f"rths {__version__}")
             for name, data in self._metadata.items():

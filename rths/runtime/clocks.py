@@ -52,7 +52,6 @@ __all__ = [
     "RealtimeOverrun",
     "TimingStats",
     "WallClock",
-    "background_thread",
     "realtime_priority",
     "realtime_thread",
 ]
@@ -132,32 +131,6 @@ def realtime_priority(priority: int | None = None) -> int:
     except (OSError, PermissionError):
         return 0
     return priority
-
-
-#: ``SCHED_FIFO`` priority of a real-time process's background threads (:func:`background_thread`).
-BACKGROUND_PRIORITY = 1
-
-
-def background_thread() -> bool:
-    """Put the calling background thread (recorder, side streams, watchers) below the hot path.
-
-    Under :func:`realtime_priority` every thread inherits ``SCHED_FIFO`` at the loop's priority,
-    and ``SCHED_FIFO`` threads of one priority never preempt each other: a recorder thread
-    writing a block held a core for milliseconds while the other process's receiving thread
-    waited for it (the stalls that tripped the command watchdog).  At priority
-    :data:`BACKGROUND_PRIORITY` it is preempted at once by the hot threads yet still runs ahead
-    of ordinary processes, so while it holds the interpreter lock it is never stuck behind
-    other people's jobs.  Does nothing (returns False) when the thread is not ``SCHED_FIFO``.
-    """
-    if not hasattr(os, "sched_getscheduler"):
-        return False
-    try:
-        if os.sched_getscheduler(0) != os.SCHED_FIFO:  # Linux: 0 is the calling thread
-            return False
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(BACKGROUND_PRIORITY))
-    except OSError:
-        return False
-    return True
 
 
 class QuietGC:

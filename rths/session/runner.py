@@ -47,7 +47,6 @@ from rths.runtime.clocks import (
     Pacer,
     QuietGC,
     WallClock,
-    background_thread,
     realtime_priority,
     realtime_thread,
 )
@@ -139,7 +138,6 @@ class _Progress(threading.Thread):
         self._stop = threading.Event()
 
     def run(self) -> None:
-        background_thread()
         while not self._stop.wait(0.2):
             self.report(self.done, self.total)
 

@@ -65,6 +65,10 @@ BLOCK_ROWS = 64
 #: Resolution [s] of the command watchdog and of noticing a stop request (the serving thread's
 #: wake-up tick; the commands themselves are answered in zenoh's callback, not on this tick).
 WATCHDOG_TICK = 0.002
+#: Longest wait [s], after a stop this side asked for and its ramp-down, for the coordinator's
+#: stop in return before this process leaves: leaving at once withdrew its liveliness token
+#: before a held-up coordinator had read the request, which then reported "went away".
+STOP_ACK = 0.5
 
 
 def _warm_up(lab: EmulatedLab) -> None:
@@ -224,10 +228,13 @@ class _Server:
                 self.tripped_ns = time.monotonic_ns()
                 if link.error is not None:
                     raise link.error
-                if self.guard.tripped and not presence.stop.is_set():  # say why, then ramp
+                asked = self.guard.tripped is not None and not presence.stop.is_set()
+                if asked:  # say why, then ramp
                     presence.request_stop(f"specimen interlock: {self.guard.tripped}")
                 self._ramp_down()
                 self.safe_ns = time.monotonic_ns()
+                if asked:  # the coordinator's answer: it has our reason (not "went away")
+                    presence.stop.wait(STOP_ACK)
             self.refused = presence.refused
 
     def _respond(self, command: Command) -> None:

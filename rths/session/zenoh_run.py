@@ -36,7 +36,6 @@ from typing import Any
 from rths.config.scenario import Scenario
 from rths.core.errors import ConfigError, RTHSError, TransportError
 from rths.log.recorder import Recorder
-from rths.runtime.clocks import background_thread
 from rths.runtime.loop import LinkSample, Loop, LoopResult
 from rths.wire.auth import RunSecret, read_secret, write_secret_file
 from rths.wire.codec import Command
@@ -384,7 +383,6 @@ class _PeerWatch(threading.Thread):
         self._done = threading.Event()
 
     def run(self) -> None:
-        background_thread()
         while not self.presence.stop.wait(_WATCH):
             if self._done.is_set():
                 return

@@ -12,7 +12,6 @@ import zenoh
 
 from rths.core.channels import RowBlock
 from rths.core.errors import DataError
-from rths.runtime.clocks import background_thread
 from rths.wire.auth import Opener, RunSecret
 from rths.wire.codec import BLOCK_MAGIC, LogRecord, pack_block, unpack_block
 from rths.wire.keys import RunKeys
@@ -131,7 +130,6 @@ class BackgroundPublisher:
         import queue
         import time
 
-        background_thread()
         get, put = self._queue.get_nowait, self._publisher.put
         while True:
             time.sleep(0.005)
@@ -242,7 +240,6 @@ class LogBridge:
         self._thread.start()
 
     def _run(self) -> None:
-        background_thread()
         while not self._stop.wait(0.005):
             self._drain()
             with self._drained:
