@@ -19,9 +19,9 @@ from rths.wire.keys import ROLES, Role
 
 __all__ = ["ROLES", "WARMUP_BYTES", "Presence", "Role", "wait_matched"]
 
-#: Size [bytes] of the warm-up frame each side sends once the handshake is done (just under
-#: zenoh's 64 KiB batch, so it also fits the low-latency transport).
-WARMUP_BYTES = 60_000
+#: Size [bytes] of the warm-up frame each side sends once the handshake is done (bigger than a
+#: block of rows; 60 000 broke the low-latency transport, `RTHS_ZENOH_LOWLATENCY`).
+WARMUP_BYTES = 32000
 
 
 def wait_matched(publisher: zenoh.Publisher, timeout: float | None) -> bool:

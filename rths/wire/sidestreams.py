@@ -109,6 +109,7 @@ class BackgroundPublisher:
 
         self.key = key
         self._sealer = None if secret is None else secret.sealer(key)
+        self._reliable = reliable
         self.seq = 0  #: seq of the next record
         congestion = zenoh.CongestionControl.BLOCK if reliable else zenoh.CongestionControl.DROP
         self._publisher = session.declare_publisher(
@@ -140,7 +141,13 @@ class BackgroundPublisher:
                     break
                 if item is None:
                     return
+                if not self._reliable and not self._watched():
+                    continue  # a live copy nobody watches: neither encoded nor sent
                 put(self._encode(item))
+
+    def _watched(self) -> bool:
+        """Whether a subscriber matches the publisher now."""
+        return bool(self._publisher.matching_status.matching)  # type: ignore[attr-defined]
 
     def _encode(self, item: Any) -> bytes:
         payload = pack_block(item) if isinstance(item, RowBlock) else LogRecord(*item).encode()
@@ -171,7 +178,8 @@ class BlockPublisher(BackgroundPublisher):
         Key expression to publish on.
     reliable : bool
         True (default): reliable with congestion control BLOCK; False: best effort, dropped
-        under congestion (live copies for monitors).
+        under congestion and not sent at all while no subscriber matches (live copies for
+        monitors).
     secret : rths.wire.auth.RunSecret or None
         The run's secret: each frame is sealed (domain: the key).  None (default): plain.
     """
