@@ -227,7 +227,10 @@ class CallbackServer:
     wake-up instead of two (the fastest receive path in ``tools/bench_zenoh.py``, mechanism
     ``reply-in-cb``).  Callbacks of one subscriber run one at a time, in arrival order.  An
     exception in ``respond`` or a malformed payload is kept in :attr:`error` (and ``on_error``
-    is called), never lost in zenoh's thread; later commands are then dropped.
+    is called), never lost in zenoh's thread; later commands are then dropped.  ``rths specimen``
+    does not use it (publishing while zenoh's thread holds the interpreter lock is a deadlock
+    hazard; see :mod:`rths.session.specimen`): it is the ``sync-cb`` mechanism of
+    ``tools/bench_zenoh.py``.
 
     Parameters
     ----------

@@ -13,9 +13,10 @@ Building blocks (all context managers; closing a session undeclares everything o
   or only the newest one and its age (realtime).
 * :class:`LockstepClient` / :class:`LockstepServer` -- coordinator and specimen ends of the
   lockstep link: command ``k`` out, measurement ``k`` back, with a timeout.
-* :class:`SyncClient` / :class:`CallbackServer` -- the ends ``rths run`` and ``rths specimen``
-  use: command ``k`` out, measurement ``k`` back until a deadline; the specimen answers inside
-  zenoh's subscriber callback.
+* :class:`SyncClient` -- the ``realtime`` clock's coordinator end: command ``k`` out,
+  measurement ``k`` back until a deadline (the specimen end is the :class:`LockstepServer`).
+  :class:`CallbackServer` answers inside zenoh's subscriber callback instead (measured in
+  ``tools/bench_zenoh.py``; not used by ``rths specimen``, see :mod:`rths.session.specimen`).
 * :class:`RealtimeClient` / :class:`RealtimeServer` -- the same keys for free-running clocks:
   publish without waiting, read the latest sample of the other side.
 * :class:`Presence` -- readiness handshake (liveliness tokens plus a check that the peer's hot
