@@ -1,6 +1,6 @@
 """Options of the actuator kinds (the ``[actuator]`` table): ``transfer_function`` and
 ``servo_hydraulic``.  Both take a pure ``delay`` [s] and a ``velocity_limit`` [m/s] (flow limit),
-which the :class:`plants.base.Actuator` base class applies."""
+which the :class:`plants.actuator.base.Actuator` base class applies."""
 
 from __future__ import annotations
 
