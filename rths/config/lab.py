@@ -1,8 +1,8 @@
 """The ``[lab]`` and ``[model]`` tables of a scenario: the emulated lab's converters
 (:class:`LabSpec`, which :mod:`rths.config.build` turns into :class:`plants.lab.LabConverters`) and
-what the numerical side believes
-about the specimen (a :class:`plants.device_model.DeviceModel`: the nominal device the substructure
-carries, the compensator's plant, the fully numerical mock run).  Parsed strictly, like the rest of
+what the numerical side believes about the specimen (a :class:`plants.device_model.DeviceModel`:
+the nominal device the substructure carries, the compensator's plant, the fully numerical mock
+run).  Parsed strictly, like the rest of
 the scenario (:mod:`rths.config.scenario`): a bad key is a :class:`rths.core.errors.ConfigError`
 naming the file, the table and the key.
 """
