@@ -2,9 +2,8 @@
 (:class:`LabSpec`, which :mod:`rths.config.build` turns into :class:`plants.lab.LabConverters`) and
 what the numerical side believes about the specimen (a :class:`plants.device_model.DeviceModel`:
 the nominal device the substructure carries, the compensator's plant, the fully numerical mock
-run).  Parsed strictly, like the rest of
-the scenario (:mod:`rths.config.scenario`): a bad key is a :class:`rths.core.errors.ConfigError`
-naming the file, the table and the key.
+run).  Parsed strictly, like the rest of the scenario (:mod:`rths.config.scenario`): a bad key is
+a :class:`rths.core.errors.ConfigError` naming the file, the table and the key.
 """
 
 from __future__ import annotations
