@@ -23,7 +23,8 @@ Hot-path convention (the loop runs at up to 4096 Hz; every Python call per step 
 whose step is more than a few float operations runs it as **one compiled call per step** -- a
 ``numba.njit(cache=True)`` kernel in a private ``kernel.py`` beside the model (e.g.
 :mod:`plants.cable.kernel`, :mod:`plants.actuator.kernel`, :mod:`plants.imd.kernels`,
-:mod:`controllers._lqg_kernel`) working on flat float64 arrays the model owns (constants, state,
+:mod:`controllers.model_based._lqg_kernel`) working on flat float64 arrays the model owns
+(constants, state,
 outputs).  The kernel writes everything read per step -- the interface kinematics, forces and
 the logged channels -- into an output array, so ``step``, ``device_force`` and
 ``write_channels`` only copy from it.  The readable NumPy/Python path stays as the reference
