@@ -31,6 +31,7 @@ from rths.diagnose.effects.specimen import (
     NOMINAL_PRESLIDING,
     amplitude,
     amplitude_space,
+    clearance_resolved,
     drive_scale,
     friction_column,
     rigid_columns,
@@ -197,5 +198,7 @@ class SeriesChain(Model):
     def physical(self, channel: Channel, params: dict[str, dict[str, float]]) -> bool:
         element = params.get("backlash") or params.get("internal_stiffness") or {}
         if self.friction and params["coulomb_friction"]["friction"] <= 0.0:
+            return False
+        if self.backlash and not clearance_resolved(channel, params["backlash"]["gap"]):
             return False
         return element.get("stiffness", 0.0) > 0.0

@@ -14,6 +14,10 @@ Otherwise effects are added one at a time:
    identified *together* with the set (warm-started from the set's and its own single fit)
    and step 2 repeats.
 
+Of two candidates one of which holds the other as a limit (:data:`rths.diagnose.effects.NESTS`:
+a backlash with a closed clearance is a series spring) the general one is taken only when its
+gain exceeds the special one's by :data:`PRICE` per extra parameter.
+
 Effects that only act together (friction behind a clearance: neither alone describes the
 device) would stall step 2: when no single effect buys its parameters, every compatible pair
 is identified and priced as one step (its parameters counted together).
@@ -32,7 +36,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rths.diagnose.channels.channel import Channel
-from rths.diagnose.effects import CHANNEL_EFFECTS, EFFECTS, baseline_for, compatible, models_for
+from rths.diagnose.effects import (
+    CHANNEL_EFFECTS,
+    EFFECTS,
+    NESTS,
+    baseline_for,
+    compatible,
+    models_for,
+)
 from rths.diagnose.residuals import Decomposition, decompose
 from rths.diagnose.search.floors import noise_floor
 from rths.diagnose.search.identify import Fit, fit_model
@@ -159,6 +170,27 @@ def _decompose(channel: Channel, fit: Fit, floor_scale: float = 1.0) -> Decompos
     )
 
 
+def _nested_preferred(
+    trials: list[tuple[float, Candidate]], price: float
+) -> list[tuple[float, Candidate]]:
+    """Drop every trial whose general effect (:data:`NESTS`, e.g. backlash) does not beat the
+    same set with its special case (internal stiffness) by ``price`` per extra parameter."""
+    by_set = {frozenset(c.fit.effects): g for g, c in trials}
+    out = []
+    for g, c in trials:
+        names = frozenset(c.fit.effects)
+        dominated = False
+        for general, special in NESTS.items():
+            if general in names and special not in names:
+                other = by_set.get((names - {general}) | {special})
+                extra = EFFECTS[general].n_params - EFFECTS[special].n_params
+                if other is not None and g - other < price * max(extra, 1):
+                    dominated = True
+        if not dominated:
+            out.append((g, c))
+    return out or trials
+
+
 def _best(fits: list[Fit]) -> Fit:
     return min(fits, key=lambda f: f.ident_mse)
 
@@ -240,7 +272,7 @@ def select(
             trials = [t for pair in pairs for t in [trial(pair)] if t is not None]
         if not trials:
             break
-        gain, cand = max(trials, key=lambda t: t[0])
+        gain, cand = max(_nested_preferred(trials, price), key=lambda t: t[0])
         candidates[candidates.index(cand)] = Candidate(
             cand.fit, cand.floor, cand.closed, cand.gain, True, True
         )
