@@ -49,9 +49,9 @@ NOMINAL_PRESLIDING: float = 1e-3
 
 #: A clearance is resolved by the displacement when it exceeds this many times the measured
 #: displacement's white-noise RMS (converter noise and 16-bit quantisation, estimated from the
-#: records): a dead band narrower than the noise band (+/-2 sigma) leaves no plateau the data
+#: records): a dead band narrower than the noise band (+/-1 sigma) leaves no plateau the data
 #: can show, and a contact behind it is a series spring (``internal_stiffness``).
-RESOLVED_CLEARANCE: float = 4.0
+RESOLVED_CLEARANCE: float = 2.0
 
 
 #: Shortest memory [s] of the running load amplitude (a cycle at 10 Hz).

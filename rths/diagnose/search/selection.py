@@ -44,6 +44,7 @@ from rths.diagnose.effects import (
     compatible,
     models_for,
 )
+from rths.diagnose.effects.model import Theta
 from rths.diagnose.residuals import Decomposition, decompose
 from rths.diagnose.search.floors import noise_floor
 from rths.diagnose.search.identify import Fit, fit_model
@@ -196,7 +197,11 @@ def _best(fits: list[Fit]) -> Fit:
 
 
 def select(
-    channel: Channel, effects: tuple[str, ...], seed: int = 0, price: float = PRICE
+    channel: Channel,
+    effects: tuple[str, ...],
+    seed: int = 0,
+    price: float = PRICE,
+    hints: dict[str, Theta] | None = None,
 ) -> ChannelResult:
     """Identify the baseline and select the channel's effects (module docstring).
 
@@ -210,6 +215,10 @@ def select(
         Seed of the synthetic noise of the per-model floors.
     price
         :data:`PRICE`.
+    hints
+        Starting values of an effect's nonlinear parameters found another way (e.g. a series
+        element's from the force-driven ``displacement`` channel), added to the global search
+        of every model holding that effect.
     """
     base = fit_model(baseline_for(channel.name), channel)
     n0 = noise_floor(base, channel, seed)
@@ -228,6 +237,8 @@ def select(
         """Identify ``chosen + add`` jointly (warm-started), score it, record the candidate."""
         starts = [dict(current.theta)]
         for e in add:
+            if hints and e in hints:
+                starts.append({**current.theta, **hints[e]})
             if e in singles:
                 starts.append({**singles[e].theta, **current.theta})
                 starts.append({**current.theta, **singles[e].theta})
