@@ -16,7 +16,9 @@ Otherwise effects are added one at a time:
 
 Of two candidates one of which holds the other as a limit (:data:`rths.diagnose.effects.NESTS`:
 a backlash with a closed clearance is a series spring) the general one is taken only when its
-gain exceeds the special one's by :data:`PRICE` per extra parameter.
+gain exceeds the special one's by :data:`PRICE` per extra parameter; the special one is tried
+after the general one and starts also from its fit (a series spring from a contact's fit whose
+clearance closed: the two search spaces differ and either may find the element).
 
 Effects that only act together (friction behind a clearance: neither alone describes the
 device) would stall step 2: when no single effect buys its parameters, every compatible pair
@@ -228,6 +230,8 @@ def select(
     if not dec.significant or excess0 <= 0.0:
         return ChannelResult(channel, base, n0, dec, candidates, (), base, 0.0, "none")
     names = [e for e in effects if e in CHANNEL_EFFECTS[channel.name]]
+    # general effects first: a special case starts also from its general fit (NESTS)
+    names.sort(key=lambda e: e not in NESTS)
     singles: dict[str, Fit] = {}
     current, current_floor = base, n0
     chosen: tuple[str, ...] = ()
@@ -239,6 +243,9 @@ def select(
         for e in add:
             if hints and e in hints:
                 starts.append({**current.theta, **hints[e]})
+            for general, special in NESTS.items():
+                if e == special and general in singles:  # its element, clearance dropped
+                    starts.append({**current.theta, **singles[general].theta})
             if e in singles:
                 starts.append({**singles[e].theta, **current.theta})
                 starts.append({**current.theta, **singles[e].theta})
