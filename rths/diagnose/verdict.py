@@ -261,7 +261,13 @@ def element_hints(result: ChannelResult | None) -> dict[str, dict[str, float]]:
     ``displacement`` channel's single-element fits (linear in compliance and clearance: a
     global least-squares answer that no chaotic contact upsets): the element's frequency
     ``sqrt(k_e/m)/2 pi`` and damping ratio ``c_e/(2 sqrt(k_e m))`` on the identified
-    inertance, and the clearance."""
+    inertance, and the clearance.
+
+    Parameters
+    ----------
+    result
+        The ``displacement`` channel's result (None: no hints).
+    """
     hints: dict[str, dict[str, float]] = {}
     if result is None:
         return hints

@@ -68,7 +68,15 @@ def smoothed(seg: Segment, key: str, make: Callable[[], NDArray]) -> NDArray:
 def clearance_resolved(channel: Channel, gap: float) -> bool:
     """Whether a total clearance ``gap`` [m] is wider than the displacement's resolution,
     :data:`RESOLVED_CLEARANCE` times its white-noise RMS (a backlash whose clearance is below
-    the resolution is not a backlash)."""
+    the resolution is not a backlash).
+
+    Parameters
+    ----------
+    channel
+        The specimen channel (its ``noise["measured"]``: displacement white-noise RMS [m]).
+    gap
+        Total clearance [m].
+    """
     noise = float(channel.noise.get("measured", 0.0))
     return gap > RESOLVED_CLEARANCE * noise
 
