@@ -202,10 +202,14 @@ def test_the_general_effect_must_beat_its_special_case_by_its_price():
     def trial(effects, gain):
         return gain, SimpleNamespace(fit=SimpleNamespace(effects=effects))
 
-    close = [trial(("backlash",), 0.9), trial(("internal_stiffness",), 0.9 - 0.5 * PRICE)]
+    # the spring leaves 20 % of the gap: the clearance must close PRICE of those 20 %
+    close = [trial(("backlash",), 0.8 + 0.5 * PRICE * 0.2), trial(("internal_stiffness",), 0.8)]
     assert [c.fit.effects for _, c in _nested_preferred(close, PRICE)] == [("internal_stiffness",)]
-    far = [trial(("backlash",), 0.9), trial(("internal_stiffness",), 0.9 - 2 * PRICE)]
+    far = [trial(("backlash",), 0.8 + 2 * PRICE * 0.2), trial(("internal_stiffness",), 0.8)]
     assert len(_nested_preferred(far, PRICE)) == 2  # both stay; the larger gain wins
+    # a spring at the noise floor leaves nothing for the clearance to close
+    done = [trial(("backlash",), 1.02), trial(("internal_stiffness",), 1.0)]
+    assert [c.fit.effects for _, c in _nested_preferred(done, PRICE)] == [("internal_stiffness",)]
     alone = [trial(("backlash", "coulomb_friction"), 0.9)]
     assert _nested_preferred(alone, PRICE) == alone
 

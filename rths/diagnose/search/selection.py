@@ -15,8 +15,8 @@ Otherwise effects are added one at a time:
    and step 2 repeats.
 
 Of two candidates one of which holds the other as a limit (:data:`rths.diagnose.effects.NESTS`:
-a backlash with a closed clearance is a series spring) the general one is taken only when its
-gain exceeds the special one's by :data:`PRICE` per extra parameter; the special one is tried
+a backlash with a closed clearance is a series spring) the general one is taken only when it
+closes :data:`PRICE` per extra parameter of the gap the special one leaves; the special one is tried
 after the general one and starts also from its fit (a series spring from a contact's fit whose
 clearance closed: the two search spaces differ and either may find the element).
 
@@ -176,8 +176,10 @@ def _decompose(channel: Channel, fit: Fit, floor_scale: float = 1.0) -> Decompos
 def _nested_preferred(
     trials: list[tuple[float, Candidate]], price: float
 ) -> list[tuple[float, Candidate]]:
-    """Drop every trial whose general effect (:data:`NESTS`, e.g. backlash) does not beat the
-    same set with its special case (internal stiffness) by ``price`` per extra parameter."""
+    """Drop every trial whose general effect (:data:`NESTS`, e.g. backlash) does not close
+    ``price`` per extra parameter of what the same set with its special case (internal
+    stiffness) leaves: gains ``g`` are shares of the current remaining gap, so the general
+    one must reach ``g - g_s >= price * extra * (1 - g_s)``."""
     by_set = {frozenset(c.fit.effects): g for g, c in trials}
     out = []
     for g, c in trials:
@@ -187,7 +189,8 @@ def _nested_preferred(
             if general in names and special not in names:
                 other = by_set.get((names - {general}) | {special})
                 extra = EFFECTS[general].n_params - EFFECTS[special].n_params
-                if other is not None and g - other < price * max(extra, 1):
+                left = 1.0 - other if other is not None else 0.0  # at the floor: nothing
+                if other is not None and (left <= 0.0 or g - other < price * max(extra, 1) * left):
                     dominated = True
         if not dominated:
             out.append((g, c))
