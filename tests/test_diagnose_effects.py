@@ -138,3 +138,100 @@ def test_white_noise_level_and_noise_floor_two_ways():
     # held-out data with noise concentrated near the 30 Hz cutoff scatters by ~5 % per copy
     assert injected == pytest.approx(analytic, rel=0.1)
     assert fit.held_mse == pytest.approx(analytic, rel=0.1)  # residual of the true model
+
+
+def _chain_channel(gap: float, seed: int = 4):
+    """A specimen channel whose force is the series chain's (body 1000 kg behind a 12 Hz
+    element of damping ratio 0.05, the clearance ``gap``), a 6 s band-limited drive with 2 um
+    of displacement noise and 0.5 N of force noise."""
+    rng = np.random.default_rng(seed)
+    dt = 1.0 / 1024.0
+    n = 6 * 1024
+    t = dt * np.arange(1, n + 1)
+    band = signal.butter(4, [0.5, 8.0], "bandpass", fs=1024, output="sos")
+    drive = signal.sosfiltfilt(band, rng.standard_normal(n))
+    drive *= 2e-3 / np.std(drive)
+    v = np.gradient(drive, dt)
+    w = 2 * math.pi * 12.0
+    force = 1000.0 * series_chain(drive, v, dt, omega=w, zeta=0.05, gap=gap, damping=0.0)
+    x = drive + 2e-6 * rng.standard_normal(n)
+    return specimen_channel(
+        [_record(t, drive, x, force + 0.5 * rng.standard_normal(n))], UNIT, 60.0
+    )
+
+
+def test_a_clearance_inside_the_displacement_noise_is_no_backlash():
+    from rths.diagnose.effects import ComplianceModel, SeriesChain
+    from rths.diagnose.effects.specimen import RESOLVED_CLEARANCE
+
+    ch = _chain_channel(0.0)
+    sigma = ch.noise["measured"]
+    assert sigma == pytest.approx(2e-6, rel=0.2)  # the estimator sees the 2 um noise
+    for model in (
+        SeriesChain(("backlash",)),
+        ComplianceModel(("backlash",)),
+        RigidSpecimen(("coulomb_friction", "backlash")),
+    ):
+        element = {"stiffness": 1e7, "contact_damping": 0.0}
+        friction = {"coulomb_friction": {"friction": 1.0, "presliding_stiffness": 1e6}}
+        below = {"backlash": {"gap": 0.5 * RESOLVED_CLEARANCE * sigma, **element}, **friction}
+        above = {"backlash": {"gap": 2.0 * RESOLVED_CLEARANCE * sigma, **element}, **friction}
+        assert not model.physical(ch, below) and model.physical(ch, above)
+
+
+def test_a_series_spring_is_named_internal_stiffness_and_a_clearance_backlash():
+    from rths.diagnose.search.selection import select
+
+    effects = ("internal_stiffness", "backlash")
+    spring = select(_chain_channel(0.0), effects)
+    assert spring.effects == ("internal_stiffness",)
+    # identified from the resonance the element adds: 12 Hz within 5 % (noise-free drive)
+    assert spring.final.params["internal_stiffness"]["frequency"] == pytest.approx(12.0, rel=0.05)
+    play = select(_chain_channel(300e-6), effects)
+    assert play.effects == ("backlash",)
+    # the clearance within 25 %: seen 19 % low, the lightly damped contact bounces after
+    # each closing and the fit trades clearance against contact stiffness there
+    assert play.final.params["backlash"]["gap"] == pytest.approx(300e-6, rel=0.25)
+
+
+def test_the_general_effect_must_beat_its_special_case_by_its_price():
+    from types import SimpleNamespace
+
+    from rths.diagnose.search.selection import PRICE, _nested_preferred
+
+    def trial(effects, gain):
+        return gain, SimpleNamespace(fit=SimpleNamespace(effects=effects))
+
+    # the spring leaves 20 % of the gap: the clearance must close PRICE of those 20 %
+    close = [trial(("backlash",), 0.8 + 0.5 * PRICE * 0.2), trial(("internal_stiffness",), 0.8)]
+    assert [c.fit.effects for _, c in _nested_preferred(close, PRICE)] == [("internal_stiffness",)]
+    far = [trial(("backlash",), 0.8 + 2 * PRICE * 0.2), trial(("internal_stiffness",), 0.8)]
+    assert len(_nested_preferred(far, PRICE)) == 2  # both stay; the larger gain wins
+    # a spring at the noise floor leaves nothing for the clearance to close
+    done = [trial(("backlash",), 1.02), trial(("internal_stiffness",), 1.0)]
+    assert [c.fit.effects for _, c in _nested_preferred(done, PRICE)] == [("internal_stiffness",)]
+    alone = [trial(("backlash", "coulomb_friction"), 0.9)]
+    assert _nested_preferred(alone, PRICE) == alone
+
+
+def test_free_response_of_a_linear_chain_is_the_damped_oscillator():
+    from scipy.integrate import solve_ivp
+
+    from rths.diagnose.effects.chain import free_response
+
+    dt, n = 1.0 / 1024.0, 3000
+    w = 2 * math.pi * 12.0
+    w2, ce, c, k = w * w, 2 * 0.01 * w, 0.5, 20.0
+    t = dt * np.arange(n)
+    for i, z0 in enumerate(([1.0, 0.0], [0.0, 1.0])):
+        ode = solve_ivp(
+            lambda _t, z: [z[1], -(k + w2) * z[0] - (c + ce) * z[1]],
+            (0.0, t[-1]),
+            z0,
+            t_eval=t,
+            rtol=1e-10,
+            atol=1e-13,
+        )
+        e = -(w2 * ode.y[0] + ce * ode.y[1])
+        # exact recursion vs an adaptive integrator at 1e-10: 1e-7 of the peak
+        assert np.max(np.abs(free_response(n, dt, w2, ce, c, k)[i] - e)) < 1e-7 * np.max(np.abs(e))

@@ -120,3 +120,28 @@ def test_options_are_checked():
         Options(drive="replay")
     with pytest.raises(ParameterError, match="smoothing cutoff must lie in"):
         diagnose(_records(LabCase("none")), _nominal(LabCase("none")), Options(cutoff=600.0))
+
+
+def test_series_element_hints_are_the_compliance_fit_in_chain_coordinates():
+    from types import SimpleNamespace
+
+    from rths.diagnose.verdict import element_hints
+
+    assert element_hints(None) == {}
+    m, k, c = 1000.0, 4.0e6, 2.0e3  # sqrt(k/m) = 63.2 rad/s (10.07 Hz), zeta = c/(2 sqrt(k m))
+    fit = SimpleNamespace(
+        effects=("backlash",),
+        params={"backlash": {"gap": 2e-4, "stiffness": k, "contact_damping": c}},
+        baseline={"inertance": m},
+    )
+    other = SimpleNamespace(effects=("backlash",), params=fit.params, baseline={"inertance": -1.0})
+    result = SimpleNamespace(
+        candidates=[
+            SimpleNamespace(fit=other, physical=True),
+            SimpleNamespace(fit=fit, physical=True),
+        ]
+    )
+    hint = element_hints(result)["backlash"]  # the unphysical inertance is skipped
+    assert hint["frequency"] == pytest.approx(math.sqrt(k / m) / (2 * math.pi), rel=1e-12)
+    assert hint["zeta"] == pytest.approx(c / (2 * math.sqrt(k * m)), rel=1e-12)
+    assert hint["gap"] == 2e-4

@@ -435,6 +435,16 @@ def test_plan_mix_and_effect_draws():
         assert 5 <= fi["internal_resonance_hz"] <= 150
 
 
+def test_focused_plan_holds_only_the_listed_classes():
+    only = ("internal_stiffness", "backlash", "coulomb_friction")
+    for n in (3, 10, 25):
+        plan = design.plan_cases(np.random.default_rng(n), n, only)
+        assert len(plan) == n and all(p and set(p) <= set(only) for p in plan)
+        assert sum(len(p) == 2 for p in plan) >= 0.25 * n  # the three pairs among them
+    plan = design.plan_cases(np.random.default_rng(0), 8, ("backlash", "none"))
+    assert set(plan) == {(), ("backlash",)}  # no pair is made of these alone: singles only
+
+
 def _cli(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(
         [sys.executable, str(ROOT / "tools" / "truthgen"), *args],
@@ -455,6 +465,7 @@ def test_cli_bad_arguments_exit_2(tmp_path, capsys):
         ["--out", str(tmp_path / "a"), "--cases", "2", "--seed", "1", "--rates", "500"],
         ["--out", str(tmp_path / "a"), "--cases", "2", "--seed", "1", "--max-duration", "1"],
         ["--out", str(tmp_path / "a"), "--cases", "x", "--seed", "1"],
+        ["--out", str(tmp_path / "a"), "--cases", "2", "--seed", "1", "--effects", "slop"],
         ["--out", str(ROOT), "--cases", "1", "--seed", "1"],
     ):
         with pytest.raises(SystemExit) as ex:

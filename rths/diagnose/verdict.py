@@ -256,6 +256,38 @@ def _magnitude(result: ChannelResult, channels: dict[str, ChannelResult]) -> flo
     return result.relative_gap
 
 
+def element_hints(result: ChannelResult | None) -> dict[str, dict[str, float]]:
+    """Starting values for the ``force`` channel's series chain from the force-driven
+    ``displacement`` channel's single-element fits (linear in compliance and clearance: a
+    global least-squares answer that no chaotic contact upsets): the element's frequency
+    ``sqrt(k_e/m)/2 pi`` and damping ratio ``c_e/(2 sqrt(k_e m))`` on the identified
+    inertance, and the clearance.
+
+    Parameters
+    ----------
+    result
+        The ``displacement`` channel's result (None: no hints).
+    """
+    hints: dict[str, dict[str, float]] = {}
+    if result is None:
+        return hints
+    for cand in result.candidates:
+        (name,) = cand.fit.effects if len(cand.fit.effects) == 1 else (None,)
+        if name not in ("backlash", "internal_stiffness") or not cand.physical or name in hints:
+            continue
+        p = cand.fit.params[name]
+        m = cand.fit.baseline.get("inertance", 0.0)
+        k, c = p["stiffness"], p.get("contact_damping", p.get("series_damping", 0.0))
+        if not (0.0 < m < np.inf and 0.0 < k < np.inf):
+            continue
+        w = float(np.sqrt(k / m))
+        hint = {"frequency": w / (2.0 * np.pi), "zeta": max(c, 0.0) / (2.0 * w * m)}
+        if name == "backlash":
+            hint["gap"] = p["gap"]
+        hints[name] = hint
+    return hints
+
+
 def _replayed_drive(result: ChannelResult) -> list | None:
     """The actuator model's replay of the command, if it explains the measured displacement
     to within ``1 + FLOOR_MARGIN`` of its noise floor (else None: the measured drive)."""
@@ -294,14 +326,20 @@ def _diagnose(records: list[Record], nominal: NominalModel, options: Options) ->
     cutoff = options.cutoff or (
         REPLAY_CUTOFF / records[0].dt if drive is not None else DEFAULT_CUTOFF
     )
-    specimen = select(
-        specimen_channel(records, nominal, cutoff, drive, held), options.effects, options.seed
-    )
-    channels = {"measured": transfer, "force": specimen}
+    compliance = None
     if nominal.specimen.inertance > 0.0 and nominal.specimen.friction == 0.0:
-        channels["displacement"] = select(
+        compliance = select(
             displacement_channel(records, nominal, held), options.effects, options.seed
         )
+    specimen = select(
+        specimen_channel(records, nominal, cutoff, drive, held),
+        options.effects,
+        options.seed,
+        hints=element_hints(compliance),
+    )
+    channels = {"measured": transfer, "force": specimen}
+    if compliance is not None:
+        channels["displacement"] = compliance
     view = _specimen_view(channels)
     views = ("measured", view.channel.name)
     significant = [c for c in (transfer, view) if c.decomposition.significant or c.effects]

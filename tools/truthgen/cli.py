@@ -45,9 +45,9 @@ def _clean(obj):
 def _job(args: tuple) -> tuple[str, dict, float]:
     from .generate import build_case
 
-    name, ss, plan, rates, max_dur, out = args
+    name, ss, plan, rates, max_dur, out, ranges = args
     t0 = time.process_time()
-    label = build_case(ss, plan, rates, max_dur, Path(out) / name)
+    label = build_case(ss, plan, rates, max_dur, Path(out) / name, ranges=ranges)
     return name, label, time.process_time() - t0
 
 
@@ -71,6 +71,19 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
         help="cap on each record's length, s (3-40; default 40 = no cap)",
     )
     p.add_argument(
+        "--effects",
+        default="",
+        help="comma-separated effect classes (and/or 'none') the cases are made of "
+        "(default: all; pairs kept when both classes are listed)",
+    )
+    p.add_argument(
+        "--ranges",
+        choices=("default", "wide"),
+        default="default",
+        help="effect parameter ranges: default, or wide (series elements 1e5-1e10 N/m, "
+        "clearance 1 um - 5 mm, lightly damped; friction 0.5-60 %%)",
+    )
+    p.add_argument(
         "--jobs", type=int, default=1, help="worker processes (output does not depend on it)"
     )
     a = p.parse_args(argv)
@@ -89,6 +102,12 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
     if not rates or any(r not in ALLOWED_RATES for r in rates):
         _fail(f"--rates must be a subset of 1000,1024,2048,4096, got {a.rates!r}")
     a.rate_list = sorted(set(rates))
+    from .design import EFFECTS
+
+    a.only = tuple(e.strip() for e in a.effects.split(",") if e.strip()) or None
+    bad = [e for e in a.only or () if e not in (*EFFECTS, "none")]
+    if bad:
+        _fail(f"--effects: unknown effect class {bad[0]!r} (one of {', '.join(EFFECTS)}, none)")
     out = Path(a.out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         _fail(f"--out {a.out} exists and is not an empty folder")
@@ -109,11 +128,11 @@ def main(argv: list[str] | None = None) -> int:
         _fail(f"cannot create {a.out}: {e.strerror}")
     root = np.random.SeedSequence(a.seed)
     plan_ss, case_root = root.spawn(2)
-    plans = design.plan_cases(np.random.default_rng(plan_ss), a.cases)
+    plans = design.plan_cases(np.random.default_rng(plan_ss), a.cases, a.only)
     width = max(3, len(str(a.cases - 1)))
     names = [f"case_{i:0{width}d}" for i in range(a.cases)]
     jobs = [
-        (nm, ss, pl, a.rate_list, a.max_duration, str(out))
+        (nm, ss, pl, a.rate_list, a.max_duration, str(out), a.ranges)
         for nm, ss, pl in zip(names, case_root.spawn(a.cases), plans)
     ]
     labels: dict[str, dict] = {}
@@ -152,6 +171,8 @@ def main(argv: list[str] | None = None) -> int:
         "rates": a.rate_list,
         "max_duration": a.max_duration,
         "effect_classes": list(design.EFFECTS) + ["none"],
+        "only": list(a.only) if a.only else None,
+        "ranges": a.ranges,
         "channels": {k: v for k, v in design.CHANNEL.items()},
     }
     (out / "generator.json").write_text(json.dumps(meta, indent=1) + "\n")

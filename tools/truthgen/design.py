@@ -15,6 +15,11 @@ amplitude_damping   c2 logU 0.2-10 mm; c1 = c(A_ref) (A_ref + c2) with c(A_ref) 
 actuator_delay      logU 1.5-20 ms beyond the nominal's, floored at 1.5 output samples
                     (at 1000-4096 Hz the floor never binds: 1.5 ms >= 1.5 samples)
 rate_limit          velocity limit U 40-90 % of the median (over records) nominal peak speed
+
+``ranges="wide"`` (the series elements of a lab's hardware, lightly damped): internal
+stiffness logU 1e5-1e10 N/m with series damping ratio logU 0.005-0.1; backlash gap logU
+1 um - 5 mm (same cap), contact stiffness logU 1e5-1e10 N/m, contact damping ratio logU
+0.002-0.05; friction logU 0.5-60 % of the peak force; the other classes as above.
 """
 
 from __future__ import annotations
@@ -64,19 +69,32 @@ def loguniform(rng: np.random.Generator, lo: float, hi: float) -> float:
     return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
 
 
-def plan_cases(rng: np.random.Generator, n: int) -> list[tuple[str, ...]]:
+def plan_cases(
+    rng: np.random.Generator, n: int, only: tuple[str, ...] | None = None
+) -> list[tuple[str, ...]]:
     """Effect sets of ``n`` cases: ceil(30 %) pairs (if n >= 2), singles cycle through
-    ``none`` and every effect class, order shuffled."""
-    n_double = math.ceil(DOUBLE_FRACTION * n) if n >= 2 else 0
+    ``none`` and every effect class, order shuffled.  ``only`` (effect classes, ``"none"``
+    included or not) keeps the singles and pairs made of those classes alone (a focused
+    suite, e.g. the specimen's series elements)."""
     singles = [()] + [(e,) for e in EFFECTS]
+    pairs = list(PAIRS)
+    if only is not None:
+        keep = set(only)
+        singles = [s for s in singles if (s and s[0] in keep) or (not s and "none" in keep)]
+        pairs = [p for p in pairs if set(p) <= keep]
+    n_double = math.ceil(DOUBLE_FRACTION * n) if n >= 2 and pairs else 0
+    if not singles:
+        n_double = n
     s_order = [singles[i] for i in rng.permutation(len(singles))]
-    d_order = [PAIRS[i] for i in rng.permutation(len(PAIRS))]
+    d_order = [pairs[i] for i in rng.permutation(len(pairs))]
     plan = [s_order[i % len(s_order)] for i in range(n - n_double)]
     plan += [d_order[i % len(d_order)] for i in range(n_double)]
     return [plan[i] for i in rng.permutation(n)]
 
 
-def effect_params(rng: np.random.Generator, name: str, ref: dict) -> dict[str, float]:
+def effect_params(
+    rng: np.random.Generator, name: str, ref: dict, ranges: str = "default"
+) -> dict[str, float]:
     """Draw one effect's labelled parameters.
 
     Parameters
@@ -89,6 +107,8 @@ def effect_params(rng: np.random.Generator, name: str, ref: dict) -> dict[str, f
         Nominal-simulation references: ``inertance``, ``rod_mass`` (kg),
         ``peak_force`` (N), ``peak_speed`` (m/s), ``peak_disp`` and
         ``min_peak_cmd`` (m), ``f_ref`` (Hz), ``fs`` (Hz).
+    ranges : str
+        ``"default"`` or ``"wide"`` (module docstring).
 
     Returns
     -------
@@ -96,6 +116,23 @@ def effect_params(rng: np.random.Generator, name: str, ref: dict) -> dict[str, f
         Parameters in SI units, keyed as in the labels.
     """
     m_dev = ref["inertance"] + ref["rod_mass"]
+    if ranges == "wide" and name == "internal_stiffness":
+        k = loguniform(rng, 1e5, 1e10)
+        return {
+            "stiffness": k,
+            "series_damping": 2 * loguniform(rng, 0.005, 0.1) * math.sqrt(k * ref["inertance"]),
+        }
+    if ranges == "wide" and name == "backlash":
+        gap = loguniform(rng, 1e-6, max(2e-6, min(5e-3, 0.3 * ref["min_peak_cmd"])))
+        kc = loguniform(rng, 1e5, 1e10)
+        return {
+            "gap": gap,
+            "contact_stiffness": kc,
+            "contact_damping": 2 * loguniform(rng, 0.002, 0.05) * math.sqrt(kc * m_dev),
+        }
+    if ranges == "wide" and name == "coulomb_friction":
+        f = loguniform(rng, 0.005, 0.6) * ref["peak_force"]
+        return {"friction": f, "presliding_stiffness": f / loguniform(rng, 2e-6, 50e-6)}
     if name == "internal_stiffness":
         k = ref["inertance"] * (2 * math.pi * loguniform(rng, 5.0, 150.0)) ** 2
         return {

@@ -141,6 +141,7 @@ def build_case(
     max_duration: float,
     out_dir: Path | None,
     max_attempts: int = 5,
+    ranges: str = "default",
 ) -> dict:
     """Generate one case, write its folder (if ``out_dir``) and return its label.
 
@@ -159,6 +160,8 @@ def build_case(
     max_attempts : int
         Redraws of too-weak (or diverging) effect parameters before labelling
         the effect ``weak``.
+    ranges : str
+        Effect parameter ranges, ``"default"`` or ``"wide"`` (:mod:`design`).
     """
     r_hw, r_exc, r_eff, r_noise, r_nom = (np.random.default_rng(s) for s in ss.spawn(5))
     fs = float(r_hw.choice(rates))
@@ -189,7 +192,7 @@ def build_case(
         "f_ref": float(np.median(fref)),
         "min_peak_cmd": min(float(np.max(np.abs(c))) for c in commands),
     }
-    params = {e: design.effect_params(r_eff, e, ref) for e in plan}
+    params = {e: design.effect_params(r_eff, e, ref, ranges) for e in plan}
     strengths: dict = {}
     full, full_int = nom_out, nom_int
     attempts = 0
@@ -202,7 +205,7 @@ def build_case(
             redraws += 1
             if redraws > 10:
                 raise RuntimeError(f"effects {plan} diverge for 10 parameter draws")
-            params = {e: design.effect_params(r_eff, e, ref) for e in plan}
+            params = {e: design.effect_params(r_eff, e, ref, ranges) for e in plan}
             attempts -= 1
             continue
         ranges = {
@@ -219,7 +222,7 @@ def build_case(
         if not weak or attempts >= max_attempts:
             break
         for e in weak:
-            params[e] = design.effect_params(r_eff, e, ref)
+            params[e] = design.effect_params(r_eff, e, ref, ranges)
     sensitivity = None
     if "backlash" in params:
         pert = {

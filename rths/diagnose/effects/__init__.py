@@ -47,6 +47,7 @@ from rths.diagnose.effects.specimen import RigidSpecimen
 __all__ = [
     "CHANNEL_EFFECTS",
     "EFFECTS",
+    "NESTS",
     "ActuatorModel",
     "ComplianceModel",
     "Columns",
@@ -98,6 +99,12 @@ EFFECTS: dict[str, Effect] = {
 }
 
 _ELEMENTS = frozenset({"backlash", "internal_stiffness"})
+
+#: Effects whose model holds another one as a limit (``{general: special}``): a backlash
+#: whose clearance closes is a series spring with its own damping (``internal_stiffness``).
+#: The selection takes the general one only when it beats the special one by the price of its
+#: extra parameters (:func:`rths.diagnose.search.selection.select`).
+NESTS: dict[str, str] = {"backlash": "internal_stiffness"}
 
 
 def compatible(effects: tuple[str, ...]) -> bool:

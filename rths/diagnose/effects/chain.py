@@ -23,6 +23,7 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy import linalg, signal
 
 from rths.diagnose.channels.channel import Channel, Segment
 from rths.diagnose.effects.kernels import series_chain
@@ -31,17 +32,50 @@ from rths.diagnose.effects.specimen import (
     NOMINAL_PRESLIDING,
     amplitude,
     amplitude_space,
+    clearance_resolved,
     drive_scale,
     friction_column,
     rigid_columns,
 )
 
-__all__ = ["MIN_INERTIAL_SHARE", "STIFFNESS_RANGE", "SeriesChain"]
+__all__ = ["MIN_INERTIAL_SHARE", "STIFFNESS_RANGE", "SeriesChain", "free_response"]
 
 #: Smallest share of the force the body's inertia must carry for a chain to apply.
 MIN_INERTIAL_SHARE: float = 0.05
 #: Element stiffness searched [N/m] (issue range), mapped to frequencies with the inertance.
 STIFFNESS_RANGE: tuple[float, float] = (1e5, 1e10)
+
+
+def free_response(
+    n: int, dt: float, w2: float, ce: float, c: float, k: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Element force per unit inertance [m/s^2] of a linear chain whose drive stands still,
+    from a unit initial body displacement [m] and from a unit initial body velocity [m/s]:
+    ``x'' + (c + c_e) x' + (k + w^2) x = 0`` and ``e = -(w^2 x + c_e x')``, exact per sample
+    (matrix exponential), shape ``(n,)`` each.
+
+    Parameters
+    ----------
+    n
+        Samples.
+    dt
+        Sample period [s].
+    w2, ce
+        Element stiffness and damping per unit inertance [1/s^2], [1/s].
+    c, k
+        Body damping and spring per unit inertance [1/s], [1/s^2].
+    """
+    phi = linalg.expm(np.array([[0.0, 1.0], [-(k + w2), -(c + ce)]]) * dt)
+    tr, det = float(np.trace(phi)), float(np.linalg.det(phi))
+    row = -np.array([w2, ce])
+    impulse = np.zeros(n)
+    impulse[0] = 1.0
+    out = []
+    for z0 in (np.array([1.0, 0.0]), np.array([0.0, 1.0])):
+        # e_i = row . phi^i z0 obeys phi's characteristic recursion (Cayley-Hamilton)
+        y0, y1 = float(row @ z0), float(row @ (phi @ z0))
+        out.append(signal.lfilter([y0, y1 - tr * y0], [1.0, -tr, det], impulse))
+    return out[0], out[1]
 
 
 class SeriesChain(Model):
@@ -152,6 +186,24 @@ class SeriesChain(Model):
             cols.append(friction_column(seg, NOMINAL_PRESLIDING * drive_scale(channel)))
         return np.column_stack(cols), np.zeros_like(seg.observed)
 
+    def nuisance(self, channel: Channel, seg: Segment, theta: Theta) -> NDArray[np.float64] | None:
+        """The body's free response for a linear chain (a series spring, no clearance,
+        friction or amplitude law): its initial state relative to the drive is unknown at the
+        start of a record or a search window, and a lightly damped element rings for
+        ``1/(zeta omega)`` seconds -- longer than any warm-up.  Two columns, from a unit initial
+        body displacement and velocity, calibrated per segment like its offset."""
+        if self.backlash or self.friction or self.amplitude:
+            return None
+        w = 2.0 * math.pi * theta["frequency"]
+        w2, ce = w * w, 2.0 * theta["zeta"] * w
+        c, k = max(float(theta["body_damping"]), 0.0), float(theta["body_stiffness"])
+        key = f"free:{w!r}:{ce!r}:{c!r}:{k!r}"
+        if key not in seg.cache:
+            seg.cache[key] = np.column_stack(
+                [seg.h(col) for col in free_response(seg.observed.size, seg.dt, w2, ce, c, k)]
+            )
+        return seg.cache[key]
+
     def prior(self, channel: Channel) -> NDArray[np.float64]:
         s = channel.nominal.specimen
         out = [s.inertance, 0.0]
@@ -197,5 +249,7 @@ class SeriesChain(Model):
     def physical(self, channel: Channel, params: dict[str, dict[str, float]]) -> bool:
         element = params.get("backlash") or params.get("internal_stiffness") or {}
         if self.friction and params["coulomb_friction"]["friction"] <= 0.0:
+            return False
+        if self.backlash and not clearance_resolved(channel, params["backlash"]["gap"]):
             return False
         return element.get("stiffness", 0.0) > 0.0

@@ -35,6 +35,7 @@ from scipy import linalg, signal
 
 from rths.diagnose.channels.channel import Channel, Segment
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
+from rths.diagnose.effects.specimen import clearance_resolved
 
 __all__ = ["BLOCK_SECONDS", "ComplianceModel", "blocks"]
 
@@ -211,5 +212,5 @@ class ComplianceModel(Model):
             return True
         ok = 0.0 < element["stiffness"] < math.inf
         if self.backlash:
-            ok = ok and params["backlash"]["gap"] > 0.0
+            ok = ok and clearance_resolved(channel, params["backlash"]["gap"])
         return ok

@@ -34,11 +34,24 @@ from rths.diagnose.channels.signals import running_amplitude
 from rths.diagnose.effects.kernels import friction_operator
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
 
-__all__ = ["RigidSpecimen", "drive_scale", "smoothed"]
+__all__ = [
+    "RESOLVED_CLEARANCE",
+    "RigidSpecimen",
+    "clearance_resolved",
+    "drive_scale",
+    "smoothed",
+]
 
 #: Presliding displacement of the nominal friction ``F_r sign(x')``, as a fraction of the
 #: drive's standard deviation (a sign with memory, immune to noise reversals).
 NOMINAL_PRESLIDING: float = 1e-3
+
+
+#: A clearance is resolved by the displacement when it exceeds this many times the measured
+#: displacement's white-noise RMS (converter noise and 16-bit quantisation, estimated from the
+#: records): a dead band narrower than the noise band (+/-1 sigma) leaves no plateau the data
+#: can show, and a contact behind it is a series spring (``internal_stiffness``).
+RESOLVED_CLEARANCE: float = 2.0
 
 
 #: Shortest memory [s] of the running load amplitude (a cycle at 10 Hz).
@@ -50,6 +63,22 @@ def smoothed(seg: Segment, key: str, make: Callable[[], NDArray]) -> NDArray:
     if key not in seg.cache:
         seg.cache[key] = seg.h(make())
     return seg.cache[key]
+
+
+def clearance_resolved(channel: Channel, gap: float) -> bool:
+    """Whether a total clearance ``gap`` [m] is wider than the displacement's resolution,
+    :data:`RESOLVED_CLEARANCE` times its white-noise RMS (a backlash whose clearance is below
+    the resolution is not a backlash).
+
+    Parameters
+    ----------
+    channel
+        The specimen channel (its ``noise["measured"]``: displacement white-noise RMS [m]).
+    gap
+        Total clearance [m].
+    """
+    noise = float(channel.noise.get("measured", 0.0))
+    return gap > RESOLVED_CLEARANCE * noise
 
 
 def drive_scale(channel: Channel) -> float:
@@ -190,5 +219,7 @@ class RigidSpecimen(Model):
 
     def physical(self, channel: Channel, params: dict[str, dict[str, float]]) -> bool:
         if self.friction and params["coulomb_friction"]["friction"] <= 0.0:
+            return False
+        if self.backlash and not clearance_resolved(channel, params["backlash"]["gap"]):
             return False
         return not (self.amplitude and params["amplitude_damping"]["c1"] <= 0.0)

@@ -14,6 +14,12 @@ Otherwise effects are added one at a time:
    identified *together* with the set (warm-started from the set's and its own single fit)
    and step 2 repeats.
 
+Of two candidates one of which holds the other as a limit (:data:`rths.diagnose.effects.NESTS`:
+a backlash with a closed clearance is a series spring) the general one is taken only when it
+closes :data:`PRICE` per extra parameter of the gap the special one leaves; the special one is tried
+after the general one and starts also from its fit (a series spring from a contact's fit whose
+clearance closed: the two search spaces differ and either may find the element).
+
 Effects that only act together (friction behind a clearance: neither alone describes the
 device) would stall step 2: when no single effect buys its parameters, every compatible pair
 is identified and priced as one step (its parameters counted together).
@@ -32,7 +38,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rths.diagnose.channels.channel import Channel
-from rths.diagnose.effects import CHANNEL_EFFECTS, EFFECTS, baseline_for, compatible, models_for
+from rths.diagnose.effects import (
+    CHANNEL_EFFECTS,
+    EFFECTS,
+    NESTS,
+    baseline_for,
+    compatible,
+    models_for,
+)
+from rths.diagnose.effects.model import Theta
 from rths.diagnose.residuals import Decomposition, decompose
 from rths.diagnose.search.floors import noise_floor
 from rths.diagnose.search.identify import Fit, fit_model
@@ -159,12 +173,40 @@ def _decompose(channel: Channel, fit: Fit, floor_scale: float = 1.0) -> Decompos
     )
 
 
+def _nested_preferred(
+    trials: list[tuple[float, Candidate]], price: float
+) -> list[tuple[float, Candidate]]:
+    """Drop every trial whose general effect (:data:`NESTS`, e.g. backlash) does not close
+    ``price`` per extra parameter of what the same set with its special case (internal
+    stiffness) leaves: gains ``g`` are shares of the current remaining gap, so the general
+    one must reach ``g - g_s >= price * extra * (1 - g_s)``."""
+    by_set = {frozenset(c.fit.effects): g for g, c in trials}
+    out = []
+    for g, c in trials:
+        names = frozenset(c.fit.effects)
+        dominated = False
+        for general, special in NESTS.items():
+            if general in names and special not in names:
+                other = by_set.get((names - {general}) | {special})
+                extra = EFFECTS[general].n_params - EFFECTS[special].n_params
+                left = 1.0 - other if other is not None else 0.0  # at the floor: nothing
+                if other is not None and (left <= 0.0 or g - other < price * max(extra, 1) * left):
+                    dominated = True
+        if not dominated:
+            out.append((g, c))
+    return out or trials
+
+
 def _best(fits: list[Fit]) -> Fit:
     return min(fits, key=lambda f: f.ident_mse)
 
 
 def select(
-    channel: Channel, effects: tuple[str, ...], seed: int = 0, price: float = PRICE
+    channel: Channel,
+    effects: tuple[str, ...],
+    seed: int = 0,
+    price: float = PRICE,
+    hints: dict[str, Theta] | None = None,
 ) -> ChannelResult:
     """Identify the baseline and select the channel's effects (module docstring).
 
@@ -178,6 +220,10 @@ def select(
         Seed of the synthetic noise of the per-model floors.
     price
         :data:`PRICE`.
+    hints
+        Starting values of an effect's nonlinear parameters found another way (e.g. a series
+        element's from the force-driven ``displacement`` channel), added to the global search
+        of every model holding that effect.
     """
     base = fit_model(baseline_for(channel.name), channel)
     n0 = noise_floor(base, channel, seed)
@@ -187,6 +233,8 @@ def select(
     if not dec.significant or excess0 <= 0.0:
         return ChannelResult(channel, base, n0, dec, candidates, (), base, 0.0, "none")
     names = [e for e in effects if e in CHANNEL_EFFECTS[channel.name]]
+    # general effects first: a special case starts also from its general fit (NESTS)
+    names.sort(key=lambda e: e not in NESTS)
     singles: dict[str, Fit] = {}
     current, current_floor = base, n0
     chosen: tuple[str, ...] = ()
@@ -196,6 +244,11 @@ def select(
         """Identify ``chosen + add`` jointly (warm-started), score it, record the candidate."""
         starts = [dict(current.theta)]
         for e in add:
+            if hints and e in hints:
+                starts.append({**current.theta, **hints[e]})
+            for general, special in NESTS.items():
+                if e == special and general in singles:  # its element, clearance dropped
+                    starts.append({**current.theta, **singles[general].theta})
             if e in singles:
                 starts.append({**singles[e].theta, **current.theta})
                 starts.append({**current.theta, **singles[e].theta})
@@ -240,7 +293,7 @@ def select(
             trials = [t for pair in pairs for t in [trial(pair)] if t is not None]
         if not trials:
             break
-        gain, cand = max(trials, key=lambda t: t[0])
+        gain, cand = max(_nested_preferred(trials, price), key=lambda t: t[0])
         candidates[candidates.index(cand)] = Candidate(
             cand.fit, cand.floor, cand.closed, cand.gain, True, True
         )
