@@ -20,7 +20,8 @@ pi_lead    the vRTHS benchmark's sample controller: PI + phase lead (Silva et al
 ``nominal`` is the continuous-time command->measured model (python-control
 ``TransferFunction``/``StateSpace``), ``delay`` [s] a transport delay of it given separately.
 An all-pole nominal model of degree <= ``order`` is inverted exactly; any other is first reduced
-by :func:`~controllers.feedforward.fit_low_order` (Phillips & Spencer invert a 3rd-order model:
+by :func:`~controllers.model_based.feedforward.fit_low_order` (Phillips & Spencer invert a
+3rd-order model:
 each order above 3 needs one more difference of the target acceleration, amplifying its
 noise by 2/dt).
 """
@@ -42,7 +43,7 @@ __all__ = ["kinds", "make_compensator"]
 
 def kinds() -> tuple[str, ...]:
     """Every registered compensator kind (importing every module of :mod:`controllers`)."""
-    for info in pkgutil.iter_modules(controllers.__path__, prefix="controllers."):
+    for info in pkgutil.walk_packages(controllers.__path__, prefix="controllers."):
         importlib.import_module(info.name)
     return COMPENSATORS.names()
 

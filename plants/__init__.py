@@ -5,6 +5,7 @@ Plants know nothing of zenoh, MCAP or the loop; they share the small interfaces 
 :mod:`plants.base`.
 """
 
-from plants.base import Actuator, Kinematics, Specimen, Substructure, drive
+from plants.actuator.base import Actuator
+from plants.base import Kinematics, Specimen, Substructure, drive
 
 __all__ = ["Actuator", "Kinematics", "Specimen", "Substructure", "drive"]

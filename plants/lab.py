@@ -21,7 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from plants.base import Actuator, Kinematics
+from plants.actuator.base import Actuator
+from plants.base import Kinematics
 from plants.lab_kernel import convert_counting
 from rths.core.channels import Channel
 from rths.core.errors import (
@@ -211,7 +212,7 @@ class EmulatedLab:
         use_jit: bool = True,
     ) -> None:
         if not isinstance(actuator, Actuator):
-            raise ParameterError(f"actuator must be a plants.base.Actuator; got {actuator!r}")
+            raise ParameterError(f"actuator must be a plants.Actuator; got {actuator!r}")
         self.actuator: Actuator = actuator
         self.converters: LabConverters = LabConverters() if converters is None else converters
         if not isinstance(self.converters, LabConverters):

@@ -1,6 +1,7 @@
 """The ``rths`` command line.
 
-Each sub-command lives in its own module under :mod:`rths.commands` and exposes::
+Each sub-command lives in its own module under :mod:`rths.commands` (or one of its sub-packages,
+grouped by concern) and exposes::
 
     def add_parser(subparsers) -> argparse.ArgumentParser   # registers the sub-command
     def run(args: argparse.Namespace) -> int                 # does the work, returns the exit code
@@ -40,6 +41,7 @@ import signal
 import sys
 import warnings
 from collections.abc import Sequence
+from types import ModuleType
 from typing import NoReturn
 
 import rths.commands
@@ -80,13 +82,21 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"rths {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for info in sorted(pkgutil.iter_modules(rths.commands.__path__), key=lambda m: m.name):
-        if info.name.startswith("_"):
-            continue
-        module = importlib.import_module(f"rths.commands.{info.name}")
+    for module in _command_modules():
         p = module.add_parser(sub)
         p.set_defaults(handler=module.run)
     return parser
+
+
+def _command_modules() -> list[ModuleType]:
+    """Every sub-command module under :mod:`rths.commands`, sub-packages included, in the order
+    of their names (``_``-prefixed modules are helpers)."""
+    found = []
+    for info in pkgutil.walk_packages(rths.commands.__path__, prefix="rths.commands."):
+        if info.ispkg or info.name.rpartition(".")[2].startswith("_"):
+            continue
+        found.append(importlib.import_module(info.name))
+    return sorted(found, key=lambda module: module.__name__.rpartition(".")[2])
 
 
 def _one_line(exc: BaseException | Warning | str) -> str:

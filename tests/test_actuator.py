@@ -21,7 +21,8 @@ from plants.actuator import (
     delayed,
     rate_limited,
 )
-from plants.base import Actuator, Specimen
+from plants.actuator.base import Actuator
+from plants.base import Specimen
 from plants.imd.models import IMDParameters, InternalStiffnessIMD
 from plants.linear_specimen import LinearSpecimen, benchmark_specimen
 from rths.core.errors import ParameterError

@@ -1,6 +1,6 @@
 """The ATS compensator's compiled step against its Python reference, step for step.
 
-:func:`controllers._ats_kernel.ats_step` runs the same filters, window, threshold and clipping
+:func:`controllers.baselines._ats_kernel.ats_step` runs the same filters, window, threshold and clipping
 as ``AdaptiveTimeSeries(use_jit=False)`` (bit for bit), but sums the least-squares terms (column
 norms and the 3x3 normal matrix over a 4094-sample window) left to right where NumPy/BLAS use
 other orders: each update's coefficients differ by round-off of those sums, ~1e-16 of the
@@ -18,7 +18,7 @@ import math
 import numpy as np
 import pytest
 
-from controllers.ats import AdaptiveTimeSeries, ATSSettings
+from controllers.baselines.ats import AdaptiveTimeSeries, ATSSettings
 from plants.base import Kinematics
 
 DT = 1.0 / 4096.0

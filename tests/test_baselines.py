@@ -7,9 +7,9 @@ import pytest
 from _vrths import Target, benchmark_plant, closed_loop, discretize, j2, multisine
 from scipy.signal import butter, sosfreqz
 
-from controllers.ats import AdaptiveTimeSeries, ATSSettings
 from controllers.base import Compensator
-from controllers.baselines import (
+from controllers.baselines.ats import AdaptiveTimeSeries, ATSSettings
+from controllers.baselines.extrapolation import (
     NoCompensation,
     PolynomialExtrapolation,
     extrapolation_weights,

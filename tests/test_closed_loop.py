@@ -16,12 +16,12 @@ from _vrths import (
     perturbed_plants,
 )
 
-from controllers.ats import AdaptiveTimeSeries
-from controllers.baselines import NoCompensation, PolynomialExtrapolation
+from controllers.baselines.ats import AdaptiveTimeSeries
+from controllers.baselines.extrapolation import NoCompensation, PolynomialExtrapolation
 from controllers.factory import kinds, make_compensator
-from controllers.feedforward import FeedforwardCompensator
-from controllers.ff_lqg import FFLQGCompensator
-from controllers.lqg import LQGCompensator
+from controllers.model_based.feedforward import FeedforwardCompensator
+from controllers.model_based.ff_lqg import FFLQGCompensator
+from controllers.model_based.lqg import LQGCompensator
 from rths.core.errors import ParameterError
 from rths.core.kinematics import Kinematics
 

@@ -68,7 +68,8 @@ def _undocumented(module_name: str) -> list[str]:
         if inspect.isclass(obj):
             if getattr(obj, "_is_protocol", False):
                 continue  # a Protocol is not instantiated: its signature is a placeholder
-            docs = _documented(obj.__doc__ or "")
+            # an inherited field (a dataclass's base) is documented where it is declared
+            docs = set().union(*(_documented(c.__doc__ or "") for c in obj.__mro__[:-1]))
             init = obj.__dict__.get("__init__")
             if init is not None:
                 docs |= _documented(init.__doc__ or "")

@@ -10,7 +10,7 @@ import pytest
 from _vrths import benchmark_plant, closed_loop, discretize, heavy_plant, j2, multisine
 
 from controllers._lti import inverse_taylor, siso_polynomials
-from controllers.feedforward import (
+from controllers.model_based.feedforward import (
     FeedforwardCompensator,
     LowOrderModel,
     fit_low_order,

@@ -124,7 +124,7 @@ def test_converter_validation(kwargs: dict[str, float], match: str) -> None:
 def test_lab_validation() -> None:
     with pytest.raises(ParameterError, match="LabConverters.force must be a Converter; got 3"):
         LabConverters(force=3)
-    with pytest.raises(ParameterError, match="actuator must be a plants.base.Actuator; got 'a'"):
+    with pytest.raises(ParameterError, match="actuator must be a plants.Actuator; got 'a'"):
         EmulatedLab("a")
     actuator = ServoHydraulicActuator(benchmark_specimen(), DT)
     with pytest.raises(ParameterError, match="converters must be LabConverters; got 1"):

@@ -9,9 +9,9 @@ import scipy.linalg as sla
 from _vrths import benchmark_plant, closed_loop, discretize, j2, multisine
 from filterpy.kalman import KalmanFilter
 
-from controllers.feedforward import FeedforwardCompensator, LowOrderModel
-from controllers.ff_lqg import FFLQGCompensator
-from controllers.lqg import (
+from controllers.model_based.feedforward import FeedforwardCompensator, LowOrderModel
+from controllers.model_based.ff_lqg import FFLQGCompensator
+from controllers.model_based.lqg import (
     LQGCompensator,
     LQGDesign,
     LQGWeights,
@@ -185,7 +185,7 @@ def test_design_and_compensator_validation(design):
 
 @pytest.mark.parametrize("kind", ["ff_lqg", "lqg"])
 def test_compiled_step_equals_the_python_reference_step_for_step(kind):
-    """The numba kernel (controllers._lqg_kernel) and the readable Python path give the same
+    """The numba kernel (controllers.model_based._lqg_kernel) and the readable Python path give the same
     command and logged state every step, to round-off (dot products summed in another order:
     relative 1e-10 is a few hundred ulps over 3000 steps of a stable filter)."""
     from pathlib import Path

@@ -8,7 +8,7 @@ import pytest
 from _vrths import benchmark_plant, closed_loop, discretize, multisine, perturbed_plants
 
 from controllers.factory import make_compensator
-from controllers.lqg import design_lqg
+from controllers.model_based.lqg import design_lqg
 from rths.core.errors import ParameterError
 
 DT = 1.0 / 4096.0
@@ -53,7 +53,7 @@ def test_hot_path_equals_filterpy_step_for_step(kind: str) -> None:
 
 
 def test_unknown_estimator_is_rejected() -> None:
-    from controllers.lqg import LQGCompensator
+    from controllers.model_based.lqg import LQGCompensator
 
     with pytest.raises(ParameterError, match="estimator must be 'steady' or 'filterpy'; got 'x'"):
         LQGCompensator(DT, design_lqg(benchmark_plant(), DT), estimator="x")

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.integrate import cumulative_trapezoid
 
-from controllers.baselines import NoCompensation
+from controllers.baselines.extrapolation import NoCompensation
 from plants.base import Specimen
 from plants.imd.amplitude import AmplitudeTracker
 from plants.tmdi import (

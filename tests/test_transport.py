@@ -15,6 +15,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
+from contextlib import contextmanager
 
 import pytest
 import zenoh
@@ -268,6 +269,31 @@ def test_lockstep_discards_stale_and_rejects_future_measurements(pair) -> None:
                 client.receive(5)
 
 
+_END = b"end"  # neither a Command nor a Measurement: a mailbox counts it as rejected, skips it
+
+
+@contextmanager
+def _end_marker(session: zenoh.Session, key: str) -> Iterator[threading.Event]:
+    """An event set when ``_END`` arrives on ``key`` in ``session``.
+
+    zenoh hands each sample of a link to every local subscriber on its receive thread, one
+    sample after the other, in the order the publisher sent them: once a subscriber sees a
+    marker put after some messages on the same publisher, every other subscriber of the session
+    (a :class:`Mailbox` too) holds those messages.
+    """
+    seen = threading.Event()
+
+    def on_sample(sample: zenoh.Sample) -> None:
+        if sample.payload.to_bytes() == _END:
+            seen.set()
+
+    subscriber = session.declare_subscriber(key, on_sample)
+    try:
+        yield seen
+    finally:
+        subscriber.undeclare()
+
+
 def test_realtime_mailbox_keeps_the_newest_sample_with_its_age(pair) -> None:
     co, sp, ep = pair
     keys = RunKeys("realtime")
@@ -280,12 +306,17 @@ def test_realtime_mailbox_keeps_the_newest_sample_with_its_age(pair) -> None:
     ):
         _handshake(pc, ps, [client.publisher], [server.publisher])
         assert client.latest() is None and server.latest() is None
-        for k in range(50):
-            server.publish(Measurement(k, k, float(k), 0.0, k))
-        client.send(Command(0, 0, 0.5))
-        deadline = time.monotonic() + PATIENCE
-        while (client.received < 50 or server.latest() is None) and time.monotonic() < deadline:
-            time.sleep(0.001)
+        with (
+            _end_marker(co, keys.measurement) as measurements_in,
+            _end_marker(sp, keys.command) as command_in,
+        ):
+            for k in range(50):
+                server.publish(Measurement(k, k, float(k), 0.0, k))
+            server.publisher.put(_END)  # malformed: the mailbox skips it
+            client.send(Command(0, 0, 0.5))
+            client.publisher.put(_END)
+            assert measurements_in.wait(PATIENCE) and command_in.wait(PATIENCE)
+        assert client.received == 50  # drained (and stamped) at the fake time 1_000
         now[0] = 1_500
         latest = client.latest()
         assert latest is not None and latest.message.seq == 49 and client.received == 50
@@ -308,6 +339,23 @@ def test_mailbox_counts_malformed_payloads(pair) -> None:
         assert box.latest().message.seq == 1 and box.rejected == 1 and box.received == 1
 
 
+class _BlockingReceive:
+    """An inbox's subscriber that sets :attr:`entered` when a ``get()`` reaches its blocking
+    ``recv()``: from then on, the alarm ``close()`` sends is the sample that ``recv()`` returns
+    (were it sent earlier, ``get()`` would drop it as a stale alarm and wait forever)."""
+
+    def __init__(self, subscriber: zenoh.Subscriber) -> None:
+        self._subscriber = subscriber
+        self.entered = threading.Event()
+
+    def recv(self) -> zenoh.Sample:
+        self.entered.set()
+        return self._subscriber.recv()
+
+    def __getattr__(self, name: str) -> object:
+        return getattr(self._subscriber, name)
+
+
 def test_inbox_timeouts_stale_alarms_and_close(pair) -> None:
     co, sp, _ = pair
     inbox = Inbox(co, "rths/i/command", Command.unpack, tick=0.005)
@@ -323,13 +371,12 @@ def test_inbox_timeouts_stale_alarms_and_close(pair) -> None:
         assert inbox.get(PATIENCE) == Command(1, 2, 3.0)
     # close() wakes a get() blocked in another thread instead of leaving it hanging.
     outcome: list[BaseException] = []
+    inbox._subscriber = waiting = _BlockingReceive(inbox._subscriber)
     waiter = threading.Thread(
         target=lambda: outcome.append(pytest.raises(TransportError, inbox.get, None).value)
     )
     waiter.start()
-    deadline = time.monotonic() + PATIENCE
-    while not inbox._receiving.locked() and time.monotonic() < deadline:
-        time.sleep(0.001)
+    assert waiting.entered.wait(PATIENCE)
     inbox.close()
     waiter.join(PATIENCE)
     assert "inbox on key 'rths/i/command' was closed while waiting" in str(outcome[0])

@@ -1,4 +1,4 @@
-"""The benchmark's sample controller (controllers.pi_lead): discretisation, wiring, converters."""
+"""The benchmark's sample controller (controllers.baselines.pi_lead): discretisation, wiring, converters."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from controllers.pi_lead import (
+from controllers.baselines.pi_lead import (
     LEAD_DEN,
     LEAD_NUM,
     PILeadCompensator,

@@ -38,20 +38,19 @@ run: the verdict, the effects, friction [kN] and clearance [mm] beside the loop-
 MTS-identified nominal (no effect is known; reported as is).
 
 Data from ``--data DIR`` or ``RTHS_DATA``; without it the real-data commands print one
-``skipped: ...`` line and exit 0.  Cases run in parallel over ``--jobs`` processes, each on one
-core.
+``skipped: ...`` line and exit 0.  Cases run as one campaign (:mod:`rths.campaign`, Dask): over
+``--jobs`` local worker processes (one core each) or on a cluster (``--scheduler tcp://HOST:8786``);
+with ``--table FILE`` every diagnosis is kept as a row and a rerun skips the cases the table
+holds (resume); a case that fails is a row, not a crash.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import tempfile
-import time
 from collections import Counter
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -70,54 +69,42 @@ HEADLINE = {
 CLASSES = ("none", *HEADLINE, "unexplained")
 
 
-def _diagnose_case(args: tuple[str, tuple[str, ...] | None]) -> dict:
-    """Diagnose one case folder (``rec_*.csv`` + ``NOMINAL.toml``); the JSON plus wall time."""
-    folder, held = args
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
-    from rths.diagnose import Options, diagnose, load_nominal, load_record
+def _run(tasks: list, args: argparse.Namespace, name: str) -> list[dict]:
+    """Diagnose every case as one campaign (:mod:`rths.campaign`: ``--jobs`` local worker
+    processes or ``--scheduler``; with ``--table`` resumable, a case already in the table is not
+    diagnosed again); a line per finished case on stderr; results in task order."""
+    from rths.campaign import Campaign, Cluster, ResultTable, Run, execute
+    from rths.diagnose.suite import case_key, diagnose_case
 
-    path = Path(folder)
-    files = sorted(path.glob("rec_*.csv"), key=lambda p: int(p.stem.split("_")[-1]))
-    t0 = time.perf_counter()
-    try:
-        d = diagnose(
-            [load_record(f) for f in files],
-            load_nominal(path / "NOMINAL.toml"),
-            Options(held_out=held),
+    runs = [
+        Run(case_key(folder, held), {"case": Path(folder).name}, (folder, held))
+        for folder, held in tasks
+    ]
+    table = ResultTable(args.table)
+    done = [0]
+
+    def report(row: dict) -> None:
+        done[0] += 1
+        print(
+            f"[{done[0]}/{len(runs)}] {row['case']}: {row.get('verdict', row.get('status'))} "
+            f"({row['wall_s']:.1f} s)",
+            file=sys.stderr,
+            flush=True,
         )
-        out = d.to_dict()
-    except Exception as e:
-        out = {"verdict": "error", "error": f"{type(e).__name__}: {e}", "effects": []}
-    out["seconds"] = time.perf_counter() - t0
-    return out
 
-
-def _run(tasks: list, jobs: int) -> list[dict]:
-    """Diagnose every task, ``jobs`` at a time; progress on stderr."""
+    cluster = Cluster(scheduler=args.scheduler, workers=args.jobs)
+    stats = execute(Campaign(name, runs, diagnose_case), table, cluster, on_row=report)
+    if stats.skipped:
+        print(f"{stats.skipped} case(s) already in {args.table}: not run again", file=sys.stderr)
     out: list[dict] = []
-    with ProcessPoolExecutor(jobs) if jobs > 1 else _Serial() as pool:
-        for i, r in enumerate(pool.map(_diagnose_case, tasks), 1):
-            print(
-                f"[{i}/{len(tasks)}] {Path(tasks[i - 1][0]).name}: {r['verdict']} "
-                f"({r['seconds']:.1f} s)",
-                file=sys.stderr,
-                flush=True,
-            )
-            out.append(r)
+    for row in table.rows([r.key for r in runs]):
+        if row.get("status") == "error" or not isinstance(row.get("diagnosis"), str):
+            doc = {"verdict": "error", "error": str(row.get("error")), "effects": []}
+        else:
+            doc = json.loads(str(row["diagnosis"]))
+        doc["seconds"] = float(row["wall_s"])  # type: ignore[arg-type]
+        out.append(doc)
     return out
-
-
-class _Serial:
-    """In-process stand-in for a one-worker pool."""
-
-    def __enter__(self) -> _Serial:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        return None
-
-    def map(self, fn, items):
-        return map(fn, items)
 
 
 def _quantiles(x: list[float]) -> dict[str, float]:
@@ -230,7 +217,7 @@ def _print_summary(title: str, summary: dict, scores: dict[str, dict]) -> None:
 def cmd_suite(args: argparse.Namespace) -> int:
     labels = json.loads((args.dir / "labels.json").read_text())
     cases = sorted(labels)[: args.limit] if args.limit else sorted(labels)
-    results = _run([(str(args.dir / c), None) for c in cases], args.jobs)
+    results = _run([(str(args.dir / c), None) for c in cases], args, args.dir.name)
     scores = {c: score_case(labels[c], r) for c, r in zip(cases, results, strict=True)}
     for c, r in zip(cases, results, strict=True):
         if r["verdict"] == "error":
@@ -289,7 +276,7 @@ def cmd_friction_damper(args: argparse.Namespace) -> int:
                 write_csv(case / f"rec_{i}.csv", columns(records[n])[0])
             tasks.append((str(case), (f"rec_{len(ident) + 1}.csv",)))
             meta.append((t, held[0], ident))
-    results = _run(tasks, args.jobs)
+    results = _run(tasks, args, f"friction-damper-{args.nominal}")
     rows = []
     print(f"== friction damper, nominal = {args.nominal} fit per tension (held out one at a time)")
     print(
@@ -358,7 +345,7 @@ def cmd_mts(args: argparse.Namespace) -> int:
         / "nominal_mts_identified.toml"
     )
     (work / "NOMINAL.toml").write_text(nominal.read_text())
-    r = _diagnose_case((str(work), None))
+    (r,) = _run([(str(work), None)], args, "mts")
     print(
         f"== MTS record: verdict {r['verdict']}; effects "
         f"{'+'.join(e['name'] for e in r.get('effects', [])) or '-'}; gap "
@@ -383,7 +370,14 @@ def main(argv: list[str] | None = None) -> int:
     m = sub.add_parser("mts", help="the real MTS actuator record")
     for q in (s, f, m):
         q.add_argument("--data", help="folder holding friction-damper/ (default: $RTHS_DATA)")
-        q.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+        q.add_argument("--jobs", type=int, default=1, help="local worker processes (default 1)")
+        q.add_argument("--scheduler", help="run on a Dask cluster (tcp://HOST:8786)")
+        q.add_argument(
+            "--table",
+            type=Path,
+            help="campaign table (.parquet or .csv) of the diagnoses: a rerun skips the cases "
+            "it holds (delete it after changing the diagnosis code)",
+        )
         q.add_argument("--json", type=Path, help="write the scores as JSON")
     args = p.parse_args(argv)
     if args.source == "suite" and not (args.dir / "labels.json").is_file():

@@ -1,6 +1,6 @@
 """Options of the actuator kinds (the ``[actuator]`` table): ``transfer_function`` and
 ``servo_hydraulic``.  Both take a pure ``delay`` [s] and a ``velocity_limit`` [m/s] (flow limit),
-which the :class:`plants.base.Actuator` base class applies."""
+which the :class:`plants.actuator.base.Actuator` base class applies."""
 
 from __future__ import annotations
 
@@ -101,7 +101,8 @@ class TransferFunctionOptions:
 @dataclass(frozen=True)
 class ServoHydraulicOptions(BenchmarkParameters):
     """The vRTHS benchmark servo-hydraulic actuator with control--structure interaction: every
-    field of :class:`plants.actuator.parameters.BenchmarkParameters`, plus the keys below.
+    field of :class:`plants.actuator.parameters.BenchmarkParameters` (documented there), plus the
+    keys below.
 
     The loop (design.md section 5; Silva et al. 2020 -- not in the seed papers, which use a
     physical MTS 204.63 actuator) is, with ``e = gain*command - x - pressure_feedback*F_a`` [m],
@@ -112,31 +113,6 @@ class ServoHydraulicOptions(BenchmarkParameters):
 
     Parameters
     ----------
-    a1_beta0
-        Servo-valve gain ``a1*beta0`` [N/(m s^3)], > 0; the servo-controller's proportional gain
-        is absorbed in it (benchmark 2.1283e13).
-    a2
-        Natural velocity feedback of the piston flow ``a2`` [N/m], > 0 (benchmark 4.2297e6).
-    a3
-        Hydraulic (leakage) pole ``a3`` [1/s] (benchmark 3.3, standard deviation 1.3).  Only
-        finiteness is required; stability is checked on the closed loop.
-    beta1
-        Servo-valve damping coefficient ``beta1`` [1/s], > 0 (benchmark 425, std 3.3).
-    beta2
-        Servo-valve stiffness coefficient ``beta2`` [1/s^2], > 0 (benchmark 9.9976e4, std 3.3e3).
-    gain
-        Calibration gain [-] on the command, > 0 (benchmark 1.0261: it brings the 0.982 DC gain
-        of the loop with the benchmark specimen to ~1).
-    piston_mass
-        The actuator's own moving mass ``m_p`` [kg], >= 0 (benchmark 0: lumped in its specimen).
-    piston_damping
-        The actuator's own viscous damping ``c_p`` [N s/m], >= 0 (benchmark 0).
-    pressure_feedback
-        Delta-P stabilisation gain ``K_dp`` [m/N], >= 0: the valve input becomes
-        ``gain*command - x - K_dp*F_a`` (benchmark 0: no Delta-P loop).
-    a3_std, beta1_std, beta2_std
-        Standard deviations of ``a3`` [1/s], ``beta1`` [1/s] and ``beta2`` [1/s^2], >= 0, of the
-        Monte-Carlo draws (:meth:`~plants.actuator.parameters.BenchmarkParameters.sample`).
     substeps
         Internal sub-steps per loop step (default: sub-steps <= 1/16384 s).
     delay

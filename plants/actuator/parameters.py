@@ -58,7 +58,8 @@ class BenchmarkParameters:
         Delta-P stabilisation gain ``K_dp`` [m/N], >= 0: the valve input becomes
         ``gain*command - x - K_dp*F_a`` (benchmark 0: no Delta-P loop).
     a3_std, beta1_std, beta2_std
-        Standard deviations used by :meth:`sample` (units of the parameter).
+        Standard deviations of ``a3`` [1/s], ``beta1`` [1/s] and ``beta2`` [1/s^2], >= 0, of the
+        Monte-Carlo draws (:meth:`sample`).
     """
 
     a1_beta0: float = 2.1283e13

@@ -14,7 +14,7 @@ reproduces the benchmark ``G_plant = gain*feedback(Gs*G0, 1)``, ``G0 = feedback(
 DC gain 0.982 (x1.0261 = 1.0075), phase delay 25.0 ms at 1 Hz and 19.0 ms at 10 Hz.
 
 The pure delay on the command path and the velocity (flow) limit are the base class's
-(:class:`plants.base.Actuator`); the limit is applied to the displacement after the linear
+(:class:`plants.actuator.base.Actuator`); the limit is applied to the displacement after the linear
 dynamics, per sub-step (Simulink Rate Limiter semantics, :class:`plants.lines.RateLimiter`); the
 linear dynamics (including the CSI loop) run on unaware of it: exactly the model the diagnosis fits
 as ``rate_limit``.
@@ -33,6 +33,7 @@ from typing import Any
 import control
 import numpy as np
 
+from plants.actuator.base import Actuator
 from plants.actuator.kernel import SERVO_OUTPUTS, SERVO_PARAMS, servo_hydraulic_step
 from plants.actuator.linear import (
     check_stable,
@@ -46,7 +47,7 @@ from plants.actuator.parameters import (
     BENCHMARK,
     BenchmarkParameters,
 )
-from plants.base import Actuator, Kinematics, Specimen
+from plants.base import Kinematics, Specimen
 from plants.device_model import DeviceModel
 from plants.linear_specimen import LinearSpecimen
 from rths.core.channels import Channel

@@ -1,7 +1,7 @@
 """A command→displacement transfer function ``num(s)/den(s)`` identified with the specimen attached
 (no control-structure interaction): the form of the diagnosis contract's ``NOMINAL.toml
 [actuator]`` (design.md section 7).  The pure delay and the velocity (flow) limit are the base
-class's (:class:`plants.base.Actuator`)."""
+class's (:class:`plants.actuator.base.Actuator`)."""
 
 from __future__ import annotations
 
@@ -9,13 +9,14 @@ import control
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from plants.actuator.base import Actuator
 from plants.actuator.kernel import state_space_step
 from plants.actuator.linear import (
     derivative_model,
     discretise,
 )
 from plants.actuator.options import TransferFunctionOptions
-from plants.base import Actuator, Kinematics, Specimen
+from plants.base import Kinematics, Specimen
 from plants.device_model import DeviceModel
 from rths.core.channels import Channel
 from rths.core.registry import ACTUATORS

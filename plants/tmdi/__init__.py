@@ -1,6 +1,6 @@
 """The S1 system: SDOF primary structure on HDRBs with a TMD grounded through an inerter.
 
-:mod:`~.parameters` (S1 Table 1, §4.2), :mod:`~.kernel` (compiled S1 Eq.9-12 integrator),
+:mod:`~.parameters` (S1 Table 1, §4.2), :mod:`~.integration` (compiled S1 Eq.9-12 integrator),
 :mod:`~.structure` (the monolithic model and S1 configurations), :mod:`~.substructure` (the
 numerical side of the TMDI RTHS), :mod:`~.linear` (linear FRFs), :mod:`~.engine` (the shared
 stepping), :mod:`~.bearing` (the HDRB as a specimen).  The uncontrolled PS calibration on S1's

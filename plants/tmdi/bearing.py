@@ -3,7 +3,8 @@
 Isolation bearings are tested as physical substructures; driven at one end with the other fixed,
 the bearing's restoring force is ``F = F_E(u) + c(A) v`` (:class:`plants.tmdi.hdrb.HDRB`).  With an
 amplitude law the dashpot ``c(A)`` follows the online amplitude estimate of
-:func:`plants.tmdi.kernel.track_amplitude` -- half the distance between the last two reversals,
+:func:`plants.tmdi.integration.laws.track_amplitude` -- half the distance between the last two
+reversals,
 updated with each sample -- so this specimen and the compiled S1 kernel give the same force for the
 same deformation history (a test drives both).
 """
@@ -113,7 +114,7 @@ class HDRBSpecimen(Specimen):
         return float(self.bearing.elastic_force(u)) + self._c * v
 
     def _track(self, u: float) -> None:
-        """The reversal rule of :func:`plants.tmdi.kernel.track_amplitude`."""
+        """The reversal rule of :func:`plants.tmdi.integration.laws.track_amplitude`."""
         if self._direction == 0.0:
             if abs(u - self._extremum) > self._tolerance:
                 self._direction = 1.0 if u > self._extremum else -1.0

@@ -1,5 +1,5 @@
 """The shared engine of the S1 substructures: the S1 Eq.12 structure stepped by the compiled
-kernel (:mod:`plants.tmdi.kernel`) under a base excitation, with one interface DOF."""
+kernel (:mod:`plants.tmdi.integration.kernel`) under a base excitation, with one interface DOF."""
 
 from __future__ import annotations
 
@@ -11,9 +11,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from plants.base import Kinematics, Substructure
-from plants.tmdi import kernel as kern
-from plants.tmdi import layout
-from plants.tmdi.kernel import IntegrationError
+from plants.tmdi.integration import kernel as kern
+from plants.tmdi.integration import laws, layout
+from plants.tmdi.integration.kernel import IntegrationError
 from plants.tmdi.linear import EQ7_QUANTITIES
 from plants.tmdi.parameters import TMDIParameters
 from rths.core.errors import ParameterError, check_positive
@@ -34,7 +34,7 @@ class S1Structure(Substructure):
     parameters
         The structure.
     packed
-        The kernel's parameter vector (:func:`plants.tmdi.layout.pack_parameters`).
+        The kernel's parameter vector (:func:`plants.tmdi.integration.layout.pack_parameters`).
     ground_acceleration
         ``ü_G`` [m/s²]: a callable of time [s], or samples at spacing ``excitation_dt``
         (linearly interpolated, zero after the last sample).
@@ -45,8 +45,8 @@ class S1Structure(Substructure):
     substeps
         Kernel sub-steps per step.
     initial_mode
-        Contact mode of the inerter's gap at rest (:data:`plants.tmdi.layout.FORWARD` when it
-        has no play).
+        Contact mode of the inerter's gap at rest
+        (:data:`plants.tmdi.integration.layout.FORWARD` when it has no play).
     """
 
     def __init__(
@@ -85,7 +85,7 @@ class S1Structure(Substructure):
         return self._kinematics(self._state, self._ag_now, self._force)
 
     def _kinematics(self, s: NDArray[np.float64], ag: float, force: float) -> Kinematics:
-        a_i, a_t, _ = kern.accelerations(s, ag, force, self._p)
+        a_i, a_t, _ = laws.accelerations(s, ag, force, self._p)
         a = a_t if self._dof == layout.S_U_T else a_i
         return Kinematics(float(s[self._dof]), float(s[self._dof + 1]), float(a))
 

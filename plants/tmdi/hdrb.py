@@ -32,7 +32,7 @@ peak-to-peak excursion between the last two reversals, a reversal being a retrea
 ``reversal_tolerance`` from the running extremum; ``A = 0`` (hence ``c(A_lo)``) until two reversals
 have been seen.  ``c(A)`` is therefore piecewise constant, changing at reversals, where the
 deformation rate and the dashpot force are near zero.  The kernel of :mod:`plants.tmdi.structure`
-runs the same rule per loop step (:func:`plants.tmdi.kernel.track_amplitude`).
+runs the same rule per loop step (:func:`plants.tmdi.integration.laws.track_amplitude`).
 
 Presets (the numbers of S1, and of the calibration in
 :mod:`rths.experiments.s1_shake_table.calibration`):

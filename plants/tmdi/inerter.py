@@ -26,7 +26,7 @@ S1 flywheel IF).  The gap ``g = θ_S - θ_G`` lies in ``[-ε2, ε1]`` (S1 Eq.11 
 ``g = -ε2`` backward (``T <= 0``), and in between ``T = 0``, so the node relaxes through
 ``c_S`` with time constant ``c_S/k_S`` (4.5 ms) while the flywheel coasts against ``c_B``.
 
-Integration (see :mod:`plants.tmdi.kernel`): trapezoidal rule with the gap's open/closed
+Integration (see :mod:`plants.tmdi.integration.kernel`): trapezoidal rule with the gap's open/closed
 switches located inside the step by linear interpolation; the drive between loop samples is the
 cubic Hermite interpolant of ``(u, v)``; the number of sub-steps per call follows from the model's
 own time scales (:meth:`RackPinionParameters.max_substep`), so any caller ``dt`` is accepted.
@@ -42,8 +42,8 @@ from typing import Final
 import numpy as np
 
 from plants.base import Specimen
-from plants.tmdi import kernel as kern
-from plants.tmdi import layout
+from plants.tmdi.integration import kernel as kern
+from plants.tmdi.integration import laws, layout
 from plants.tmdi.parameters import (
     FLYWHEELS,
     S1_IDEAL_INERTANCE,
@@ -176,8 +176,8 @@ class RackPinionInerter(Specimen):
                 f"rack-and-pinion step failed to converge with dt={dt!r}, u={u!r}, v={v!r}"
             )
         mode = int(self._state[layout.S_MODE])
-        self._torque = kern.torque(self._state, mode, self._p)
-        return kern.friction(v, self._p) + self._torque / self.parameters.pinion_radius
+        self._torque = laws.torque(self._state, mode, self._p)
+        return laws.friction(v, self._p) + self._torque / self.parameters.pinion_radius
 
     def state(self) -> dict[str, float]:
         """Node and flywheel angles [rad], flywheel speed [rad/s], gap [rad], torque [N m],
@@ -190,5 +190,5 @@ class RackPinionInerter(Specimen):
             "gap": float(s[layout.S_TH_S] - s[layout.S_TH_G]),
             "torque": float(self._torque),
             "contact": float(s[layout.S_MODE]),
-            "friction": float(kern.friction(s[layout.S_V_T], self._p)),
+            "friction": float(laws.friction(s[layout.S_V_T], self._p)),
         }

@@ -7,7 +7,8 @@ Equations of motion, S1 Eq.12, with ``u_I`` and ``u_T`` relative to the ground (
 
 ``F_I = F_EI(u_I) + c_I u̇_I`` and ``F_T = F_ET(u_TI) + c_T u̇_TI`` (``u_TI = u_T - u_I``) are HDRB
 isolators (S1 Eq.8, :mod:`plants.tmdi.hdrb`); ``F_B`` is the restoring force of the grounded inerter
-(:mod:`plants.tmdi.inerter`).  Two uses share one integration kernel (:mod:`plants.tmdi.kernel`):
+(:mod:`plants.tmdi.inerter`).  Two uses share one integration kernel
+(:mod:`plants.tmdi.integration.kernel`):
 
 * :class:`TMDIStructure` integrates the whole system, inerter included, monolithically: the
   shaking-table emulation.
@@ -46,15 +47,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from plants.base import Specimen
-from plants.tmdi import kernel as kern
-from plants.tmdi import layout
 from plants.tmdi.configuration import HDRB_MODELS, s1_configuration
 from plants.tmdi.engine import S1Structure
 from plants.tmdi.inerter import (
     IdealInerter,
     RackPinionInerter,
 )
-from plants.tmdi.kernel import IntegrationError
+from plants.tmdi.integration import kernel as kern
+from plants.tmdi.integration import layout
+from plants.tmdi.integration.kernel import IntegrationError
 from plants.tmdi.linear import EQ7_QUANTITIES, linear_frf, linearised_frequencies
 from plants.tmdi.parameters import (
     PRIMARY_MASS,

@@ -11,10 +11,10 @@ from numpy.typing import ArrayLike
 
 from plants.base import Specimen
 from plants.device_model import DeviceModel
-from plants.tmdi import layout
 from plants.tmdi.configuration import TMDIOptions, s1_configuration
 from plants.tmdi.engine import S1Structure
 from plants.tmdi.inerter import IdealInerter, RackPinionInerter
+from plants.tmdi.integration import layout
 from plants.tmdi.structure import TMDIStructure
 from rths.core.errors import ParameterError, check_nonnegative
 from rths.core.registry import SUBSTRUCTURES

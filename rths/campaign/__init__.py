@@ -11,7 +11,8 @@ table are skipped on the next invocation (resume), and a run that raises becomes
 table is the same on 1 worker, 2 workers or a cluster (:func:`~rths.campaign.table.digest`).
 
 Used by Monte Carlo (:mod:`rths.analysis.montecarlo`), parameter studies
-(:mod:`rths.analysis.study`) and ``rths sweep``'s PGA grid.
+(:mod:`rths.analysis.study`), ``rths sweep``'s PGA grid and the diagnosis's blind suites
+(``tools/score_diagnosis.py``, task :func:`rths.diagnose.suite.diagnose_case`).
 
 May import: sessions and everything below them; never analysis, diagnose, an experiment or a
 command.

@@ -20,7 +20,8 @@ import control
 import numpy as np
 
 from controllers.base import Compensator
-from plants.base import Actuator, Specimen, Substructure
+from plants.actuator.base import Actuator
+from plants.base import Specimen, Substructure
 from plants.lab import Converter, EmulatedLab, LabConverters
 from rths.config.kinds import registry
 from rths.config.scenario import Scenario

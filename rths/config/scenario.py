@@ -38,6 +38,7 @@ from typing import Any
 
 from plants.device_model import DeviceModel
 from rths.config.kinds import registry
+from rths.config.lab import LabSpec, parse_lab, parse_model
 from rths.config.options import parse_options
 from rths.config.toml import Table, load_toml, parse_toml
 from rths.core.errors import ConfigError, ParameterError
@@ -47,9 +48,7 @@ __all__ = [
     "CLOCKS",
     "MAX_DURATION",
     "MAX_RATE",
-    "MODEL_KINDS",
     "Component",
-    "LabSpec",
     "LoopSpec",
     "RunSpec",
     "Scenario",
@@ -63,11 +62,6 @@ CLOCKS = ("lockstep", "realtime", "fast")
 MAX_RATE = 100e3
 #: Longest run [s]: a day (split longer tests into several runs).
 MAX_DURATION = 86400.0
-#: Largest displacement range [m] and force range [N] of the lab's converters (the
-#: calibration times the full scale): beyond them no actuator or load cell exists.
-MAX_RANGE = {"displacement_per_volt": 10.0, "force_per_volt": 1e9}
-#: Kinds of ``[model]`` (what the numerical side believes about the specimen).
-MODEL_KINDS = ("imd", "linear", "inerter", "none")
 
 
 @dataclass(frozen=True)
@@ -122,42 +116,6 @@ class Component:
 
     kind: str
     options: Any
-
-
-@dataclass(frozen=True)
-class LabSpec:
-    """``[lab]``: converters (bits, +/- full scale [V]), calibrations and noise [V RMS].
-
-    The command DAC and the displacement ADC share ``displacement_per_volt``; the force ADC uses
-    ``force_per_volt`` (:class:`plants.lab.Converter`).
-
-    Attributes
-    ----------
-    bits : int
-        Converter resolution [bits], >= 1 (default 16; vRTHS benchmark: 18).
-    full_scale : float
-        Converter input range ``+/- full_scale`` [V], > 0 (default 10; benchmark: 3.8).
-    displacement_per_volt : float
-        Displacement calibration [m/V], > 0 (default 0.0076); ``displacement_per_volt *
-        full_scale`` at most 10 m.
-    force_per_volt : float
-        Load-cell calibration [N/V], > 0 (default 220); ``force_per_volt * full_scale`` at
-        most 1e9 N.
-    command_noise : float
-        RMS of the noise on the command DAC [V], 0 .. ``full_scale`` (default 0).
-    displacement_noise : float
-        RMS of the noise on the displacement ADC [V], 0 .. ``full_scale`` (default 5e-4).
-    force_noise : float
-        RMS of the noise on the force ADC [V], 0 .. ``full_scale`` (default 1e-3).
-    """
-
-    bits: int = 16
-    full_scale: float = 10.0
-    displacement_per_volt: float = 0.0076
-    force_per_volt: float = 220.0
-    command_noise: float = 0.0
-    displacement_noise: float = 5e-4
-    force_noise: float = 1e-3
 
 
 #: Largest ``[loop] max_velocity`` [m/s]: a guard above it guards nothing.
@@ -333,8 +291,8 @@ def _parse(doc: Table, text: str) -> Scenario:
     sub = _component(doc.table("substructure"), "substructure")
     specimen = _component(doc.table("specimen"), "specimen")
     actuator = _component(doc.table("actuator"), "actuator")
-    lab = _lab(doc.table("lab", {}))
-    model = _model(doc.table("model", {"kind": "none"}))
+    lab = parse_lab(doc.table("lab", {}))
+    model = parse_model(doc.table("model", {"kind": "none"}))
     comp = _component(doc.table("compensator", {"kind": "ff_lqg"}), "compensator")
     t = doc.table("loop", {})
     loop = LoopSpec(
@@ -421,77 +379,3 @@ def _component(t: Table, family: str) -> Component:
     kinds = registry(family)
     kind = t.choice("kind", kinds.names())
     return Component(kind, parse_options(t, kinds.get(kind).options))
-
-
-def _lab(t: Table) -> LabSpec:
-    d = LabSpec()
-    spec = LabSpec(
-        bits=t.integer("bits", d.bits, minimum=1),
-        full_scale=t.number("full_scale", d.full_scale, positive=True),
-        displacement_per_volt=t.number(
-            "displacement_per_volt", d.displacement_per_volt, positive=True
-        ),
-        force_per_volt=t.number("force_per_volt", d.force_per_volt, positive=True),
-        command_noise=t.number("command_noise", d.command_noise, nonnegative=True),
-        displacement_noise=t.number("displacement_noise", d.displacement_noise, nonnegative=True),
-        force_noise=t.number("force_noise", d.force_noise, nonnegative=True),
-    )
-    t.finish()
-    for key in ("command_noise", "displacement_noise", "force_noise"):
-        if getattr(spec, key) > spec.full_scale:
-            raise t.error(
-                key,
-                f"{getattr(spec, key)!r} V RMS exceeds the converters' full scale "
-                f"{spec.full_scale!r} V",
-            )
-    for key, largest in MAX_RANGE.items():
-        span = getattr(spec, key) * spec.full_scale
-        if span > largest:
-            raise t.error(
-                key,
-                f"{getattr(spec, key)!r} per volt x full scale {spec.full_scale!r} V = a range of "
-                f"{span:.3g}, beyond any sensor (at most {largest:g} SI units)",
-            )
-    return spec
-
-
-def _model(t: Table) -> DeviceModel | None:
-    """``[model]``: the nominal device (specimen scale), or None for ``kind = "none"``."""
-    kind = t.choice("kind", MODEL_KINDS)
-    if kind == "none":
-        t.finish()
-        return None
-    try:
-        return _device(t, kind)
-    except ParameterError as exc:
-        raise ConfigError(f"{t.source}: [model] {exc}") from None
-
-
-def _device(t: Table, kind: str) -> DeviceModel:
-    if kind == "inerter":
-        model = DeviceModel(
-            "inerter",
-            inertance=t.number("inertance", nonnegative=True),
-            damping=t.number("damping", 0.0, nonnegative=True),
-        )
-    elif kind == "linear":
-        model = DeviceModel(
-            "linear",
-            inertance=t.number("mass", nonnegative=True),
-            damping=t.number("damping", 0.0, nonnegative=True),
-            stiffness=t.number("stiffness", 0.0, nonnegative=True),
-        )
-    else:
-        inertance = t.number("inertance", positive=True)
-        series = t.number("series_stiffness", None, positive=True)
-        damping = t.number("damping", None, nonnegative=True)
-        ratio = t.number("damping_ratio", None, lo=0.0, hi=10.0)
-        if damping is not None and ratio is not None:
-            raise t.error("damping_ratio", "give damping or damping_ratio, not both")
-        if ratio is not None:
-            if series is None:
-                raise t.error("damping_ratio", "needs series_stiffness (c = 2 xi sqrt(k m))")
-            damping = 2.0 * ratio * math.sqrt(series * inertance)
-        model = DeviceModel("imd", inertance, damping or 0.0, series_stiffness=series)
-    t.finish()
-    return model

@@ -11,6 +11,7 @@ Layout::
     structure   the structure channel of ``rths run`` logs
     verdict     the whole diagnosis                                   -> Diagnosis
     report      terminal table and figures
+    suite       a labelled suite's case folder as one campaign task (tools/score_diagnosis.py)
 
 Use::
 

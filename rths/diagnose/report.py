@@ -46,7 +46,13 @@ def _pct(x: float) -> str:
 
 
 def table(d: Diagnosis) -> str:
-    """The terminal summary: channels, ranked candidates, effects, verdict and shrink."""
+    """The terminal summary: channels, ranked candidates, effects, verdict and shrink.
+
+    Parameters
+    ----------
+    d
+        The diagnosis.
+    """
     lines = [
         f"identification: {', '.join(d.identification)}   held out: {', '.join(d.held_out)}"
         + ("   (time split)" if d.identification == d.held_out else ""),
@@ -106,7 +112,15 @@ def _held_part(c: ChannelResult, arrays: list[np.ndarray]) -> tuple[np.ndarray, 
 
 
 def write_figures(d: Diagnosis, directory: str | os.PathLike[str]) -> list[Path]:
-    """Write the four figures (module docstring) into ``directory``; return their paths."""
+    """Write the four figures (module docstring) into ``directory``; return their paths.
+
+    Parameters
+    ----------
+    d
+        The diagnosis.
+    directory
+        Folder for the PNG files (created if missing).
+    """
     import matplotlib
 
     matplotlib.use("Agg")

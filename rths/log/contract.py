@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from controllers.lqg import LQGCompensator
+from controllers.model_based.lqg import LQGCompensator
 from plants.cable.model import CABLE_CHANNELS
 from plants.lab import LAB_CHANNELS
 from rths.core.channels import Channel

@@ -291,6 +291,15 @@ def displacement_channel(
     of the sampling rate (no derivative: its noise is not amplified), the force (the drive) at
     the same cutoff.  Samples where the force is within ``2 F_0`` of zero are not scored;
     ``F_0`` (signal ``f0``) is five times the smoothed force noise or 1 % of the force's RMS.
+
+    Parameters
+    ----------
+    records
+        The records (one sampling rate).
+    nominal
+        The nominal model (its specimen predicts the displacement from the force).
+    held_out
+        Names of the held-out records (:func:`split_roles`); None holds out the second half.
     """
     dt = _check_rates(records)
     cutoff = DRIVE_CUTOFF / dt
@@ -319,6 +328,13 @@ def force_deviation(record: Record, nominal: NominalModel) -> NDArray[np.float64
     (contacts and stick-slip stay in it), the displacement through one at
     :data:`DEFAULT_CUTOFF` (its second derivative is noisy; the inertial force of a drive is
     slow).  Nominal friction is not subtracted.
+
+    Parameters
+    ----------
+    record
+        One record: measured displacement [m] and force [N].
+    nominal
+        The nominal model whose specimen (inertance, damping, stiffness) is subtracted.
     """
     x = smooth(record.measured, smoother(min(DEFAULT_CUTOFF, 0.2 / record.dt), record.dt))
     force = smooth(record.force, smoother(DRIVE_CUTOFF / record.dt, record.dt))

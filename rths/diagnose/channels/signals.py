@@ -56,7 +56,25 @@ NOISE_BAND: tuple[float, float] = (0.7, 0.95)
 
 
 def smoother(cutoff: float, dt: float) -> NDArray[np.float64]:
-    """Second-order sections of the low-pass ``h`` (cutoff [Hz] at sampling step ``dt`` [s])."""
+    """Second-order sections of the low-pass ``h``.
+
+    Parameters
+    ----------
+    cutoff
+        Corner frequency [Hz]; in ``(0, 0.9 f_Nyquist)``.
+    dt
+        Sample period [s].
+
+    Returns
+    -------
+    numpy.ndarray
+        Butterworth second-order sections, order :data:`SMOOTHING_ORDER`.
+
+    Raises
+    ------
+    ParameterError
+        When ``cutoff`` lies outside ``(0, 0.9 f_Nyquist)``; the message names it.
+    """
     nyquist = 0.5 / dt
     if not 0.0 < cutoff < 0.9 * nyquist:
         raise ParameterError(
@@ -81,7 +99,15 @@ def _zi(sos: NDArray[np.float64]) -> NDArray[np.float64]:
 def smooth(x: NDArray[np.float64], sos: NDArray[np.float64]) -> NDArray[np.float64]:
     """Zero-phase ``h*x``: ``scipy.signal.sosfiltfilt``'s algorithm (odd-extension padding of
     ``min(n - 1, 768)`` samples, steady-state initial conditions) with the initial-condition
-    vector cached per filter."""
+    vector cached per filter.
+
+    Parameters
+    ----------
+    x
+        Record, shape ``(n,)``, any unit (the output has the same).
+    sos
+        Second-order sections of the low-pass (:func:`smoother`).
+    """
     n = x.size
     pad = min(n - 1, 3 * 256)
     if pad > 0:
@@ -96,7 +122,20 @@ def smooth(x: NDArray[np.float64], sos: NDArray[np.float64]) -> NDArray[np.float
 
 
 def derivatives(x: NDArray[np.float64], dt: float) -> tuple[NDArray, NDArray]:
-    """Velocity and acceleration of a smooth record by central differences."""
+    """Velocity and acceleration of a smooth record by central differences.
+
+    Parameters
+    ----------
+    x
+        Smoothed displacement [m], shape ``(n,)``.
+    dt
+        Sample period [s].
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        Velocity [m/s] and acceleration [m/s^2] (``numpy.gradient``, second order inside).
+    """
     v = np.gradient(x, dt)
     return v, np.gradient(v, dt)
 
@@ -104,7 +143,17 @@ def derivatives(x: NDArray[np.float64], dt: float) -> tuple[NDArray, NDArray]:
 def white_noise_rms(x: NDArray[np.float64], dt: float) -> float:
     """RMS of the white noise on a record, from the median PSD over :data:`NOISE_BAND`.
 
-    Returns the standard deviation in the record's units; 0 for a constant record.
+    Parameters
+    ----------
+    x
+        Record, shape ``(n,)``, any unit.
+    dt
+        Sample period [s].
+
+    Returns
+    -------
+    float
+        Standard deviation of the white noise in the record's units; 0 for a constant record.
     """
     n = min(512, x.size)
     f, p = signal.welch(x - np.mean(x), fs=1.0 / dt, nperseg=n, detrend="linear")
@@ -125,6 +174,23 @@ def impulse_kernel(
     Used to predict the residual noise floor of the specimen channel: white noise of variance
     ``s^2`` through a kernel ``k`` has variance ``s^2 sum(k^2)``.  ``g`` is the low-pass the
     drive goes through before it is differentiated (``drive_sos``; default ``h`` itself).
+
+    Parameters
+    ----------
+    sos
+        Second-order sections of ``h`` (:func:`smoother`).
+    dt
+        Sample period [s].
+    linear
+        ``(m, c, k)`` of ``L``: inertance [kg], damping [N s/m], stiffness [N/m]; None for
+        the kernel of ``h`` alone.
+    drive_sos
+        Sections of the drive's low-pass ``g``; None uses ``sos``.
+
+    Returns
+    -------
+    numpy.ndarray
+        The kernel, 8192 samples centred on the impulse.
     """
     n = 8192
     delta = np.zeros(n)
@@ -144,6 +210,18 @@ def discrete_tf(
 
     ``y_k = C z_k + D u_k`` with ``z_{k+1} = A z_k + B u_k``: a strictly proper ``num/den``
     gives ``b[0] = 0`` (the sample at ``t_k`` does not see the command applied from ``t_k``).
+
+    Parameters
+    ----------
+    num, den
+        Continuous-time transfer function, descending powers of ``s``.
+    dt
+        Sample period [s].
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        Numerator ``b`` and denominator ``a`` in powers of ``z^-1`` (``scipy.signal.lfilter``).
     """
     if len(den) <= 1:
         return np.array([float(num[-1]) / float(den[0])]), np.array([1.0])
@@ -162,6 +240,20 @@ def actuator_replay(
     """Response of ``num/den`` from rest to a command in the DAQ convention (module docstring).
 
     Run by ``scipy.signal.lfilter`` on :func:`discrete_tf`.
+
+    Parameters
+    ----------
+    num, den
+        Continuous-time transfer function measured/command, descending powers of ``s``.
+    dt
+        Sample period [s].
+    command
+        Command [m], shape ``(n,)``; row ``k`` applied from ``t_k``.
+
+    Returns
+    -------
+    numpy.ndarray
+        The replayed displacement [m] sampled at ``t_k``.
     """
     b, a = discrete_tf(num, den, dt)
     return signal.lfilter(b, a, command)
@@ -171,6 +263,13 @@ def shifted(x: NDArray[np.float64], samples: float) -> NDArray[np.float64]:
     """``x`` delayed by ``samples`` (any real number; negative = advanced), linear interpolation.
 
     Outside the record the first (last) sample is held.
+
+    Parameters
+    ----------
+    x
+        Record, shape ``(n,)``.
+    samples
+        Delay in samples (fractional allowed).
     """
     if samples == 0.0:
         return x

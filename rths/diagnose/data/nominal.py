@@ -100,7 +100,17 @@ class SpecimenNominal:
 
 @dataclass(frozen=True)
 class NominalModel:
-    """The nominal transfer system and specimen (the two tables of ``NOMINAL.toml``)."""
+    """The nominal transfer system and specimen (the two tables of ``NOMINAL.toml``).
+
+    Attributes
+    ----------
+    actuator
+        The ``[actuator]`` table: command -> measured displacement.
+    specimen
+        The ``[specimen]`` table: measured displacement -> force.
+    source
+        Where the model came from (a path or ``"<nominal>"``), named in errors.
+    """
 
     actuator: ActuatorNominal
     specimen: SpecimenNominal
@@ -164,12 +174,30 @@ def _parse(doc: Table) -> NominalModel:
 
 
 def parse_nominal(text: str, source: str = "<nominal>") -> NominalModel:
-    """Parse ``NOMINAL.toml`` text (``source`` names it in errors)."""
+    """Parse ``NOMINAL.toml`` text.
+
+    Parameters
+    ----------
+    text
+        The TOML text.
+    source
+        What the text is (a path or a label), named in errors.
+
+    Raises
+    ------
+    ConfigError
+        As :func:`load_nominal`.
+    """
     return _parse(parse_toml(text, source))
 
 
 def load_nominal(path: str | os.PathLike[str]) -> NominalModel:
     """Read ``NOMINAL.toml``.
+
+    Parameters
+    ----------
+    path
+        The file.
 
     Raises
     ------
@@ -182,7 +210,20 @@ def load_nominal(path: str | os.PathLike[str]) -> NominalModel:
 
 
 def nominal_toml(model: NominalModel, comment: str = "") -> str:
-    """The TOML text of a nominal model (what :func:`load_nominal` reads back exactly)."""
+    """The TOML text of a nominal model (what :func:`load_nominal` reads back exactly).
+
+    Parameters
+    ----------
+    model
+        The model to write.
+    comment
+        Text put at the top as ``#`` comment lines (may hold several lines).
+
+    Raises
+    ------
+    ParameterError
+        A negative inertance or delay (the message names the value).
+    """
     a, s = model.actuator, model.specimen
     for name, value in (("inertance", s.inertance), ("delay", a.delay)):
         if value < 0.0:

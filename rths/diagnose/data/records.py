@@ -176,6 +176,11 @@ def _bad_cell(path: Path, index: dict[str, int]) -> DataError:
 def read_csv(path: str | os.PathLike[str]) -> Record:
     """Read a CSV record of the section-7 contract (module docstring).
 
+    Parameters
+    ----------
+    path
+        The CSV file: header ``time,command,measured,force`` (s, m, m, N).
+
     Raises
     ------
     DataError
@@ -220,7 +225,25 @@ def align_log(
 
     Row ``k`` of the result: time ``t_k = time[k] - dt`` (the step's start), the command applied
     from it (``command[k]``), and the measurement at ``t_k``: the previous log row's, or the
-    rest state (0) for the first row.  Returns ``(time, command, measured, force[, target])``.
+    rest state (0) for the first row.
+
+    Parameters
+    ----------
+    time
+        Log time [s] of each row: the end of the step.
+    command
+        Command [m] held over the step ending at ``time[k]``.
+    measured
+        Measured displacement [m] at ``time[k]``.
+    force
+        Measured force [N] at ``time[k]``.
+    target
+        Target displacement [m] at ``time[k]``, if logged.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(time, command, measured, force[, target])`` in the DAQ convention.
     """
     dt = float(time[1] - time[0]) if time.size > 1 else 0.0
 
@@ -235,6 +258,11 @@ def read_mcap(path: str | os.PathLike[str]) -> Record:
     """Read topic ``rths/loop`` (and the scenario metadata) of an ``rths run`` MCAP log.
 
     The rows are aligned to the DAQ timing convention (:func:`align_log`).
+
+    Parameters
+    ----------
+    path
+        The ``.mcap`` log.
 
     Raises
     ------
@@ -268,7 +296,18 @@ def read_mcap(path: str | os.PathLike[str]) -> Record:
 
 
 def load_record(path: str | os.PathLike[str]) -> Record:
-    """A CSV or MCAP record, chosen by content (MCAP magic bytes) rather than by suffix."""
+    """A CSV or MCAP record, chosen by content (MCAP magic bytes) rather than by suffix.
+
+    Parameters
+    ----------
+    path
+        The data file.
+
+    Raises
+    ------
+    DataError
+        Unreadable file, or the errors of :func:`read_csv` / :func:`read_mcap`.
+    """
     p = Path(path)
     try:
         with open(p, "rb") as f:
@@ -287,7 +326,26 @@ def write_csv(
     measured: NDArray[np.float64],
     force: NDArray[np.float64],
 ) -> None:
-    """Write a record in the CSV contract (17 significant digits: lossless for float64)."""
+    """Write a record in the CSV contract (17 significant digits: lossless for float64).
+
+    Parameters
+    ----------
+    path
+        The CSV file to write.
+    time
+        Sample times [s], uniform.
+    command
+        Command [m], row ``k`` applied from ``t_k``.
+    measured
+        Measured displacement [m] at ``t_k``.
+    force
+        Measured force [N] at ``t_k``.
+
+    Raises
+    ------
+    DataError
+        Columns of unequal length or non-finite values.
+    """
     table = np.column_stack([time, command, measured, force])
     if table.ndim != 2 or table.shape[1] != 4:
         raise DataError(f"write_csv needs four equal 1-D columns; got shape {table.shape}")

@@ -47,6 +47,15 @@ def seed_converters(
 
     LVDT 0.0076 m/V (+/-76 mm), load cell ``force_per_volt`` [N/V]; noise in V RMS (defaults:
     3.8 um and 1 N).
+
+    Parameters
+    ----------
+    displacement_noise
+        LVDT noise [V RMS] (x 0.0076 m/V).
+    force_noise
+        Load-cell noise [V RMS] (x ``force_per_volt``).
+    force_per_volt
+        Load-cell sensitivity [N/V]; +/-10 V full scale.
     """
     return LabConverters(
         command=Converter(0.0076, bits=16, full_scale=10.0),
@@ -173,6 +182,21 @@ def band_limited_command(
 ) -> NDArray[np.float64]:
     """Gaussian noise band-passed to ``band`` [Hz] (4th-order Butterworth, zero phase), scaled
     to ``rms`` [m] and tapered in and out over ``ramp`` [s] (the test starts and ends at rest).
+
+    Parameters
+    ----------
+    rng
+        The random generator (the record is a function of its state).
+    duration
+        Length [s].
+    dt
+        Sample period [s].
+    band
+        Pass band ``(low, high)`` [Hz], inside ``(0, 1/(2 dt))``.
+    rms
+        RMS of the command [m] before the taper.
+    ramp
+        Length [s] of the raised-cosine taper at each end.
     """
     n = int(round(duration / dt))
     sos = signal.butter(4, band, btype="bandpass", fs=1.0 / dt, output="sos")
@@ -213,6 +237,19 @@ def lab_record(
     The converters are ``case.converters`` (default :func:`seed_converters`) with the load cell
     ranged as a lab engineer would: if the force saturates, the run is repeated with the force
     range set to 1.25 times the peak true force.
+
+    Parameters
+    ----------
+    case
+        The specimen, transfer system and hidden effect.
+    command
+        Command history [m], one value per step.
+    dt
+        Sample period [s].
+    seed
+        Seed of the converters' noise.
+    name
+        The record's name (as a file name would be).
     """
     converters = case.converters or seed_converters()
     measured, force, peak, saturated = _run(case, command, dt, seed, converters)

@@ -101,7 +101,13 @@ _ELEMENTS = frozenset({"backlash", "internal_stiffness"})
 
 
 def compatible(effects: tuple[str, ...]) -> bool:
-    """Whether one model can hold all of ``effects`` (one subsystem, one series element)."""
+    """Whether one model can hold all of ``effects`` (one subsystem, one series element).
+
+    Parameters
+    ----------
+    effects
+        Effect names (keys of :data:`EFFECTS`).
+    """
     if len({EFFECTS[e].subsystem for e in effects}) > 1:
         return False
     return len(_ELEMENTS.intersection(effects)) <= 1
@@ -116,8 +122,13 @@ CHANNEL_EFFECTS: dict[str, tuple[str, ...]] = {
 
 
 def baseline_for(channel: str) -> Model:
-    """The re-calibrated nominal model of a channel (``measured``, ``force``,
-    ``displacement``)."""
+    """The re-calibrated nominal model of a channel.
+
+    Parameters
+    ----------
+    channel
+        ``"measured"`` (actuator), ``"force"`` or ``"displacement"`` (specimen).
+    """
     if channel == "measured":
         return ActuatorModel()
     return ComplianceModel() if channel == "displacement" else RigidSpecimen()
@@ -126,6 +137,13 @@ def baseline_for(channel: str) -> Model:
 def models_for(channel: str, effects: tuple[str, ...]) -> list[Model]:
     """The model structures of a channel that hold ``effects`` (module docstring); tried in
     turn.
+
+    Parameters
+    ----------
+    channel
+        ``"measured"``, ``"force"`` or ``"displacement"``.
+    effects
+        The effects the models must hold (:data:`CHANNEL_EFFECTS` of the channel).
 
     Raises
     ------

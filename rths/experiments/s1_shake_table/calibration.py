@@ -51,9 +51,9 @@ import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import brentq
 
-from plants.tmdi import kernel as kern
-from plants.tmdi import layout
 from plants.tmdi.hdrb import AMPLITUDE_RANGE, HDRB, S1_PRIMARY, AmplitudeDamping
+from plants.tmdi.integration import kernel as kern
+from plants.tmdi.integration import layout
 from plants.tmdi.parameters import TMDIParameters
 from rths.core.errors import NumericalError, ParameterError, check_positive
 

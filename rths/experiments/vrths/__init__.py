@@ -10,5 +10,6 @@ every compensator compared on its four partitioning cases.
   comparison behind ``rths compare`` and its tables and figure.
 
 The scoring itself (F4's J1-J9) is :mod:`rths.metrics.vrths`; the frame is :mod:`plants.frame`;
-the sample controller is :mod:`controllers.pi_lead`.  Facts and sources: docs/vrths_benchmark.md.
+the sample controller is :mod:`controllers.baselines.pi_lead`.  Facts and sources:
+docs/vrths_benchmark.md.
 """

@@ -8,6 +8,7 @@ F4's rounding), the four cases as columns.  The perturbed table gives the median
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,7 @@ from rths.metrics.vrths import ACTUATOR_CAPACITY, CRITERIA
 __all__ = ["nominal_table", "perturbed_table", "plot_j2", "render", "worst_j2_table"]
 
 _UNITS = {"J1": "ms"} | {name: "%" for name in CRITERIA[1:]}
+_WIDTH = 24  # characters of a kind's tables' label column
 
 
 def _fmt(value: float, digits: int = 2) -> str:
@@ -26,6 +28,16 @@ def _fmt(value: float, digits: int = 2) -> str:
 
 def _label(name: str) -> str:
     return f"{name} [{_UNITS[name]}]"
+
+
+def _head(title: str, cases: Sequence[int], column: int, width: int = _WIDTH) -> list[str]:
+    """A table's title and its header: a blank label column, then ``Case n`` per case."""
+    return [title, " " * width + "".join(f"{'Case ' + str(n):>{column}}" for n in cases)]
+
+
+def _row(label: str, cells: list[str], column: int, width: int = _WIDTH) -> str:
+    """One line of a table: the label, then each cell right-aligned in ``column`` characters."""
+    return f"{label:<{width}}" + "".join(f"{cell:>{column}}" for cell in cells)
 
 
 def _title(c: Comparison, kind: str, what: str) -> str:
@@ -43,23 +55,19 @@ def nominal_table(c: Comparison, kind: str) -> str:
         The compensator kind whose trials are tabulated (one of ``c.kinds``).
     """
     cases = c.cases
-    width = 24
-    lines = [_title(c, kind, "nominal plant (F4_evaluation.m)"),
-             " " * width + "".join(f"{'Case ' + str(n):>10}" for n in cases)]  # fmt: skip
+    lines = _head(_title(c, kind, "nominal plant (F4_evaluation.m)"), cases, 10)
     for name in CRITERIA:
         digits = 1 if name == "J1" else 2
         row = [_fmt(float(c.criterion(kind, n, name, True)[0]), digits) for n in cases]
-        lines.append(f"{_label(name):<{width}}" + "".join(f"{v:>10}" for v in row))
+        lines.append(_row(_label(name), row, 10))
     extra = (("J2 noise-free [%]", "j2_noise_free", 1.0, 2),
              ("J2 noise floor [%]", "noise_floor", 1.0, 2),
              ("max|F_a| [kN]", "peak_force", 1e-3, 2))  # fmt: skip
     for label, attr, scale, digits in extra:
         row = [_fmt(scale * float(c.criterion(kind, n, attr, True)[0]), digits) for n in cases]
-        lines.append(f"{label:<{width}}" + "".join(f"{v:>10}" for v in row))
+        lines.append(_row(label, row, 10))
     stopped = [c.select(kind, n, True)[0].stopped for n in cases]
-    lines.append(
-        f"{'interlock':<{width}}" + "".join(f"{('yes' if s else 'no'):>10}" for s in stopped)
-    )
+    lines.append(_row("interlock", ["yes" if s else "no" for s in stopped], 10))
     return "\n".join(lines)
 
 
@@ -74,9 +82,7 @@ def perturbed_table(c: Comparison, kind: str) -> str:
         The compensator kind whose trials are tabulated (one of ``c.kinds``).
     """
     cases = c.cases
-    width = 24
-    lines = [_title(c, kind, f"{c.perturbed} perturbed plants: median / worst"),
-             " " * width + "".join(f"{'Case ' + str(n):>16}" for n in cases)]  # fmt: skip
+    lines = _head(_title(c, kind, f"{c.perturbed} perturbed plants: median / worst"), cases, 16)
     names = [*CRITERIA, "j2_noise_free"]
     for name in names:
         digits = 1 if name == "J1" else 2
@@ -87,20 +93,20 @@ def perturbed_table(c: Comparison, kind: str) -> str:
             cells.append("-" if v.size == 0 else f"{_fmt(float(np.median(v)), digits)} / "
                          f"{_fmt(float(np.max(v)), digits)}")  # fmt: skip
         label = _label(name) if name in CRITERIA else "J2 noise-free [%]"
-        lines.append(f"{label:<{width}}" + "".join(f"{s:>16}" for s in cells))
+        lines.append(_row(label, cells, 16))
     cells = []
     for n in cases:
         trials = c.select(kind, n, False)
         stopped = sum(r.stopped is not None for r in trials)
         cells.append(f"{stopped}/{len(trials)}")
-    lines.append(f"{'interlocks':<{width}}" + "".join(f"{s:>16}" for s in cells))
+    lines.append(_row("interlocks", cells, 16))
     cells = []
     for n in cases:
         trials = c.select(kind, n, False)
         peak = max((r.peak_force for r in trials), default=math.nan)
         over = sum(r.over_capacity for r in trials)
         cells.append(f"{_fmt(peak / 1e3)} ({over} >=8.9)")
-    lines.append(f"{'max|F_a| [kN]':<{width}}" + "".join(f"{s:>16}" for s in cells))
+    lines.append(_row("max|F_a| [kN]", cells, 16))
     return "\n".join(lines)
 
 
@@ -113,9 +119,11 @@ def worst_j2_table(c: Comparison) -> str:
         The finished comparison (trials of every kind, case and plant).
     """
     cases = c.cases
-    lines = [f"worst J2 over {c.perturbed} perturbed plants [%] (F4 / noise-free); "
-             f"'*' = some runs interlocked",
-             f"{'':<12}" + "".join(f"{'Case ' + str(n):>18}" for n in cases)]  # fmt: skip
+    title = (
+        f"worst J2 over {c.perturbed} perturbed plants [%] (F4 / noise-free); "
+        "'*' = some runs interlocked"
+    )
+    lines = _head(title, cases, 18, width=12)
     for kind in c.kinds:
         cells = []
         for n in cases:
@@ -124,7 +132,7 @@ def worst_j2_table(c: Comparison) -> str:
             mark = "*" if np.any(~np.isfinite(j2)) else ""
             worst = np.max(j2[np.isfinite(j2)]) if np.any(np.isfinite(j2)) else math.nan
             cells.append(f"{_fmt(worst)}{mark} / {_fmt(float(np.nanmax(clean)))}")
-        lines.append(f"{kind:<12}" + "".join(f"{s:>18}" for s in cells))
+        lines.append(_row(kind, cells, 18, width=12))
     return "\n".join(lines)
 
 

@@ -1,7 +1,9 @@
-"""The LQG (and FF+LQG) compensator step compiled with numba (private to controllers.lqg).
+"""The LQG (and FF+LQG) compensator step compiled with numba (private to
+controllers.model_based.lqg).
 
-:meth:`controllers.lqg.LQGCompensator._step_impl` with its feedforward
-(:meth:`controllers.feedforward.FeedforwardCompensator.command`) is plain Python on small numpy
+:meth:`controllers.model_based.lqg.LQGCompensator._step_impl` with its feedforward
+(:meth:`controllers.model_based.feedforward.FeedforwardCompensator.command`) is plain Python on
+small numpy
 arrays: a dozen array operations and attribute look-ups per step.  Here the same arithmetic runs
 as one compiled call on two flat arrays -- the constants ``P`` and the state ``S`` (layouts
 below) -- so a step costs one dispatch.  ``tests/test_lqg.py`` checks it against the Python path

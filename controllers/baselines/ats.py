@@ -37,9 +37,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from controllers._ats_kernel import CONSTS, ats_step
 from controllers._lti import inverse_taylor, siso_polynomials
 from controllers.base import Compensator
+from controllers.baselines._ats_kernel import CONSTS, ats_step
 from rths.core.errors import (
     ParameterError,
     check_finite,
@@ -133,7 +133,8 @@ class AdaptiveTimeSeries(Compensator):
     settings
         Tuning; :class:`ATSSettings` defaults when omitted.
     use_jit
-        Step with the compiled kernel (:func:`controllers._ats_kernel.ats_step`, default; the
+        Step with the compiled kernel (:func:`controllers.baselines._ats_kernel.ats_step`, default;
+        the
         coefficients equal the Python path's to round-off) or in Python (the reference path).
     """
 

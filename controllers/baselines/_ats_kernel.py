@@ -1,6 +1,7 @@
-"""The ATS compensator's step as one compiled call (private to :mod:`controllers.ats`).
+"""The ATS compensator's step as one compiled call (private to :mod:`controllers.baselines.ats`).
 
-Per step :class:`controllers.ats.AdaptiveTimeSeries` low-passes the previous command and the
+Per step :class:`controllers.baselines.ats.AdaptiveTimeSeries` low-passes the previous command and
+the
 measurement (two 6th-order Butterworths, three sections each), writes them into its moving
 window and, every ``update_every`` steps, re-identifies ``(a0, a1, a2)`` by least squares over
 the window (4096 samples at 4096 Hz).  In NumPy the update costs ~200 us (a dozen array

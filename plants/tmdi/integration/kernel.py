@@ -1,4 +1,5 @@
-"""Fixed-step integration kernel shared by the S1 plants (numba; private).
+"""Fixed-step integration kernel shared by the S1 plants (numba; private); the constitutive laws
+it integrates are :mod:`plants.tmdi.integration.laws`.
 
 One kernel integrates the TMDI structure of S1 Eq.12 together with the rack-and-pinion inerter of
 S1 Eq.9-11, or the inerter alone with the rack displacement prescribed (the specimen), so the
@@ -52,7 +53,17 @@ import math
 import numpy as np
 from numba import njit
 
-from plants.tmdi.layout import (
+from plants.tmdi.integration.laws import (
+    accelerations,
+    dashpots,
+    friction,
+    gap_offset,
+    hermite,
+    spring,
+    torque,
+    track_amplitude,
+)
+from plants.tmdi.integration.layout import (
     BACKWARD,
     FORWARD,
     I_AG0,
@@ -63,11 +74,6 @@ from plants.tmdi.layout import (
     I_U1,
     I_V0,
     I_V1,
-    LAW_AHI,
-    LAW_ALO,
-    LAW_C0,
-    LAW_N,
-    LAW_TOL,
     N_INPUT,
     N_OUTPUT,
     N_STATE,
@@ -122,11 +128,6 @@ from plants.tmdi.layout import (
     S_U_T,
     S_V_I,
     S_V_T,
-    TRK_DC,
-    TRK_DIR,
-    TRK_EXT,
-    TRK_SEEN,
-    TRK_TURN,
 )
 from rths.core.errors import RTHSError
 
@@ -138,123 +139,6 @@ GAP_TOL = 1e-13  # [rad] penetration tolerated before a contact event is declare
 
 class IntegrationError(RTHSError, ArithmeticError):
     """An implicit step did not converge (non-finite input or a non-monotonic spring)."""
-
-
-@njit(cache=True, error_model="numpy")
-def hermite(u0: float, v0: float, u1: float, v1: float, dt: float, s: float) -> tuple:
-    """Cubic Hermite interpolant of (u, v) over ``[0, dt]`` at the fraction ``s``: (u, v)."""
-    s2 = s * s
-    s3 = s2 * s
-    u = (
-        (2.0 * s3 - 3.0 * s2 + 1.0) * u0
-        + (s3 - 2.0 * s2 + s) * dt * v0
-        + (-2.0 * s3 + 3.0 * s2) * u1
-        + (s3 - s2) * dt * v1
-    )
-    v = (
-        (6.0 * s2 - 6.0 * s) * (u0 - u1) / dt
-        + (3.0 * s2 - 4.0 * s + 1.0) * v0
-        + (3.0 * s2 - 2.0 * s) * v1
-    )
-    return u, v
-
-
-@njit(cache=True, error_model="numpy")
-def _spring(u: float, k1: float, k2: float, k3: float) -> tuple:
-    """HDRB spring S1 Eq.8: force and tangent stiffness."""
-    au = abs(u)
-    return k1 * u + k2 * u * au + k3 * u * u * u, k1 + 2.0 * k2 * au + 3.0 * k3 * u * u
-
-
-@njit(cache=True, error_model="numpy")
-def dashpots(s: np.ndarray, p: np.ndarray) -> tuple:
-    """Current dashpot coefficients ``(c_I, c_T)`` [N s/m] of the two HDRBs (S1 Eq.8)."""
-    return (
-        p[P_LAW_I + LAW_C0] * (1.0 + s[S_AMP_I + TRK_DC]),
-        p[P_LAW_T + LAW_C0] * (1.0 + s[S_AMP_T + TRK_DC]),
-    )
-
-
-@njit(cache=True, error_model="numpy")
-def track_amplitude(s: np.ndarray, block: int, u: float, p: np.ndarray, law: int) -> None:
-    """Feed the deformation ``u`` [m] to the amplitude estimate at state ``block`` and update
-    the dashpot of the damping law at parameter block ``law``.
-
-    The rule of :class:`plants.imd.amplitude.AmplitudeTracker`: a reversal is a retreat of
-    more than the tolerance from the running extremum; the amplitude is half the distance
-    between the last two reversals (0 until two have been seen).  At each new amplitude ``A``
-    the dashpot ratio ``c(A)/c(A_lo) = (clip(A, A_lo, A_hi)/A_lo)**(-n)`` is stored.
-    """
-    direction = s[block + TRK_DIR]
-    extremum = s[block + TRK_EXT]
-    if direction == 0.0:
-        if abs(u - extremum) > p[law + LAW_TOL]:
-            s[block + TRK_DIR] = 1.0 if u > extremum else -1.0
-            s[block + TRK_EXT] = u
-        return
-    if (u - extremum) * direction >= 0.0:
-        s[block + TRK_EXT] = u
-        return
-    if abs(u - extremum) <= p[law + LAW_TOL]:
-        return
-    s[block + TRK_DIR] = -direction
-    s[block + TRK_EXT] = u
-    if s[block + TRK_SEEN] != 0.0:
-        amplitude = 0.5 * abs(extremum - s[block + TRK_TURN])
-        s[block] = amplitude
-        a = min(max(amplitude, p[law + LAW_ALO]), p[law + LAW_AHI])
-        s[block + TRK_DC] = (a / p[law + LAW_ALO]) ** (-p[law + LAW_N]) - 1.0
-    s[block + TRK_TURN] = extremum
-    s[block + TRK_SEEN] = 1.0
-
-
-@njit(cache=True, error_model="numpy")
-def _offset(mode: int, p: np.ndarray) -> float:
-    return p[P_EPS1] if mode == FORWARD else -p[P_EPS2]
-
-
-@njit(cache=True, error_model="numpy")
-def torque(s: np.ndarray, mode: int, p: np.ndarray) -> float:
-    """Torque [N m] transmitted through the gap to the flywheel (0 while open), S1 Eq.9/11."""
-    if mode == OPEN or p[P_RACK] == 0.0:
-        return 0.0
-    r = p[P_R]
-    return p[P_KS] * (s[S_U_T] / r - s[S_TH_G] - _offset(mode, p)) + p[P_CS] * (
-        s[S_V_T] / r - s[S_OM_G]
-    )
-
-
-@njit(cache=True, error_model="numpy")
-def friction(v_t: float, p: np.ndarray) -> float:
-    """Regularised Coulomb friction of the rack ``f_y tanh(v/v_eps)`` [N], S1 Eq.10."""
-    if p[P_RACK] == 0.0 or p[P_FY] == 0.0:
-        return 0.0
-    return p[P_FY] * math.tanh(v_t / p[P_VEPS])
-
-
-@njit(cache=True, error_model="numpy")
-def accelerations(s: np.ndarray, ag: float, f_ext: float, p: np.ndarray) -> tuple:
-    """Accelerations (a_I, a_T, α_G) from equilibrium (S1 Eq.12) at the state ``s``."""
-    mode = int(s[S_MODE])
-    c_i, c_t = dashpots(s, p)
-    f_i = _spring(s[S_U_I], p[P_K1_I], p[P_K2_I], p[P_K3_I])[0] + c_i * s[S_V_I]
-    f_t = _spring(s[S_U_T] - s[S_U_I], p[P_K1_T], p[P_K2_T], p[P_K3_T])[0] + c_t * (
-        s[S_V_T] - s[S_V_I]
-    )
-    a_i = (-p[P_M_I] * ag - f_i + f_t) / p[P_M_I]
-    m_t = p[P_M_T] + p[P_B]
-    a_t = 0.0
-    tq = torque(s, mode, p)
-    if m_t > 0.0:
-        f_rack = 0.0
-        if p[P_RACK] != 0.0:
-            f_rack = friction(s[S_V_T], p) + tq / p[P_R]
-        f_rack += p[P_C_G] * s[S_V_T]
-        a_t = (-p[P_M_T] * ag - f_t - f_rack - f_ext) / m_t
-    alpha = 0.0
-    if p[P_RACK] != 0.0:
-        alpha = (tq - p[P_CB] * s[S_OM_G]) / p[P_J]
-    return a_i, a_t, alpha
 
 
 @njit(cache=True, error_model="numpy")
@@ -315,7 +199,7 @@ def _advance(
         x[1] = u_drv
     ci, mi = 2.0 / h, 4.0 / (h * h)
     c_i, c_t = dashpots(s0, p)  # the amplitude estimates change only between loop steps
-    delta = _offset(mode, p) if contact else 0.0
+    delta = gap_offset(mode, p) if contact else 0.0
     ok = False
     for _ in range(MAX_NEWTON):
         for k in range(3):
@@ -323,8 +207,8 @@ def _advance(
             a[k] = mi * (x[k] - x0[k]) - 2.0 * ci * v0[k] - a0[k]
         if driven:
             v[1] = v_drv
-        f_ei, k_i = _spring(x[0], p[P_K1_I], p[P_K2_I], p[P_K3_I])
-        f_et, k_t = _spring(x[1] - x[0], p[P_K1_T], p[P_K2_T], p[P_K3_T])
+        f_ei, k_i = spring(x[0], p[P_K1_I], p[P_K2_I], p[P_K3_I])
+        f_et, k_t = spring(x[1] - x[0], p[P_K1_T], p[P_K2_T], p[P_K3_T])
         f_i = f_ei + c_i * v[0]
         f_t = f_et + c_t * (v[1] - v[0])
         tq, dfric = 0.0, 0.0
@@ -423,7 +307,7 @@ def _event(s0: np.ndarray, s1: np.ndarray, mode: int, p: np.ndarray) -> tuple:
 def _enter(s: np.ndarray, mode: int, p: np.ndarray) -> None:
     s[S_MODE] = mode
     if mode != OPEN:  # the massless node sits on the contact face
-        s[S_TH_S] = s[S_TH_G] + _offset(mode, p)
+        s[S_TH_S] = s[S_TH_G] + gap_offset(mode, p)
 
 
 @njit(cache=True, error_model="numpy")
@@ -484,10 +368,10 @@ def outputs(s: np.ndarray, ag: float, f_ext: float, p: np.ndarray, out: np.ndarr
     out[O_U_I] = s[S_U_I]
     out[O_A_I_TOT] = a_i + ag
     c_i, c_t = dashpots(s, p)
-    out[O_F_I] = _spring(s[S_U_I], p[P_K1_I], p[P_K2_I], p[P_K3_I])[0] + c_i * s[S_V_I]
+    out[O_F_I] = spring(s[S_U_I], p[P_K1_I], p[P_K2_I], p[P_K3_I])[0] + c_i * s[S_V_I]
     out[O_U_TI] = u_ti
     out[O_A_T_TOT] = a_t + ag
-    out[O_F_T] = _spring(u_ti, p[P_K1_T], p[P_K2_T], p[P_K3_T])[0] + c_t * (s[S_V_T] - s[S_V_I])
+    out[O_F_T] = spring(u_ti, p[P_K1_T], p[P_K2_T], p[P_K3_T])[0] + c_t * (s[S_V_T] - s[S_V_I])
     out[O_U_T] = s[S_U_T]
     out[O_A_T] = a_t
     tq = torque(s, mode, p)

@@ -32,8 +32,8 @@ import control
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from controllers._pi_lead_kernel import PARAMS, STATE, pi_lead_step
 from controllers.base import Compensator
+from controllers.baselines._pi_lead_kernel import PARAMS, STATE, pi_lead_step
 from rths.core.channels import Channel
 from rths.core.errors import ParameterError, check_nonnegative, check_positive
 from rths.core.kinematics import Kinematics
@@ -192,7 +192,7 @@ class PILeadCompensator(Compensator):
     lookahead
         Feed ``G_T`` the target for the end of the step instead of the benchmark's current one.
     use_jit
-        Step with the compiled kernel (:func:`controllers._pi_lead_kernel.pi_lead_step`,
+        Step with the compiled kernel (:func:`controllers.baselines._pi_lead_kernel.pi_lead_step`,
         default; bit for bit the Python path) or in Python (the reference path).
     """
 

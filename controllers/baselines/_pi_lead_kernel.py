@@ -1,6 +1,7 @@
-"""The benchmark's sample controller as one compiled call (private to :mod:`controllers.pi_lead`).
+"""The benchmark's sample controller as one compiled call (private to
+:mod:`controllers.baselines.pi_lead`).
 
-:class:`controllers.pi_lead.PILeadCompensator` runs two first-order sections and four
+:class:`controllers.baselines.pi_lead.PILeadCompensator` runs two first-order sections and four
 converters per loop step: a few dozen float operations that cost about 2 us as Python calls.
 :func:`pi_lead_step` does the same operations in the same order (scalar arithmetic only, so the
 results are bit for bit those of the Python path, the reference kept in

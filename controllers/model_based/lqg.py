@@ -43,10 +43,10 @@ from typing import TYPE_CHECKING
 import control
 import numpy as np
 
-from controllers import _lqg_kernel
 from controllers._lti import FloatArray, balanced_realization, dc_gain, siso_polynomials
 from controllers.base import Compensator
-from controllers.feedforward import FeedforwardCompensator
+from controllers.model_based import _lqg_kernel
+from controllers.model_based.feedforward import FeedforwardCompensator
 from rths.core.channels import Channel
 from rths.core.errors import (
     ParameterError,
@@ -296,8 +296,9 @@ class LQGCompensator(Compensator):
 
     ``u_k = u^ff_k + u^fb_k``.  With ``feedforward=None`` (kind ``"lqg"``) the feedforward is the
     static inverse ``r_{k+1}/G(0)`` and the LQG alone removes the error at low frequency; with a
-    :class:`~controllers.feedforward.FeedforwardCompensator` it is the FF+LQG compensator of
-    Phillips & Spencer (2013) (kind ``"ff_lqg"``, :mod:`controllers.ff_lqg`).
+    :class:`~controllers.model_based.feedforward.FeedforwardCompensator` it is the FF+LQG
+    compensator of
+    Phillips & Spencer (2013) (kind ``"ff_lqg"``, :mod:`controllers.model_based.ff_lqg`).
 
     Parameters
     ----------
@@ -312,7 +313,8 @@ class LQGCompensator(Compensator):
         ``filterpy.kalman.KalmanFilter`` (:meth:`LQGDesign.kalman_filter`; always the Python
         path, ~20 us more per step on the reference VM).
     use_jit
-        Step with the compiled kernel (:mod:`controllers._lqg_kernel`, one call per step);
+        Step with the compiled kernel (:mod:`controllers.model_based._lqg_kernel`, one call per
+        step);
         False runs the readable Python reference (same results to round-off, tested).  Ignored
         (False) with ``estimator="filterpy"``.
     """

@@ -1,7 +1,7 @@
 """The FF+LQG compensator of Phillips & Spencer (2013), used in the seed RTHS test (S0 §5.2).
 
-Model-based feedforward (:mod:`controllers.feedforward`) for tracking plus LQG feedback
-(:mod:`controllers.lqg`) for robustness to model error, noise and disturbances:
+Model-based feedforward (:mod:`controllers.model_based.feedforward`) for tracking plus LQG feedback
+(:mod:`controllers.model_based.lqg`) for robustness to model error, noise and disturbances:
 ``u_k = u^ff_k + u^fb_k``.  This module only binds the two under the registry name ``"ff_lqg"``.
 """
 
@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from controllers.feedforward import FeedforwardCompensator, FeedforwardOptions
-from controllers.lqg import LQGCompensator, LQGDesign, LQGWeights, design_lqg
+from controllers.model_based.feedforward import FeedforwardCompensator, FeedforwardOptions
+from controllers.model_based.lqg import LQGCompensator, LQGDesign, LQGWeights, design_lqg
 from rths.core.errors import ParameterError
 from rths.core.registry import COMPENSATORS
 
@@ -20,8 +20,8 @@ __all__ = ["FFLQGCompensator", "FFLQGOptions"]
 @dataclass(frozen=True)
 class FFLQGOptions(LQGWeights, FeedforwardOptions):
     """Options of the ``ff_lqg`` compensator kind: those of ``ff``
-    (:class:`~controllers.feedforward.FeedforwardOptions`) and of ``lqg``
-    (:class:`~controllers.lqg.LQGWeights`).
+    (:class:`~controllers.model_based.feedforward.FeedforwardOptions`) and of ``lqg``
+    (:class:`~controllers.model_based.lqg.LQGWeights`).
 
     The descriptions' first sentences repeat the parents' (``rths kinds`` shows the first sentence
     of the most derived class's; keep them in step).
@@ -72,11 +72,12 @@ class FFLQGCompensator(LQGCompensator):
     dt
         Loop time step [s].
     design
-        LQG gains from :func:`controllers.lqg.design_lqg` (same ``dt``).
+        LQG gains from :func:`controllers.model_based.lqg.design_lqg` (same ``dt``).
     feedforward
         The model-based feedforward (required).
     estimator
-        ``"steady"`` (hot path) or ``"filterpy"`` (:class:`~controllers.lqg.LQGCompensator`).
+        ``"steady"`` (hot path) or ``"filterpy"``
+        (:class:`~controllers.model_based.lqg.LQGCompensator`).
     use_jit
         Step with the compiled kernel (default) or the Python reference path.
 

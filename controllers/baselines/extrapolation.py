@@ -1,6 +1,7 @@
 """Baseline compensators: no compensation and polynomial extrapolation with a fixed delay.
 
-The adaptive time series (ATS) baseline lives in :mod:`controllers.ats`.
+The adaptive time series (ATS) baseline lives in :mod:`controllers.baselines.ats`, the vRTHS
+benchmark's sample controller in :mod:`controllers.baselines.pi_lead`.
 """
 
 from __future__ import annotations

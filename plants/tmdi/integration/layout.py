@@ -1,6 +1,6 @@
-"""Layout of the arrays the S1 kernel (:mod:`plants.tmdi.kernel`) works on: parameter, state,
-input and output vectors, contact modes, and :func:`pack_parameters` that fills the parameter vector
-from validated parameter objects."""
+"""Layout of the arrays the S1 kernel (:mod:`plants.tmdi.integration.kernel`) works on: parameter,
+state, input and output vectors, contact modes, and :func:`pack_parameters` that fills the
+parameter vector from validated parameter objects."""
 
 from __future__ import annotations
 
