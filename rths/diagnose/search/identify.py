@@ -455,7 +455,8 @@ def cross_fit(
 ) -> Fit:
     """:func:`fit_model` on both folds of :func:`blocked` (module docstring): the first
     fold's fit, its ``held_mse`` the mean squared residual over both folds' held-out samples
-    (each fold's model on the samples it did not see).
+    and its ``prediction`` the cross-validated one (each sample predicted by the fold that did
+    not see it), so that the residuals a caller reads on any samples are out of sample.
 
     Parameters
     ----------
@@ -468,4 +469,10 @@ def cross_fit(
     n1 = sum(int(np.sum(s.held)) for s in folds[0].segments)
     n2 = sum(int(np.sum(s.held)) for s in folds[1].segments)
     pooled = (first.held_mse * n1 + second.held_mse * n2) / max(n1 + n2, 1)
-    return replace(first, held_mse=pooled)
+    prediction = [
+        np.where(s.held, p1, np.where(t.held, p2, p1))
+        for s, t, p1, p2 in zip(
+            folds[0].segments, folds[1].segments, first.prediction, second.prediction, strict=True
+        )
+    ]
+    return replace(first, held_mse=pooled, prediction=prediction)
