@@ -13,8 +13,10 @@ Order of work:
 The verdict is the first effect of the channel with the largest reducible gap (relative to its
 observation's mean square); ``unexplained`` when that channel's effects close less than half of
 its significant gap; ``none`` when no channel's baseline residual is significant against its
-noise floor.  The shrink is the selected set's share ``rho`` of that channel's reducible gap
-and ``gap.before``/``gap.after`` the held-out NRMSE of the baseline and of the set.
+noise floor or within the model-form allowance of its baseline
+(:mod:`rths.diagnose.search.selection`).  The shrink is the selected set's share ``rho`` of
+that channel's reducible gap and ``gap.before``/``gap.after`` the held-out NRMSE of the
+baseline and of the set.
 """
 
 from __future__ import annotations
@@ -152,6 +154,8 @@ def _channel_dict(result: ChannelResult) -> dict[str, object]:
         "baseline_nrmse": c.nrmse(c.baseline.held_mse),
         "after_nrmse": c.nrmse(c.final.held_mse),
         "floor_nrmse": c.nrmse(c.floor_mse),
+        "resolution_nrmse": c.nrmse(c.resolution_mse),
+        "model_form": c.model_form,
         "significant": dec.significant,
         "ratio": list(dec.ratio),
         "band_hz": list(dec.band_hz),
@@ -342,7 +346,11 @@ def _diagnose(records: list[Record], nominal: NominalModel, options: Options) ->
         channels["displacement"] = compliance
     view = _specimen_view(channels)
     views = ("measured", view.channel.name)
-    significant = [c for c in (transfer, view) if c.decomposition.significant or c.effects]
+    significant = [
+        c
+        for c in (transfer, view)
+        if (c.decomposition.significant or c.effects) and c.verdict != "none"  # model form
+    ]
     where = max(significant, key=lambda c: _magnitude(c, channels), default=None)
     split = transfer.channel.segments
     ident = [s.name for s in split if np.any(s.ident)]

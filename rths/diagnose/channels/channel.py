@@ -56,6 +56,7 @@ __all__ = [
     "actuator_channel",
     "displacement_channel",
     "force_deviation",
+    "load_flow",
     "specimen_channel",
     "split_roles",
 ]
@@ -93,9 +94,9 @@ class Segment:
     observed
         What the models must reproduce: measured displacement [m] or smoothed force [N].
     signals
-        Drive signals: ``command`` and ``dforce`` (force deviation [N]) for the actuator
-        channel; ``x``, ``v``, ``a`` (smoothed drive displacement and its derivatives) for the
-        specimen channel.
+        Drive signals: ``command``, ``dforce`` (force deviation [N]) and ``load_flow``
+        (``|v| F`` [W], :func:`load_flow`) for the actuator channel; ``x``, ``v``, ``a``
+        (smoothed drive displacement and its derivatives) for the specimen channel.
     ident, held
         Boolean masks of the samples used for identification and for held-out scoring.
     sos
@@ -342,6 +343,20 @@ def force_deviation(record: Record, nominal: NominalModel) -> NDArray[np.float64
     return force - (s.inertance * a + s.damping * v + s.stiffness * x)
 
 
+def load_flow(record: Record) -> NDArray[np.float64]:
+    """``|v| F`` [W]: the measured speed times the measured force, both through zero-phase
+    low-passes at :data:`DRIVE_CUTOFF` of the sampling rate (at most 100 Hz).
+
+    A servo-valve's orifice law ``Q = K_q x_v sqrt(1 - sign(x_v) p_L/P_s)`` (Merritt,
+    Hydraulic Control Systems, 1967, Eq. 5-21) linearised at ``p_L = 0`` moves the piston at
+    ``v_0 - |v_0| p_L/(2 P_s)``: the speed lost to the load pressure is proportional to this
+    signal (``p_L A ~ F``).
+    """
+    sos = smoother(min(DRIVE_CUTOFF / record.dt, 100.0), record.dt)
+    v = derivatives(smooth(record.measured, sos), record.dt)[0]
+    return np.abs(v) * smooth(record.force, sos)
+
+
 def actuator_channel(
     records: list[Record],
     nominal: NominalModel,
@@ -364,7 +379,11 @@ def actuator_channel(
     for i, (r, (ident, held)) in enumerate(
         zip(records, split_roles(records, cutoff, held_out), strict=True)
     ):
-        signals = {"command": r.command, "dforce": force_deviation(r, nominal)}
+        signals = {
+            "command": r.command,
+            "dforce": force_deviation(r, nominal),
+            "load_flow": load_flow(r),
+        }
         segments.append(Segment(r.name, i, dt, r.measured, signals, ident, held))
     return Channel("measured", "actuator", segments, nominal, _noise_levels(records))
 

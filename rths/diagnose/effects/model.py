@@ -135,3 +135,17 @@ class Model(ABC):
     def physical(self, channel: Channel, params: dict[str, dict[str, float]]) -> bool:
         """False when identified effect parameters are unphysical or contradicted by the data."""
         return True
+
+    def resolution(self, channel: Channel, prediction: list[NDArray[np.float64]]) -> float:
+        """Model-form resolution [unit^2]: a reducible held-out gap at most this large, which
+        no candidate effect closes any useful share of, is the baseline's model form, not an
+        effect (:mod:`rths.diagnose.search.selection`).  Default 0: no allowance.
+
+        Parameters
+        ----------
+        channel
+            The channel.
+        prediction
+            The baseline's prediction per record (whole records).
+        """
+        return 0.0

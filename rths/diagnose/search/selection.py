@@ -26,7 +26,15 @@ is identified and priced as one step (its parameters counted together).
 
 The set's share of the channel's reducible gap is ``rho = (J_0 - J_S)/(J_0 - N_0)``.  When the
 set is empty or closes less than :data:`MIN_CLOSED` of a significant gap, the channel's gap is
-``unexplained``.
+``unexplained`` -- except for the model-form allowance: when *no* candidate buys its
+parameters and the reducible gap ``J_0 - N_0`` is at most the baseline model's resolution
+``R`` (:meth:`rths.diagnose.effects.model.Model.resolution`; for the actuator the mean square a
+one-sample shift of its motion leaves), the gap is the linear model's form (a servo-valve's
+flow gain changing with load pressure beyond the first-order orifice term the baseline holds,
+pole-by-pole calibration) and the channel's verdict is ``none`` (``model_form``).
+
+Models of channels listed in :data:`CROSS_FIT` are scored by two-fold cross-validation over
+time blocks of every record (:func:`rths.diagnose.search.identify.cross_fit`).
 """
 
 from __future__ import annotations
@@ -49,14 +57,26 @@ from rths.diagnose.effects import (
 from rths.diagnose.effects.model import Theta
 from rths.diagnose.residuals import Decomposition, decompose
 from rths.diagnose.search.floors import noise_floor
-from rths.diagnose.search.identify import Fit, fit_model
+from rths.diagnose.search.identify import Fit, cross_fit, fit_model
 
-__all__ = ["MIN_CLOSED", "PRICE", "Candidate", "ChannelResult", "held_parts", "held_runs", "select"]
+__all__ = [
+    "CROSS_FIT",
+    "MIN_CLOSED",
+    "PRICE",
+    "Candidate",
+    "ChannelResult",
+    "held_parts",
+    "held_runs",
+    "select",
+]
 
 #: Fraction of the remaining reducible gap an added effect must close per identified parameter.
 PRICE: float = 0.1
 #: Smallest share of a significant reducible gap the selected effects must close together.
 MIN_CLOSED: float = 0.5
+#: Channels whose models are scored by two-fold cross-validation over time blocks (cheap
+#: replays: the actuator's linear filter).
+CROSS_FIT: tuple[str, ...] = ("measured",)
 
 
 @dataclass(frozen=True)
@@ -105,6 +125,12 @@ class ChannelResult:
     final: Fit = field(repr=False)
     closed: float
     verdict: str
+    resolution_mse: float = 0.0
+
+    @property
+    def model_form(self) -> bool:
+        """Whether the channel's significant gap was put down to the baseline's model form."""
+        return self.verdict == "none" and self.decomposition.significant
 
     @property
     def excess(self) -> float:
@@ -225,7 +251,8 @@ def select(
         element's from the force-driven ``displacement`` channel), added to the global search
         of every model holding that effect.
     """
-    base = fit_model(baseline_for(channel.name), channel)
+    fitter = cross_fit if channel.name in CROSS_FIT else fit_model
+    base = fitter(baseline_for(channel.name), channel)
     n0 = noise_floor(base, channel, seed)
     dec = _decompose(channel, base)
     excess0 = base.held_mse - n0
@@ -260,7 +287,7 @@ def select(
         if not models:
             return None
         tried.add(tuple(sorted((*chosen, *add))))
-        fit = _best([fit_model(m, channel, base.baseline, starts) for m in models])
+        fit = _best([fitter(m, channel, base.baseline, starts) for m in models])
         if not chosen and len(add) == 1:
             singles[add[0]] = fit
         floor = noise_floor(fit, channel, seed)
@@ -303,5 +330,10 @@ def select(
             break
     closed = (excess0 - (current.held_mse - current_floor)) / excess0
     verdict = chosen[0] if chosen and closed >= MIN_CLOSED else "unexplained"
+    resolution = base.model.resolution(channel, base.prediction)
+    if not chosen and excess0 <= resolution:
+        verdict = "none"  # the model-form allowance (module docstring)
     candidates.sort(key=lambda c: (not c.accepted, -c.closed))
-    return ChannelResult(channel, base, n0, dec, candidates, chosen, current, closed, verdict)
+    return ChannelResult(
+        channel, base, n0, dec, candidates, chosen, current, closed, verdict, resolution
+    )
