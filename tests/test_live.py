@@ -22,6 +22,10 @@ from rths.runtime.loop import LOOP_CHANNELS
 PROTOCOL = "foxglove.sdk.v1"  # the SDK's name for the Foxglove WebSocket protocol
 
 
+#: Longest wait [s] for an event that must come (a failure, not a pace).
+PATIENCE = 60.0
+
+
 def _block(n: int, k0: int = 0) -> RowBlock:
     block = RowBlock(LOOP_CHANNELS, n)
     rng = np.random.default_rng(k0)
@@ -56,6 +60,8 @@ def test_a_websocket_client_receives_the_logs_json_and_schema():
                     {"op": "subscribe", "subscriptions": [{"id": 7, "channelId": channel["id"]}]}
                 )
             )
+            # rows put before the server has registered the subscription go nowhere: wait for it
+            assert server.subscribed.wait(PATIENCE), "the subscription never reached the server"
             block = _block(32, k0=100)
             expected = block_messages(block)
             received = []

@@ -78,6 +78,8 @@ class LiveServer:
         self.max_rate = max_rate
         self.port: int = int(server.port)
         self.sent = 0  #: messages logged to the viewer
+        #: set once a viewer has subscribed to a topic (the SDK's ``on_subscribe``)
+        self.subscribed = threading.Event()
         self._channels: dict[str, Any] = {}
         self._schemas: dict[str, Mapping[str, Any]] = {}
         self._next_ns: dict[str, int] = {}
@@ -107,12 +109,24 @@ class LiveServer:
         host, port = parse_where(where)
         if not (isinstance(max_rate, int | float) and max_rate > 0):
             raise ConfigError(f"live max_rate must be positive [Hz]; got {max_rate!r}")
+        from foxglove.websocket import ServerListener
+
+        subscribed = threading.Event()
+
+        class _Listener(ServerListener):
+            def on_subscribe(self, client: Any, channel: Any) -> None:
+                subscribed.set()
+
         context = foxglove.Context()
         try:
-            server = foxglove.start_server(name="rths", host=host, port=port, context=context)
+            server = foxglove.start_server(
+                name="rths", host=host, port=port, context=context, server_listener=_Listener()
+            )
         except Exception as exc:  # the SDK raises its own error types for a taken port
             raise ConfigError(f"cannot serve Foxglove on {where}: {exc}") from None
-        return cls(server, context, float(max_rate))
+        live = cls(server, context, float(max_rate))
+        live.subscribed = subscribed
+        return live
 
     def add_topic(self, topic: str, schema: Mapping[str, Any]) -> None:
         """Advertise ``topic`` with its JSON schema (the MCAP log's).
