@@ -82,24 +82,6 @@ def _undocumented(module_name: str) -> list[str]:
     return missing
 
 
-#: Packages whose documentation pass is still open (rths.diagnose was rewritten last, for issue
-#: 9): their modules still missing entries are expected failures, listed by the xfail reason;
-#: their complete modules are checked like every other one.
-PENDING = ("rths.diagnose",)
-
-
-def _marked(names: list[str]) -> list[object]:
-    return [
-        pytest.param(
-            n,
-            marks=pytest.mark.xfail(strict=True, reason="documentation pass pending"),
-        )
-        if n.startswith(PENDING) and _undocumented(n)
-        else n
-        for n in names
-    ]
-
-
-@pytest.mark.parametrize("module_name", _marked(_modules()))
+@pytest.mark.parametrize("module_name", _modules())
 def test_every_public_parameter_is_documented(module_name):
     assert _undocumented(module_name) == []

@@ -62,7 +62,15 @@ _RESOLUTION = 0.5
 
 
 def nrmse(residual: NDArray[np.float64], observed: NDArray[np.float64]) -> float:
-    """``RMS(residual) / RMS(observed)`` [-] (NaN for an empty or zero observation)."""
+    """``RMS(residual) / RMS(observed)`` [-] (NaN for an empty or zero observation).
+
+    Parameters
+    ----------
+    residual
+        Observed minus predicted, in the observation's unit.
+    observed
+        The observation.
+    """
     den = float(np.sqrt(np.mean(observed**2))) if observed.size else 0.0
     return float(np.sqrt(np.mean(residual**2))) / den if den > 0.0 else math.nan
 

@@ -42,7 +42,13 @@ class StructureGap:
 
 
 def structure_gap(records: list[Record]) -> StructureGap:
-    """Replay every MCAP record's scenario numerically and compare the interface motion."""
+    """Replay every MCAP record's scenario numerically and compare the interface motion.
+
+    Parameters
+    ----------
+    records
+        The records; CSV records and logs without target or scenario are noted, not compared.
+    """
     out: dict[str, float] = {}
     notes: dict[str, str] = {}
     for r in records:

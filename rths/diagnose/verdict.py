@@ -171,7 +171,36 @@ def _channel_dict(result: ChannelResult) -> dict[str, object]:
 
 @dataclass(frozen=True)
 class Diagnosis:
-    """The answer: where the gap is, which effects explain it, how far they shrink it."""
+    """The answer: where the gap is, which effects explain it, how far they shrink it.
+
+    Attributes
+    ----------
+    verdict
+        The first effect of the channel with the largest reducible gap, ``none`` or
+        ``unexplained``.
+    subsystem
+        ``actuator`` or ``specimen``: where the verdict's gap lies.
+    band_hz
+        Frequency band [Hz] holding most of the residual.
+    phase
+        Phase of the cycle where it lies: ``reversals``, ``zero_crossings`` or ``broadband``.
+    params
+        Identified parameters of the verdict's effect (SI).
+    gap_channel
+        The channel of the verdict.
+    before, after
+        Held-out NRMSE [-] of that channel's baseline and of its final model.
+    shrink
+        Share of the reducible gap closed [-].
+    channels
+        Every channel's result by name.
+    identification, held_out
+        Names of the identification and held-out records.
+    structure
+        The structure channel of ``rths run`` logs, or None.
+    views
+        The channels that count for ``effects`` (the actuator's and the specimen's chosen view).
+    """
 
     verdict: str
     subsystem: str

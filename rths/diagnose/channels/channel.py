@@ -351,6 +351,11 @@ def load_flow(record: Record) -> NDArray[np.float64]:
     Hydraulic Control Systems, 1967, Eq. 5-21) linearised at ``p_L = 0`` moves the piston at
     ``v_0 - |v_0| p_L/(2 P_s)``: the speed lost to the load pressure is proportional to this
     signal (``p_L A ~ F``).
+
+    Parameters
+    ----------
+    record
+        One record: measured displacement [m] and force [N].
     """
     sos = smoother(min(DRIVE_CUTOFF / record.dt, 100.0), record.dt)
     v = derivatives(smooth(record.measured, sos), record.dt)[0]

@@ -93,7 +93,17 @@ def scaled_tf(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``num/den`` with every pole and zero frequency times ``freq`` and every complex pole's
     damping ratio times ``damp``; the DC gain (or, with a pole at 0, the high-frequency
-    asymptote's scaling) is kept."""
+    asymptote's scaling) is kept.
+
+    Parameters
+    ----------
+    num, den
+        Continuous-time transfer function, descending powers of ``s``.
+    freq
+        Factor [-] on every pole and zero frequency.
+    damp
+        Factor [-] on every complex pole's damping ratio.
+    """
     if freq == 1.0 and damp == 1.0:
         return np.asarray(num, float), np.asarray(den, float)
     z = np.roots(num) if len(num) > 1 else np.array([])

@@ -44,7 +44,15 @@ BLOCK_SECONDS: float = 4.0
 
 
 def blocks(n: int, dt: float) -> list[slice]:
-    """Consecutive blocks of about :data:`BLOCK_SECONDS` covering ``n`` samples."""
+    """Consecutive blocks of about :data:`BLOCK_SECONDS` covering ``n`` samples.
+
+    Parameters
+    ----------
+    n
+        Samples of the record.
+    dt
+        Sample period [s].
+    """
     size = max(16, int(round(BLOCK_SECONDS / dt)))
     edges = list(range(0, n, size))
     if len(edges) > 1 and n - edges[-1] < size // 2:

@@ -59,7 +59,17 @@ MIN_MEMORY: float = 0.1
 
 
 def smoothed(seg: Segment, key: str, make: Callable[[], NDArray]) -> NDArray:
-    """Cached ``h * make()`` on a segment."""
+    """Cached ``h * make()`` on a segment.
+
+    Parameters
+    ----------
+    seg
+        The record's segment (its smoother ``h`` and cache).
+    key
+        Cache key of the signal.
+    make
+        Computes the unsmoothed signal (called once per segment and key).
+    """
     if key not in seg.cache:
         seg.cache[key] = seg.h(make())
     return seg.cache[key]
@@ -82,7 +92,13 @@ def clearance_resolved(channel: Channel, gap: float) -> bool:
 
 
 def drive_scale(channel: Channel) -> float:
-    """Standard deviation of the drive displacement over all records [m]."""
+    """Standard deviation of the drive displacement over all records [m] (at least 1 nm).
+
+    Parameters
+    ----------
+    channel
+        A specimen channel (signal ``x``: the smoothed drive).
+    """
     return max(float(np.std(channel.stack("x"))), 1e-9)
 
 

@@ -154,7 +154,13 @@ def _window(seg: Segment, seconds: float, edge: int) -> Segment:
 
 def stride_for(channel: Channel) -> int:
     """Row stride of the search stages: ~8 samples per period of the channel's band edge (the
-    specimen smoother's cutoff; 256 Hz for the actuator channel)."""
+    specimen smoother's cutoff; 256 Hz for the actuator channel).
+
+    Parameters
+    ----------
+    channel
+        The channel searched.
+    """
     top = channel.cutoff if channel.cutoff is not None else 256.0
     return max(1, int(1.0 / (8.0 * top * channel.dt)))
 
@@ -223,7 +229,19 @@ class _Problem:
 
 
 def nuisance_columns(model: Model, channel: Channel, seg: Segment, theta: Theta) -> NDArray:
-    """The offset column and the model's nuisance columns of a segment."""
+    """The offset column and the model's nuisance columns of a segment.
+
+    Parameters
+    ----------
+    model
+        The model whose nuisance columns (calibration terms solved by least squares) are asked.
+    channel
+        The channel it is fitted on.
+    seg
+        One record's segment.
+    theta
+        The model's nonlinear parameters.
+    """
     extra = model.nuisance(channel, seg, theta)
     ones = np.ones((seg.observed.size, 1))
     return ones if extra is None else np.hstack([ones, extra])

@@ -114,7 +114,32 @@ class Candidate:
 
 @dataclass(frozen=True)
 class ChannelResult:
-    """One channel's baseline, decomposition and selected effects."""
+    """One channel's baseline, decomposition and selected effects.
+
+    Attributes
+    ----------
+    channel
+        The channel (its records' segments, noise levels and nominal).
+    baseline
+        The re-calibrated nominal's fit.
+    floor_mse
+        Noise floor of the held-out residual's mean square [unit^2].
+    decomposition
+        Where the baseline's residual lies: significance, band, phase of the cycle.
+    candidates
+        Every candidate model tried, with its held-out scores.
+    effects
+        The selected effects, in the order they were added.
+    final
+        The fit of the baseline with the selected effects.
+    closed
+        Share of the reducible held-out gap the selected effects close [-].
+    verdict
+        The channel's verdict: its first effect, ``none`` or ``unexplained``.
+    resolution_mse
+        Held-out mean square a one-sample shift of the fitted motion leaves [unit^2] (the
+        model-form allowance of the actuator channel; 0 where not used).
+    """
 
     channel: Channel = field(repr=False)
     baseline: Fit = field(repr=False)
@@ -160,13 +185,27 @@ class ChannelResult:
 
 
 def held_runs(mask: NDArray[np.bool_]) -> list[slice]:
-    """Contiguous runs of a boolean mask as slices."""
+    """Contiguous runs of a boolean mask as slices.
+
+    Parameters
+    ----------
+    mask
+        One record's held-out (or any) mask.
+    """
     edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
     return [slice(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
 
 
 def held_parts(channel: Channel, arrays: list[NDArray]) -> list[NDArray]:
-    """The held-out samples of per-record arrays, one part per contiguous run."""
+    """The held-out samples of per-record arrays, one part per contiguous run.
+
+    Parameters
+    ----------
+    channel
+        The channel whose segments' held-out masks apply.
+    arrays
+        One array per record, aligned with the channel's segments.
+    """
     return [
         a[run] for s, a in zip(channel.segments, arrays, strict=True) for run in held_runs(s.held)
     ]
