@@ -380,6 +380,17 @@ def _diagnose(records: list[Record], nominal: NominalModel, options: Options) ->
         for c in (transfer, view)
         if (c.decomposition.significant or c.effects) and c.verdict != "none"  # model form
     ]
+    if not significant:
+        # the counted views are explained, but another view of the specimen still holds a
+        # significant gap (e.g. the force-driven displacement of a series element the rigid
+        # force channel absorbs into its calibration): that is no ``none`` (contract)
+        significant = [
+            c
+            for c in channels.values()
+            if c not in (transfer, view)
+            and (c.decomposition.significant or c.effects)
+            and c.verdict != "none"
+        ]
     where = max(significant, key=lambda c: _magnitude(c, channels), default=None)
     split = transfer.channel.segments
     ident = [s.name for s in split if np.any(s.ident)]
