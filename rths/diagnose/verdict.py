@@ -386,8 +386,8 @@ def _diagnose(records: list[Record], nominal: NominalModel, options: Options) ->
         # force channel absorbs into its calibration): that is no ``none`` (contract)
         significant = [
             c
-            for c in channels.values()
-            if c not in (transfer, view)
+            for name, c in channels.items()
+            if name not in views
             and (c.decomposition.significant or c.effects)
             and c.verdict != "none"
         ]
