@@ -60,6 +60,10 @@ class RunOutcome:
         99th percentile of the measurement's age when the loop used it [s] (default 0).
     priority : int
         ``SCHED_FIFO`` priority of the run, 1..99; 0 (default): ordinary scheduling.
+    cpu_latency : str
+        The PM QoS CPU wake-up latency request held during a real-time run
+        (:class:`rths.runtime.cpu_latency.CpuLatency`: ``"0 us"``, or why not); "" (default)
+        on the other clocks.
     gc : tuple of (int, float)
         Garbage collections during the loop and the longest one [s] (default ``(0, 0.0)``).
     security : dict of str to int
@@ -80,6 +84,7 @@ class RunOutcome:
     saturated: dict[str, int] = field(default_factory=dict)
     age_p99: float = 0.0
     priority: int = 0
+    cpu_latency: str = ""
     gc: tuple[int, float] = (0, 0.0)
     security: dict[str, int] = field(default_factory=dict)
     benchmark: BenchmarkScores | None = None
@@ -365,6 +370,7 @@ def _summary(outcome: RunOutcome) -> dict[str, str]:
                 "gc_longest_s": repr(outcome.gc[1]),
                 "loop_ended_monotonic_ns": str(outcome.result.ended_ns),
                 "sched_fifo_priority": str(outcome.priority),
+                "cpu_latency": outcome.cpu_latency,
             }
         )
     out.update({f"auth_{k}": str(v) for k, v in outcome.security.items()})

@@ -50,6 +50,7 @@ from rths.runtime.clocks import (
     realtime_priority,
     realtime_thread,
 )
+from rths.runtime.cpu_latency import CpuLatency
 from rths.runtime.guard import CommandGuard
 from rths.runtime.loop import InProcessLink, LinkSample, Loop, LoopResult
 from rths.session.budget import check_budget, step_cost
@@ -255,6 +256,8 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
     stop = opts.stop or StopRequest()
     quiet = QuietGC() if clock == "realtime" else None
     priority = realtime_priority() if clock == "realtime" else 0  # opt-in: RTHS_RT_PRIORITY
+    # real time: idle CPUs poll instead of halting while the run lasts (RTHS_CPU_LATENCY_US)
+    latency = CpuLatency() if clock == "realtime" else None
     pacer: Pacer = WallClock(dt, n) if clock == "realtime" else FreeRunning(dt, n)
     if quiet is not None:
         pacer.idle = quiet.idle
@@ -334,7 +337,12 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
 
                 del lab  # the specimen process builds its own
                 realtime_thread()
-                with quiet if quiet is not None else _nothing():
+                with (
+                    quiet if quiet is not None else _nothing(),
+                    latency if latency is not None else _nothing(),
+                ):
+                    if latency is not None:
+                        outcome.cpu_latency = latency.describe()
                     outcome.result, outcome.security = run_over_zenoh(
                         scn,
                         opts,

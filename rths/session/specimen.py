@@ -26,6 +26,7 @@ of the serving loop (:class:`rths.runtime.clocks.QuietGC`).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import sys
@@ -46,6 +47,7 @@ from rths.runtime.clocks import (
     realtime_priority,
     realtime_thread,
 )
+from rths.runtime.cpu_latency import CpuLatency
 from rths.runtime.guard import CommandGuard
 from rths.wire.auth import RunSecret
 from rths.wire.codec import Command, Measurement
@@ -187,6 +189,7 @@ class _Server:
         self.ramp_steps = 0
         self.stop_reason = ""
         self.quiet = QuietGC()
+        self.latency = CpuLatency() if clock == "realtime" else None
         self.opener: Any = None
         self.refused = 0
         self.late_commands = 0
@@ -208,7 +211,10 @@ class _Server:
             self.opener = link.opener
             sys.setswitchinterval(SWITCH_INTERVAL)
             realtime_thread()
-            with self.quiet:  # before announcing: the full collection it starts with is slow
+            with (
+                self.quiet,  # before announcing: the full collection it starts with is slow
+                self.latency if self.latency is not None else contextlib.nullcontext(),
+            ):
                 presence.wait_for_peer(ready_timeout, [link.publisher])
                 self._serve(link, presence)
                 self.tripped_ns = time.monotonic_ns()
@@ -297,6 +303,7 @@ class _Server:
             "late_commands": self.late_commands,
             "gc_collections_in_loop": self.quiet.collections,
             "gc_longest_s": self.quiet.longest,
+            "cpu_latency": "" if self.latency is None else self.latency.describe(),
             "stopped_at_ns": self.tripped_ns,
             "at_rest_ns": self.safe_ns,
             **self.guard.summary(),
