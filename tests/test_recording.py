@@ -448,7 +448,7 @@ def test_block_messages_are_the_rows_as_json_exactly():
     import json as stdlib_json
 
     from rths.core.channels import Channel, RowBlock
-    from rths.log.mcap_writer import block_messages
+    from rths.log.rowjson import block_messages
 
     names = ("a", "b.c", "d_e")
     block = RowBlock([Channel(n) for n in names], 8)

@@ -24,114 +24,34 @@ queued meanwhile -- the run's summary among them.
 from __future__ import annotations
 
 import json
-import math
 import queue
 import shutil
 import threading
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
-import orjson
 from mcap.writer import CompressionType, Writer
 
 from rths import __version__
 from rths.core.errors import DataError
 from rths.log.logfile import LogFile
+from rths.log.rowjson import LENIENT, STRICT, block_messages, finite, open_schema
+from rths.log.schemas import EVENTS_TOPIC
+from rths.log.summary import COUNTS, TopicStats
 from rths.wire.codec import LogRecord
 
-__all__ = [
-    "EVENTS_TOPIC",
-    "STOP",
-    "RecordingSummary",
-    "TopicStats",
-    "WriterThread",
-    "block_messages",
-    "open_schema",
-]
+__all__ = ["POLL", "STOP", "WriterThread"]
 
 STOP = object()
 
 #: Seconds between two drains of the writer's queue.
 POLL = 0.005
-EVENTS_TOPIC = "rths/events"
 _COMPRESSION = {
     "zstd": CompressionType.ZSTD,
     "lz4": CompressionType.LZ4,
     "none": CompressionType.NONE,
 }
-_COUNTS = ("written", "missing", "reordered", "first_seq", "last_seq", "nonfinite", "rejected")
-
-
-@dataclass(frozen=True, slots=True)
-class TopicStats:
-    """What was written on one topic.
-
-    Attributes
-    ----------
-    written
-        Messages written.
-    missing
-        Sequence numbers skipped (sum of the sizes of all gaps).
-    reordered
-        Messages whose sequence number was not above the previous one (repeats, reordering).
-    first_seq, last_seq
-        First and last sequence numbers seen (-1 if none).
-    nonfinite
-        Messages in which a NaN or infinity was written as ``null``.
-    rejected
-        Payloads from another process that were not valid log records (not written).
-    """
-
-    written: int = 0
-    missing: int = 0
-    reordered: int = 0
-    first_seq: int = -1
-    last_seq: int = -1
-    nonfinite: int = 0
-    rejected: int = 0
-
-    @property
-    def complete(self) -> bool:
-        """No gap, no reordering, no rejected payload."""
-        return self.missing == 0 and self.reordered == 0 and self.rejected == 0
-
-
-@dataclass(frozen=True, slots=True)
-class RecordingSummary:
-    """Returned by :meth:`Recorder.close`: per-topic counts, events, largest queue backlog,
-    messages lost after a failed write and what endangered the log (None: nothing).
-
-    Attributes
-    ----------
-    path : pathlib.Path
-        The MCAP file written.
-    topics : Mapping[str, TopicStats]
-        Per-topic counts, by topic name.
-    events : int
-        Number of events written.
-    max_backlog : int
-        Largest number of items queued for the writer thread at once (a row block counts as one).
-    lost : int
-        Messages that could not be written after a failed write (default 0).
-    fault : str or None
-        The message of what endangered the log (disk nearly full, a failed write); None
-        (default) if nothing did.
-    """
-
-    path: Path
-    topics: Mapping[str, TopicStats]
-    events: int
-    max_backlog: int
-    lost: int = 0
-    fault: str | None = None
-
-    @property
-    def complete(self) -> bool:
-        """True if every topic is complete (no sample lost, repeated or rejected)."""
-        return self.lost == 0 and all(s.complete for s in self.topics.values())
 
 
 def _messages(item: tuple[Any, ...]) -> int:
@@ -143,93 +63,10 @@ def _messages(item: tuple[Any, ...]) -> int:
     return 0
 
 
-def open_schema(topic: str) -> bytes:
-    """Schema for a topic first seen from another process: any JSON object.
-
-    Parameters
-    ----------
-    topic : str
-        The topic's name (the schema's title).
-    """
-    return json.dumps(
-        {"title": topic, "type": "object", "description": "log record from another process"}
-    ).encode()
-
-
-def _plain(obj: Any) -> Any:
-    """``json.dumps`` fallback: numpy scalars and arrays become Python numbers and lists."""
-    if hasattr(obj, "tolist"):
-        return obj.tolist()
-    raise TypeError(f"{type(obj).__name__} is not JSON serialisable")
-
-
-def _finite(obj: Any) -> Any:
-    """``obj`` with every NaN/infinite float replaced by None (JSON has no NaN)."""
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, Mapping):
-        return {k: _finite(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_finite(v) for v in obj]
-    if hasattr(obj, "tolist"):
-        return _finite(obj.tolist())
-    return obj
-
-
-# One encoder each, built once: json.dumps(**options) would build a new one per message.
-_STRICT = json.JSONEncoder(allow_nan=False, separators=(",", ":"), default=_plain)
-_LENIENT = json.JSONEncoder(separators=(",", ":"), default=_plain)
-
-
-def block_messages(
-    block: Any, templates: dict[tuple[str, ...], bytes] | None = None
-) -> list[tuple[int, int, bytes, bool]]:
-    """The rows of a :class:`rths.core.channels.RowBlock` as JSON messages.
-
-    Each row is ``{"seq": k, <channel>: value, ...}``.  The numbers of the whole block are
-    formatted by one ``orjson`` call (shortest round-trip form, ``null`` for a non-finite value,
-    as JSON has none) and put into a template of the block's channel names: about 3 µs per row
-    of 20 channels, where formatting each float with ``repr`` took 20 µs.
-
-    Parameters
-    ----------
-    block
-        A :class:`rths.core.channels.RowBlock`.
-    templates
-        Cache of templates, keyed by the block's channel names (shared across calls).
-
-    Returns
-    -------
-    list of tuple
-        ``(seq, log_time_ns, json_bytes, finite)`` per filled row.
-    """
-    import numpy as np
-
-    n = block.count
-    if not n:
-        return []
-    cache = {} if templates is None else templates
-    template = cache.get(block.names)
-    if template is None:
-        fields = "".join(f',"{name}":%s' for name in block.names)
-        template = cache[block.names] = ('{"seq":%d' + fields + "}").encode()
-    values = block.values[:n]
-    finite = np.isfinite(values).all(axis=1).tolist()
-    seqs, times = block.seq[:n].tolist(), block.t_ns[:n].tolist()
-    if not block.names:
-        return [(k, t, template % k, ok) for k, t, ok in zip(seqs, times, finite)]
-    # "[[a,b,...],[c,d,...],...]" -> one b"a,b,..." per row (numbers hold no "]" or ",")
-    rows = orjson.dumps(np.ascontiguousarray(values), option=orjson.OPT_SERIALIZE_NUMPY)
-    return [
-        (k, t, template % (k, *numbers.split(b",")), ok)
-        for k, t, numbers, ok in zip(seqs, times, rows[2:-2].split(b"],["), finite)
-    ]
-
-
 class _Topic:
     """Channel id and counters of one topic (writer thread only)."""
 
-    __slots__ = ("channel_id", *_COUNTS)
+    __slots__ = ("channel_id", *COUNTS)
 
     def __init__(self, channel_id: int) -> None:
         self.channel_id = channel_id
@@ -299,7 +136,7 @@ class WriterThread(threading.Thread):
     def stats(self) -> dict[str, TopicStats]:
         """Counts per topic so far (``rths/events`` excluded)."""
         return {
-            name: TopicStats(**{c: getattr(t, c) for c in _COUNTS})
+            name: TopicStats(**{c: getattr(t, c) for c in COUNTS})
             for name, t in self._topics.items()
             if name != EVENTS_TOPIC
         }
@@ -351,7 +188,7 @@ class WriterThread(threading.Thread):
     def _finish(self) -> None:
         summary = {"complete": "true", "max_backlog": str(self.max_backlog)}
         for name, stats in self.stats().items():
-            summary.update({f"{name}.{c}": str(getattr(stats, c)) for c in _COUNTS})
+            summary.update({f"{name}.{c}": str(getattr(stats, c)) for c in COUNTS})
             if not stats.complete:
                 summary["complete"] = "false"
         if self.error is not None:
@@ -455,9 +292,9 @@ class WriterThread(threading.Thread):
     ) -> None:
         entry = self._topics[topic]
         try:
-            data = _STRICT.encode(message)
+            data = STRICT.encode(message)
         except ValueError:
-            data = _LENIENT.encode(_finite(message))
+            data = LENIENT.encode(finite(message))
             entry.nonfinite += 1
         except TypeError as exc:
             entry.rejected += 1
@@ -501,8 +338,8 @@ class WriterThread(threading.Thread):
         """Write the rows of a :class:`rths.core.channels.RowBlock` (:func:`block_messages`)."""
         entry = self._topics[topic]
         self._rows_done = 0
-        for k, t, data, finite in block_messages(block, self._templates):
-            if not finite:
+        for k, t, data, ok in block_messages(block, self._templates):
+            if not ok:
                 entry.nonfinite += 1
             self._add(topic, k, t, t, data)
             self._rows_done += 1
@@ -529,7 +366,7 @@ class WriterThread(threading.Thread):
 
     def _event(self, log_time: int, event: Mapping[str, Any]) -> None:
         entry = self._topics[EVENTS_TOPIC]
-        data = json.dumps(_finite(event), separators=(",", ":"), default=str).encode()
+        data = json.dumps(finite(event), separators=(",", ":"), default=str).encode()
         self._writer.add_message(entry.channel_id, log_time, data, log_time, self.events)
         entry.written += 1
         self.events += 1
