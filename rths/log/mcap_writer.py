@@ -1,14 +1,18 @@
 """The writer thread behind :class:`rths.log.recorder.Recorder` (private).
 
 It owns the ``mcap`` writer and the output stream; everything it does -- JSON encoding, gap
-counting, chunk compression, flushing -- happens here, never on the loop thread.  It consumes
-tagged tuples from a :class:`queue.SimpleQueue`:
+counting, chunk compression, flushing -- happens here, never on the loop thread.  It runs in the
+recorder's process (``writer="thread"``) or in a writer process of its own
+(``writer="process"``, :mod:`rths.log.writer_process`), where the same items arrive over a pipe.
+It consumes tagged tuples from a :class:`queue.SimpleQueue`:
 
 * ``("s", topic, schema_json_bytes)`` -- register a topic;
 * ``("m", topic, seq, log_time_ns, publish_time_ns, message)`` -- a message from this process;
 * ``("r", topic, payload)`` -- a :class:`rths.wire.codec.LogRecord` from another process;
 * ``("b", topic, row_block)`` -- a :class:`rths.core.channels.RowBlock`, one message per row;
 * ``("e", log_time_ns, event_dict)`` -- an event (sequence numbers assigned here);
+* ``("x", topic, seq, log_time_ns, reason)`` -- a message that could not reach this writer
+  (counted as rejected, with an event);
 * ``("w", threading.Event)`` -- set once everything queued before it is flushed to the file
   (by the next periodic flush; at once if nothing is pending; at the end of the file);
 * :data:`STOP` -- finish the file and end.
@@ -278,6 +282,10 @@ class WriterThread(threading.Thread):
                 self._wake_flush_waiters()
         elif tag == "md":
             self._writer.add_metadata(item[1], dict(item[2]))
+        elif tag == "x":  # a message that could not be handed to this writer: rejected
+            _, topic, seq, log_time, reason = item
+            self._topics[topic].rejected += 1
+            self._event(log_time, {"kind": "rejected", "message": f"{topic} seq {seq}: {reason}"})
 
     def _register(self, topic: str, schema: bytes) -> _Topic:
         schema_id = self._writer.register_schema(name=topic, encoding="jsonschema", data=schema)

@@ -1,11 +1,16 @@
 """MCAP recording off the loop thread (design.md §4).
 
-The loop thread only calls :meth:`Recorder.put`, which puts a tuple on a
-:class:`queue.SimpleQueue` and returns: no JSON encoding, no compression, no I/O.  A background
-thread encodes each message as JSON, writes it to an MCAP file with the ``mcap`` package (one
-``jsonschema`` schema per topic, zstd-compressed chunks, ``log_time`` = simulated time [ns]),
-counts per topic the messages written and the gaps in their sequence numbers, and finishes the
-file -- footer and summary -- when the recorder is closed, also when the ``with`` body raises.
+The loop thread only calls :meth:`Recorder.put` / :meth:`Recorder.put_block`, which put a tuple on
+a :class:`queue.SimpleQueue` and return: no JSON encoding, no compression, no I/O.  A writer
+(:class:`rths.log.mcap_writer.WriterThread`) encodes each message as JSON, writes it to an MCAP
+file with the ``mcap`` package (one ``jsonschema`` schema per topic, zstd-compressed chunks,
+``log_time`` = simulated time [ns]), counts per topic the messages written and the gaps in their
+sequence numbers, and finishes the file -- footer and summary -- when the recorder is closed, also
+when the ``with`` body raises.  The writer runs as a thread of this process (``writer="thread"``,
+the default: the ``fast`` clock, tests) or in a process of its own at ordinary priority
+(``writer="process"``, :mod:`rths.log.writer_process`: the ``realtime`` and ``lockstep`` clocks),
+where it neither holds this process's GIL nor competes with the loop for the CPU; that process
+also finishes the file if this one is killed.
 
 Log contract (read it with ``mcap.reader.make_reader``, no project code needed):
 
@@ -22,8 +27,8 @@ Log contract (read it with ``mcap.reader.make_reader``, no project code needed):
   ``rths.recording`` with the per-topic counts is written last.
 
 :class:`rths.wire.transport.LogBridge` feeds the :class:`rths.wire.codec.LogRecord` s that another
-process publishes on ``rths/<run>/log/**`` into :meth:`Recorder.put_record`; they are decoded on the
-writer thread too.  This module does not import zenoh.
+process publishes on ``rths/<run>/log/**`` into :meth:`Recorder.put_record`; they are decoded by
+the writer too.  This module does not import zenoh.
 """
 
 from __future__ import annotations
@@ -58,6 +63,7 @@ from rths.log.schemas import (
     object_schema,
 )
 from rths.log.summary import RecordingSummary, TopicStats
+from rths.log.writer_process import WriterProcess
 
 __all__ = [
     "EVENTS_SCHEMA",
@@ -74,6 +80,7 @@ __all__ = [
 ]
 
 _Compression = Literal["zstd", "lz4", "none"]
+_Writer = Literal["thread", "process"]
 
 
 class RecordingFailed(RunFault):
@@ -105,9 +112,14 @@ class Recorder:
     reserve
         Disk space [B] kept allocated past the data (:mod:`rths.log.logfile`); 0: none.
     on_fault
-        Called once, from the writer thread, with a message when the log is in danger: the
-        disk is nearly full (the reserve can no longer be renewed) or a write failed.  A run
-        stops on it, so that its log stays whole.
+        Called once, from the writer thread (or, with ``writer="process"``, the thread that
+        reads the writer process's reports), with a message when the log is in danger: the disk
+        is nearly full (the reserve can no longer be renewed), a write failed, or the writer
+        process died.  A run stops on it, so that its log stays whole.
+    writer
+        ``"thread"`` (default): the writer is a thread of this process.  ``"process"``: it runs
+        in a process of its own at ordinary priority, nice +10
+        (:mod:`rths.log.writer_process`); for real-time runs.
 
     Examples
     --------
@@ -129,8 +141,12 @@ class Recorder:
         flush_interval: float = 1.0,
         reserve: int = RESERVE,
         on_fault: Callable[[str], None] | None = None,
+        writer: _Writer = "thread",
     ) -> None:
         self.path = Path(path)
+        if writer not in ("thread", "process"):
+            raise ParameterError(f"writer must be 'thread' or 'process'; got {writer!r}")
+        self._mode = writer
         self._reserve = int(reserve)
         self._on_fault = on_fault
         if compression not in ("zstd", "lz4", "none"):
@@ -145,7 +161,7 @@ class Recorder:
         self._schemas: dict[str, bytes] = {}
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
         self._last_time_ns = 0
-        self._writer: WriterThread | None = None
+        self._writer: WriterThread | WriterProcess | None = None
         self.summary: RecordingSummary | None = None
         self.add_topic(EVENTS_TOPIC, EVENTS_SCHEMA)
         for topic, schema in (topics if topics is not None else {LOOP_TOPIC: LOOP_SCHEMA}).items():
@@ -166,22 +182,46 @@ class Recorder:
         if self._writer is not None:
             raise DataError(f"recorder for '{self.path}' was already started")
         try:
-            stream = LogFile(self.path, self._reserve)
+            if self._mode == "process":
+                config = {
+                    "reserve": self._reserve,
+                    "metadata": self._metadata,
+                    "compression": self._compression,
+                    "chunk_size": self._chunk_size,
+                    "flush_interval": self._flush_interval,
+                }
+                writer: WriterThread | WriterProcess = WriterProcess(
+                    self.path, self._queue, config, self._on_fault
+                )
+                writer.start()
+            else:
+                stream = LogFile(self.path, self._reserve)
+                writer = WriterThread(
+                    stream,
+                    self._queue,
+                    self._metadata,
+                    self._compression,
+                    self._chunk_size,
+                    self._flush_interval,
+                    self._on_fault,
+                )
+                writer.start()
         except OSError as exc:
             if exc.errno in (errno.ENOSPC, errno.EDQUOT):
                 raise RecordingFailed(f"cannot create MCAP log '{self.path}': {exc}") from None
             raise DataError(f"cannot create MCAP log '{self.path}': {exc}") from None
-        self._writer = WriterThread(
-            stream,
-            self._queue,
-            self._metadata,
-            self._compression,
-            self._chunk_size,
-            self._flush_interval,
-            self._on_fault,
-        )
-        self._writer.start()
+        self._writer = writer
         return self
+
+    @property
+    def writer_started_in(self) -> float | None:
+        """Wall time [s] the writer process took to start and open the file (None: a thread)."""
+        return self._writer.started_in if isinstance(self._writer, WriterProcess) else None
+
+    @property
+    def writer_pid(self) -> int | None:
+        """Process id of the writer process (None: a thread, or not started)."""
+        return self._writer.pid if isinstance(self._writer, WriterProcess) else None
 
     def close(self) -> RecordingSummary:
         """Finish the file (footer, summary) and return what was written.

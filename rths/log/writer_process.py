@@ -1,0 +1,423 @@
+"""The MCAP writer in its own OS process, at ordinary priority (private to the recorder).
+
+Why: in the ``realtime`` clock the loop thread shares the coordinator's GIL and, on a small
+machine, its CPUs with the recorder's writer.  Encoding a 256-row block as JSON and handing its
+rows to ``mcap`` holds the GIL for ~2 ms, and compressing a chunk takes ~3 ms of CPU; with the
+writer in the loop's process the ~10 steps after every block missed their deadline.  Lowering only
+the writer thread's priority inverts priorities on the GIL.  In a process of its own the writer has
+its own GIL, and it runs in ``SCHED_OTHER`` at nice +10 (an inherited ``SCHED_FIFO`` is reset), so
+the kernel preempts it whenever the loop, the specimen or zenoh have work.
+
+Coordinator side (:class:`WriterProcess`): the producers keep filling the recorder's
+:class:`queue.SimpleQueue` exactly as for the in-process :class:`rths.log.mcap_writer.WriterThread`
+(``put_block`` only enqueues).  A *sender* thread takes what is queued, pickles it (protocol 5; a
+:class:`rths.core.channels.RowBlock` goes as its names and its ``values``/``seq``/``t_ns`` arrays:
+~20 µs for 256 rows of 45 channels) and writes it to a pipe (the write releases the GIL).  A
+*reader* thread blocks on a second pipe for what the child reports: a fault (``on_fault`` is called
+at once), a flush (:meth:`rths.log.recorder.Recorder.wait_flushed`) and, at the end, the counts.
+
+Child side (:func:`main`, ``python -m rths.log.writer_process FD_IN FD_OUT``): a fresh interpreter
+(fork + exec, never a bare fork of a process with zenoh's threads, and without multiprocessing's
+re-import of the parent's ``__main__``) that imports only the log writer, numpy and ``mcap``.  It
+feeds the same :class:`~rths.log.mcap_writer.WriterThread` as the in-process mode, so the file is
+byte for byte the same kind of log.  Should the coordinator die (SIGKILL, a crash), the child sees
+the end of its pipe, writes an ``error`` event "coordinator lost", and finishes the file (footer,
+summary, ``rths.recording``) with everything it had received.  It ignores SIGINT: a Ctrl-C reaches
+the coordinator, which stops the run and closes the recorder.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import fcntl
+import os
+import pickle
+import queue
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Mapping
+from multiprocessing.connection import Connection
+from pathlib import Path
+from typing import Any
+
+from rths.core.errors import DataError
+from rths.log.summary import TopicStats
+
+__all__ = ["NICE", "WriterProcess", "main"]
+
+#: Niceness added in the writer process (it must never compete with the real-time loop).
+NICE = 10
+#: Most items the sender ships in one write (a row block is one item).
+BATCH = 32
+_PIPE_SIZE = 1 << 20  # bytes of pipe buffer asked for: a few blocks without blocking the sender
+_LOST = "coordinator process lost: the pipe from the recorder closed without a stop"
+
+
+def _messages(item: tuple[Any, ...]) -> int:
+    if item[0] in ("m", "r"):
+        return 1
+    if item[0] == "b":
+        return int(item[2].count)
+    return 0
+
+
+def _wire(item: tuple[Any, ...]) -> tuple[Any, ...]:
+    """A queued item in the form that crosses the pipe (blocks as their filled arrays)."""
+    if item[0] == "b":
+        block, n = item[2], item[2].count
+        return ("b", item[1], block.names, block.values[:n], block.seq[:n], block.t_ns[:n])
+    return item
+
+
+def _fallback(item: tuple[Any, ...]) -> tuple[Any, ...]:
+    """An item that could not be pickled, in a form that can: a message becomes a rejection, an
+    event's fields their ``str``."""
+    if item[0] == "m":
+        return ("x", item[1], item[2], item[3], "message cannot be sent to the writer process")
+    if item[0] == "e":
+        return (
+            "e",
+            item[1],
+            {k: v if isinstance(v, str | int | float) else str(v) for k, v in item[2].items()},
+        )
+    return item
+
+
+class WriterProcess:
+    """Coordinator side of the writer process; the recorder's writer when ``writer="process"``.
+
+    It offers what :class:`rths.log.recorder.Recorder` uses of a
+    :class:`~rths.log.mcap_writer.WriterThread`: :meth:`start`, :meth:`join` (after
+    :data:`~rths.log.mcap_writer.STOP` is queued), :meth:`stats` and the attributes ``error``,
+    ``fault``, ``lost``, ``max_backlog``, ``events``.
+
+    Parameters
+    ----------
+    path
+        The MCAP file to write.
+    inbox
+        The recorder's queue (items as in :mod:`rths.log.mcap_writer`).
+    config
+        ``reserve``, ``metadata``, ``compression``, ``chunk_size``, ``flush_interval`` of the
+        :class:`~rths.log.mcap_writer.WriterThread` the child runs.
+    on_fault
+        Called once, from the reader thread, when the child reports the log in danger, or when
+        the child ends without finishing.
+    """
+
+    def __init__(
+        self,
+        path: Path,
+        inbox: queue.SimpleQueue[Any],
+        config: Mapping[str, Any],
+        on_fault: Callable[[str], None] | None = None,
+    ) -> None:
+        self.path = path
+        self.error: BaseException | None = None
+        self.fault: str | None = None
+        self.lost = 0
+        self.max_backlog = 0
+        self.events = 0
+        self.started_in = 0.0  #: wall time [s] from launching the child to its file being open
+        self._inbox, self._config, self._on_fault = inbox, dict(config), on_fault
+        self._stats: dict[str, TopicStats] = {}
+        self._waiters: dict[int, threading.Event] = {}
+        self._waiter_ids = 0
+        self._lock = threading.Lock()
+        self._proc: subprocess.Popen[bytes] | None = None
+        self._threads: list[threading.Thread] = []
+
+    def start(self) -> None:
+        """Launch the child, wait until it has created the file, start the sender and reader.
+
+        Raises
+        ------
+        OSError
+            What creating the file raised in the child (``errno`` kept: ENOSPC is a full disk).
+        DataError
+            If the child could not be started or ended before opening the file.
+        """
+        from_parent, to_child = os.pipe()  # (read end, write end)
+        from_child, to_parent = os.pipe()
+        with contextlib.suppress(OSError):
+            fcntl.fcntl(from_parent, fcntl.F_SETPIPE_SZ, _PIPE_SIZE)
+        begin = time.perf_counter()
+        try:
+            self._proc = subprocess.Popen(
+                [sys.executable, "-m", "rths.log.writer_process", str(from_parent), str(to_parent)],
+                pass_fds=(from_parent, to_parent),
+                stdin=subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL,
+            )
+        except OSError as exc:
+            for fd in (to_child, from_parent, from_child, to_parent):
+                os.close(fd)
+            raise DataError(f"cannot start the writer process for '{self.path}': {exc}") from None
+        os.close(from_parent)
+        os.close(to_parent)
+        self._out, self._in = (
+            Connection(to_child, readable=False),
+            Connection(from_child, writable=False),
+        )
+        self._out.send_bytes(pickle.dumps({"path": str(self.path), **self._config}, protocol=5))
+        try:
+            reply = pickle.loads(self._in.recv_bytes())
+        except (EOFError, OSError):
+            code = self._proc.wait()
+            self._out.close()
+            self._in.close()
+            raise DataError(
+                f"the writer process for '{self.path}' ended (exit code {code}) "
+                "before opening the file"
+            ) from None
+        if reply[0] == "start_failed":
+            self._proc.wait()
+            self._out.close()
+            self._in.close()
+            raise OSError(reply[1], reply[2])
+        self.started_in = time.perf_counter() - begin
+        self._threads = [
+            threading.Thread(target=self._send, name="rths-recorder-send", daemon=True),
+            threading.Thread(target=self._receive, name="rths-recorder-reply", daemon=True),
+        ]
+        for thread in self._threads:
+            thread.start()
+
+    @property
+    def pid(self) -> int | None:
+        """The writer process's id (None before :meth:`start`)."""
+        return None if self._proc is None else self._proc.pid
+
+    def join(self) -> None:
+        """Wait until the child has finished the file and reported its counts."""
+        for thread in self._threads:
+            thread.join()
+        if self._proc is not None:
+            code = self._proc.wait()
+            if code and self.error is None:
+                self.error = DataError(f"the writer process ended with exit code {code}")
+
+    def stats(self) -> dict[str, TopicStats]:
+        """Counts per topic, as the child reported them at the end."""
+        return dict(self._stats)
+
+    # ------------------------------------------------------------------ sender thread
+
+    def _send(self) -> None:
+        """Ship the queue to the child until STOP; after the pipe broke, count what is lost."""
+        from rths.log.mcap_writer import STOP
+
+        inbox, broken = self._inbox, False
+        while True:
+            items = [inbox.get()]  # blocks, holding no lock: the loop only enqueues
+            while len(items) < BATCH and items[-1] is not STOP:
+                try:
+                    items.append(inbox.get_nowait())
+                except queue.Empty:
+                    break
+            self.max_backlog = max(self.max_backlog, len(items) + inbox.qsize())
+            stop = items[-1] is STOP
+            batch = [self._ship(item) for item in items if item is not STOP]
+            if stop:
+                batch.append(("stop",))
+            if not broken:
+                try:
+                    self._out.send_bytes(self._pickle(batch))
+                except OSError:
+                    broken = True
+            if broken:
+                self.lost += sum(_messages(item) for item in items if item is not STOP)
+                self._wake_waiters()
+            if stop:
+                self._out.close()
+                return
+
+    def _ship(self, item: tuple[Any, ...]) -> tuple[Any, ...]:
+        if item[0] != "w":
+            return _wire(item)
+        with self._lock:
+            self._waiter_ids += 1
+            self._waiters[self._waiter_ids] = item[1]
+        return ("w", self._waiter_ids)
+
+    @staticmethod
+    def _pickle(batch: list[tuple[Any, ...]]) -> bytes:
+        try:
+            return pickle.dumps(batch, protocol=5)
+        except Exception:  # one item of the batch is not picklable: send a stand-in for it
+            items = []
+            for item in batch:
+                try:
+                    pickle.dumps(item, protocol=5)
+                except Exception:
+                    item = _fallback(item)
+                items.append(item)
+            return pickle.dumps(items, protocol=5)
+
+    # ------------------------------------------------------------------ reader thread
+
+    def _receive(self) -> None:
+        """Act on the child's reports until its pipe ends."""
+        done = False
+        while True:
+            try:
+                reply = pickle.loads(self._in.recv_bytes())
+            except (EOFError, OSError):
+                break
+            if reply[0] == "fault":
+                self._notify(reply[1])
+            elif reply[0] == "w":
+                with self._lock:
+                    waiter = self._waiters.pop(reply[1], None)
+                if waiter is not None:
+                    waiter.set()
+            elif reply[0] == "done":
+                done = True
+                counts = reply[1]
+                self._stats = counts["stats"]
+                self.events, self.lost = counts["events"], self.lost + counts["lost"]
+                self.max_backlog = max(self.max_backlog, counts["max_backlog"])
+                self.fault = self.fault or counts["fault"]
+                self.error = counts["error"]
+        self._in.close()
+        if not done:
+            code = self._proc.wait() if self._proc is not None else None
+            self.error = DataError(
+                f"the writer process ended (exit code {code}) before finishing the log"
+            )
+            self._notify(f"recording to '{self.path}' failed: {self.error}")
+        self._wake_waiters()
+
+    def _notify(self, message: str) -> None:
+        if self.fault is not None:
+            return
+        self.fault = message
+        if self._on_fault is not None:
+            with contextlib.suppress(Exception):  # the callback's problem must not cost the log
+                self._on_fault(message)
+
+    def _wake_waiters(self) -> None:
+        with self._lock:
+            waiters, self._waiters = list(self._waiters.values()), {}
+        for waiter in waiters:
+            waiter.set()
+
+
+# ---------------------------------------------------------------------- child process
+
+
+class _Rows:
+    """The part of a :class:`rths.core.channels.RowBlock` the writer reads."""
+
+    __slots__ = ("count", "names", "seq", "t_ns", "values")
+
+    def __init__(self, names: tuple[str, ...], values: Any, seq: Any, t_ns: Any) -> None:
+        self.names, self.values, self.seq, self.t_ns = names, values, seq, t_ns
+        self.count = len(seq)
+
+
+class _Waiter:
+    """Stands for the coordinator's flush waiter: ``set()`` tells the coordinator."""
+
+    __slots__ = ("ident", "reply")
+
+    def __init__(self, ident: int, reply: Callable[[tuple[Any, ...]], None]) -> None:
+        self.ident, self.reply = ident, reply
+
+    def set(self) -> None:
+        self.reply(("w", self.ident))
+
+
+def _lower_priority() -> None:
+    """Ordinary scheduling at nice +:data:`NICE` (threads started later inherit it)."""
+    with contextlib.suppress(AttributeError, OSError):
+        if os.sched_getscheduler(0) != os.SCHED_OTHER:
+            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    with contextlib.suppress(OSError):
+        os.nice(NICE)
+
+
+def main(fd_in: int, fd_out: int) -> int:
+    """Run the writer process: open the file, write what arrives until a stop or the end of
+    the pipe, finish the file and report the counts (module docstring)."""
+    _lower_priority()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    from rths.log.logfile import LogFile
+    from rths.log.mcap_writer import STOP, WriterThread
+
+    source, sink = Connection(fd_in, writable=False), Connection(fd_out, readable=False)
+    lock = threading.Lock()
+
+    def reply(message: tuple[Any, ...]) -> None:
+        with lock, contextlib.suppress(OSError):  # a lost coordinator reads nothing
+            sink.send_bytes(pickle.dumps(message, protocol=5))
+
+    config = pickle.loads(source.recv_bytes())
+    try:
+        stream = LogFile(config["path"], config["reserve"])
+    except OSError as exc:
+        reply(("start_failed", exc.errno or errno.EIO, exc.strerror or str(exc)))
+        return 1
+    inbox: queue.SimpleQueue[Any] = queue.SimpleQueue()
+    writer = WriterThread(
+        stream,
+        inbox,
+        config["metadata"],
+        config["compression"],
+        config["chunk_size"],
+        config["flush_interval"],
+        on_fault=lambda message: reply(("fault", message)),
+    )
+    reply(("started",))  # before the writer's first write can report a fault
+    writer.start()
+    last_ns = 0
+    while True:
+        try:
+            batch = pickle.loads(source.recv_bytes())
+        except (EOFError, OSError):
+            inbox.put(("e", last_ns, {"kind": "error", "message": _LOST}))
+            inbox.put(STOP)
+            break
+        if batch[-1] == ("stop",):
+            batch.pop()
+            batch.append(STOP)
+        for item in batch:
+            if item is not STOP:
+                tag = item[0]
+                if tag == "b":
+                    rows = _Rows(*item[2:])
+                    item = ("b", item[1], rows)
+                    last_ns = int(rows.t_ns[-1]) if rows.count else last_ns
+                elif tag == "w":
+                    item = ("w", _Waiter(item[1], reply))
+                elif tag in ("m", "x"):
+                    last_ns = item[3]
+                elif tag == "e":
+                    last_ns = max(last_ns, item[1])
+            inbox.put(item)
+        if batch and batch[-1] is STOP:
+            break
+    writer.join()
+    try:
+        error = pickle.loads(pickle.dumps(writer.error))
+    except Exception:
+        error = DataError(repr(writer.error))
+    counts = {
+        "stats": writer.stats(),
+        "events": writer.events,
+        "lost": writer.lost,
+        "max_backlog": writer.max_backlog,
+        "fault": writer.fault,
+        "error": error,
+    }
+    reply(("done", counts))
+    sink.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(int(sys.argv[1]), int(sys.argv[2])))
