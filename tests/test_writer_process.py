@@ -24,7 +24,7 @@ from mcap.reader import make_reader
 from rths.core.channels import Channel, RowBlock
 from rths.core.errors import DataError, ParameterError
 from rths.log.recorder import EVENTS_TOPIC, LOOP_TOPIC, Recorder, RecordingFailed
-from rths.log.writer_process import NICE
+from rths.log.writer_child import NICE
 from rths.wire.codec import LogRecord
 
 PATIENCE = 30.0  # upper bound for a process to start or end; reached only if the code is broken

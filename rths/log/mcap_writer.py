@@ -33,6 +33,7 @@ import shutil
 import threading
 import time
 from collections.abc import Callable, Mapping
+from pathlib import Path
 from typing import Any
 
 from mcap.writer import CompressionType, Writer
@@ -45,7 +46,7 @@ from rths.log.schemas import EVENTS_TOPIC
 from rths.log.summary import COUNTS, TopicStats
 from rths.wire.codec import LogRecord
 
-__all__ = ["POLL", "STOP", "WriterThread"]
+__all__ = ["POLL", "STOP", "WriterThread", "messages_in"]
 
 STOP = object()
 
@@ -58,8 +59,14 @@ _COMPRESSION = {
 }
 
 
-def _messages(item: tuple[Any, ...]) -> int:
-    """How many messages a queued item carries (events and metadata: none)."""
+def messages_in(item: tuple[Any, ...]) -> int:
+    """How many messages a queued item carries (events and metadata: none).
+
+    Parameters
+    ----------
+    item
+        A queued item (module docstring).
+    """
     if item[0] in ("m", "r"):
         return 1
     if item[0] == "b":
@@ -137,6 +144,33 @@ class WriterThread(threading.Thread):
         self._last_flush = time.monotonic()
         self._flush_waiters: list[threading.Event] = []
 
+    @classmethod
+    def open(
+        cls,
+        path: str | Path,
+        inbox: queue.SimpleQueue[Any],
+        config: Mapping[str, Any],
+        on_fault: Callable[[str], None] | None = None,
+    ) -> WriterThread:
+        """Create the file (:class:`rths.log.logfile.LogFile`) and its writer; ``config`` holds
+        ``reserve`` [B] and the other parameters of the class by name.
+
+        Raises
+        ------
+        OSError
+            If the file cannot be created or its reserve not allocated.
+        """
+        stream = LogFile(path, config["reserve"])
+        return cls(
+            stream,
+            inbox,
+            config["metadata"],
+            config["compression"],
+            config["chunk_size"],
+            config["flush_interval"],
+            on_fault,
+        )
+
     def stats(self) -> dict[str, TopicStats]:
         """Counts per topic so far (``rths/events`` excluded)."""
         return {
@@ -187,7 +221,7 @@ class WriterThread(threading.Thread):
                 elif item[0] == "w":
                     item[1].set()  # nothing more will reach the disk: do not keep it waiting
                 else:
-                    self.lost += _messages(item)
+                    self.lost += messages_in(item)
 
     def _finish(self) -> None:
         summary = {"complete": "true", "max_backlog": str(self.max_backlog)}
@@ -237,7 +271,7 @@ class WriterThread(threading.Thread):
                 try:
                     self._handle(item)
                 except BaseException:
-                    self.lost += _messages(item) - self._rows_done  # those not written
+                    self.lost += messages_in(item) - self._rows_done  # those not written
                     raise
                 handled += 1
                 # after every item, not only when the queue is empty: a producer that keeps it

@@ -48,11 +48,10 @@ from rths.core.channels import RowBlock
 from rths.core.errors import (
     DataError,
     ParameterError,
-    RunFault,
     check_positive,
     check_positive_int,
 )
-from rths.log.logfile import RESERVE, LogFile
+from rths.log.logfile import RESERVE
 from rths.log.mcap_writer import STOP, WriterThread
 from rths.log.schemas import (
     EVENTS_SCHEMA,
@@ -60,9 +59,10 @@ from rths.log.schemas import (
     LOOP_SCHEMA,
     LOOP_TOPIC,
     block_schema,
+    check_metadata,
     object_schema,
 )
-from rths.log.summary import RecordingSummary, TopicStats
+from rths.log.summary import RecordingFailed, RecordingSummary, TopicStats
 from rths.log.writer_process import WriterProcess
 
 __all__ = [
@@ -81,11 +81,6 @@ __all__ = [
 
 _Compression = Literal["zstd", "lz4", "none"]
 _Writer = Literal["thread", "process"]
-
-
-class RecordingFailed(RunFault):
-    """The log could not be written to the end (a full disk, an I/O error); the file holds
-    everything written before the failure and is readable."""
 
 
 class Recorder:
@@ -147,17 +142,20 @@ class Recorder:
         if writer not in ("thread", "process"):
             raise ParameterError(f"writer must be 'thread' or 'process'; got {writer!r}")
         self._mode = writer
-        self._reserve = int(reserve)
         self._on_fault = on_fault
         if compression not in ("zstd", "lz4", "none"):
             raise ParameterError(
                 f"compression must be 'zstd', 'lz4' or 'none'; got {compression!r}"
             )
-        self._compression = compression
-        self._chunk_size = check_positive_int(chunk_size, "chunk_size")
-        self._flush_interval = check_positive(flush_interval, "flush_interval")
-        self._metadata = _check_metadata(metadata or {})
-        self._metadata.setdefault("rths", {"version": __version__})
+        metadata = check_metadata(metadata or {})
+        metadata.setdefault("rths", {"version": __version__})
+        self._config = {  # what the writer needs (WriterThread.open)
+            "reserve": int(reserve),
+            "metadata": metadata,
+            "compression": compression,
+            "chunk_size": check_positive_int(chunk_size, "chunk_size"),
+            "flush_interval": check_positive(flush_interval, "flush_interval"),
+        }
         self._schemas: dict[str, bytes] = {}
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
         self._last_time_ns = 0
@@ -170,7 +168,7 @@ class Recorder:
     # ------------------------------------------------------------------ lifecycle
 
     def start(self) -> Recorder:
-        """Create the file and start the writer thread (``with`` does this).
+        """Create the file and start the writer (``with`` does this).
 
         Raises
         ------
@@ -183,29 +181,12 @@ class Recorder:
             raise DataError(f"recorder for '{self.path}' was already started")
         try:
             if self._mode == "process":
-                config = {
-                    "reserve": self._reserve,
-                    "metadata": self._metadata,
-                    "compression": self._compression,
-                    "chunk_size": self._chunk_size,
-                    "flush_interval": self._flush_interval,
-                }
                 writer: WriterThread | WriterProcess = WriterProcess(
-                    self.path, self._queue, config, self._on_fault
+                    self.path, self._queue, self._config, self._on_fault
                 )
-                writer.start()
             else:
-                stream = LogFile(self.path, self._reserve)
-                writer = WriterThread(
-                    stream,
-                    self._queue,
-                    self._metadata,
-                    self._compression,
-                    self._chunk_size,
-                    self._flush_interval,
-                    self._on_fault,
-                )
-                writer.start()
+                writer = WriterThread.open(self.path, self._queue, self._config, self._on_fault)
+            writer.start()
         except OSError as exc:
             if exc.errno in (errno.ENOSPC, errno.EDQUOT):
                 raise RecordingFailed(f"cannot create MCAP log '{self.path}': {exc}") from None
@@ -385,7 +366,7 @@ class Recorder:
         ParameterError
             If ``name`` is empty or ``data`` is not a mapping of strings to strings.
         """
-        checked = _check_metadata({name: data})
+        checked = check_metadata({name: data})
         self._check_alive()
         self._queue.put(("md", name, checked[name]))
 
@@ -443,19 +424,3 @@ class Recorder:
         if self._writer is None or self.summary is not None:
             state = "closed" if self.summary is not None else "not started"
             raise DataError(f"recorder for '{self.path}' is {state}")
-
-
-def _check_metadata(metadata: Mapping[str, Mapping[str, str]]) -> dict[str, dict[str, str]]:
-    checked: dict[str, dict[str, str]] = {}
-    for name, record in metadata.items():
-        if not isinstance(name, str) or not isinstance(record, Mapping):
-            raise ParameterError(
-                f"metadata must map record names to {{key: value}} dicts; got {name!r}: {record!r}"
-            )
-        for key, value in record.items():
-            if not isinstance(key, str) or not isinstance(value, str):
-                raise ParameterError(
-                    f"metadata[{name!r}] keys and values must be strings; got {key!r}: {value!r}"
-                )
-        checked[name] = dict(record)
-    return checked

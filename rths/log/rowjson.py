@@ -38,7 +38,13 @@ def _plain(obj: Any) -> Any:
 
 
 def finite(obj: Any) -> Any:
-    """``obj`` with every NaN/infinite float replaced by None (JSON has no NaN)."""
+    """``obj`` with every NaN/infinite float replaced by None (JSON has no NaN).
+
+    Parameters
+    ----------
+    obj
+        A number, a mapping, a list/tuple or a numpy value, nested as JSON allows.
+    """
     if isinstance(obj, float):
         return obj if math.isfinite(obj) else None
     if isinstance(obj, Mapping):

@@ -20,6 +20,7 @@ __all__ = [
     "LOOP_SCHEMA",
     "LOOP_TOPIC",
     "block_schema",
+    "check_metadata",
     "object_schema",
 ]
 
@@ -111,3 +112,31 @@ EVENTS_SCHEMA: dict[str, Any] = {
     },
     "required": ["kind", "message"],
 }
+
+
+def check_metadata(metadata: Mapping[str, Mapping[str, str]]) -> dict[str, dict[str, str]]:
+    """A checked copy of MCAP metadata records.
+
+    Parameters
+    ----------
+    metadata
+        ``{record name: {key: value}}``, all strings.
+
+    Raises
+    ------
+    ParameterError
+        Naming the first name, key or value that is not a string.
+    """
+    checked: dict[str, dict[str, str]] = {}
+    for name, record in metadata.items():
+        if not isinstance(name, str) or not isinstance(record, Mapping):
+            raise ParameterError(
+                f"metadata must map record names to {{key: value}} dicts; got {name!r}: {record!r}"
+            )
+        for key, value in record.items():
+            if not isinstance(key, str) or not isinstance(value, str):
+                raise ParameterError(
+                    f"metadata[{name!r}] keys and values must be strings; got {key!r}: {value!r}"
+                )
+        checked[name] = dict(record)
+    return checked

@@ -10,7 +10,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["COUNTS", "RecordingSummary", "TopicStats"]
+from rths.core.errors import RunFault
+
+__all__ = ["COUNTS", "RecordingFailed", "RecordingSummary", "TopicStats"]
 
 #: The per-topic counts, as fields of :class:`TopicStats` and keys of ``rths.recording``.
 COUNTS = ("written", "missing", "reordered", "first_seq", "last_seq", "nonfinite", "rejected")
@@ -83,3 +85,8 @@ class RecordingSummary:
     def complete(self) -> bool:
         """True if every topic is complete (no sample lost, repeated or rejected)."""
         return self.lost == 0 and all(s.complete for s in self.topics.values())
+
+
+class RecordingFailed(RunFault):
+    """The log could not be written to the end (a full disk, an I/O error); the file holds
+    everything written before the failure and is readable."""

@@ -16,7 +16,7 @@ Coordinator side (:class:`WriterProcess`): the producers keep filling the record
 *reader* thread blocks on a second pipe for what the child reports: a fault (``on_fault`` is called
 at once), a flush (:meth:`rths.log.recorder.Recorder.wait_flushed`) and, at the end, the counts.
 
-Child side (:func:`main`, ``python -m rths.log.writer_process FD_IN FD_OUT``): a fresh interpreter
+Child side (:mod:`rths.log.writer_child`): a fresh interpreter
 (fork + exec, never a bare fork of a process with zenoh's threads, and without multiprocessing's
 re-import of the parent's ``__main__``) that imports only the log writer, numpy and ``mcap``.  It
 feeds the same :class:`~rths.log.mcap_writer.WriterThread` as the in-process mode, so the file is
@@ -29,12 +29,10 @@ the coordinator, which stops the run and closes the recorder.
 from __future__ import annotations
 
 import contextlib
-import errno
 import fcntl
 import os
 import pickle
 import queue
-import signal
 import subprocess
 import sys
 import threading
@@ -45,24 +43,14 @@ from pathlib import Path
 from typing import Any
 
 from rths.core.errors import DataError
+from rths.log.mcap_writer import STOP, messages_in
 from rths.log.summary import TopicStats
 
-__all__ = ["NICE", "WriterProcess", "main"]
+__all__ = ["WriterProcess"]
 
-#: Niceness added in the writer process (it must never compete with the real-time loop).
-NICE = 10
 #: Most items the sender ships in one write (a row block is one item).
 BATCH = 32
 _PIPE_SIZE = 1 << 20  # bytes of pipe buffer asked for: a few blocks without blocking the sender
-_LOST = "coordinator process lost: the pipe from the recorder closed without a stop"
-
-
-def _messages(item: tuple[Any, ...]) -> int:
-    if item[0] in ("m", "r"):
-        return 1
-    if item[0] == "b":
-        return int(item[2].count)
-    return 0
 
 
 def _wire(item: tuple[Any, ...]) -> tuple[Any, ...]:
@@ -148,7 +136,7 @@ class WriterProcess:
         begin = time.perf_counter()
         try:
             self._proc = subprocess.Popen(
-                [sys.executable, "-m", "rths.log.writer_process", str(from_parent), str(to_parent)],
+                [sys.executable, "-m", "rths.log.writer_child", str(from_parent), str(to_parent)],
                 pass_fds=(from_parent, to_parent),
                 stdin=subprocess.DEVNULL,
                 stdout=subprocess.DEVNULL,
@@ -209,8 +197,6 @@ class WriterProcess:
 
     def _send(self) -> None:
         """Ship the queue to the child until STOP; after the pipe broke, count what is lost."""
-        from rths.log.mcap_writer import STOP
-
         inbox, broken = self._inbox, False
         while True:
             items = [inbox.get()]  # blocks, holding no lock: the loop only enqueues
@@ -230,7 +216,7 @@ class WriterProcess:
                 except OSError:
                     broken = True
             if broken:
-                self.lost += sum(_messages(item) for item in items if item is not STOP)
+                self.lost += sum(messages_in(item) for item in items if item is not STOP)
                 self._wake_waiters()
             if stop:
                 self._out.close()
@@ -305,119 +291,3 @@ class WriterProcess:
             waiters, self._waiters = list(self._waiters.values()), {}
         for waiter in waiters:
             waiter.set()
-
-
-# ---------------------------------------------------------------------- child process
-
-
-class _Rows:
-    """The part of a :class:`rths.core.channels.RowBlock` the writer reads."""
-
-    __slots__ = ("count", "names", "seq", "t_ns", "values")
-
-    def __init__(self, names: tuple[str, ...], values: Any, seq: Any, t_ns: Any) -> None:
-        self.names, self.values, self.seq, self.t_ns = names, values, seq, t_ns
-        self.count = len(seq)
-
-
-class _Waiter:
-    """Stands for the coordinator's flush waiter: ``set()`` tells the coordinator."""
-
-    __slots__ = ("ident", "reply")
-
-    def __init__(self, ident: int, reply: Callable[[tuple[Any, ...]], None]) -> None:
-        self.ident, self.reply = ident, reply
-
-    def set(self) -> None:
-        self.reply(("w", self.ident))
-
-
-def _lower_priority() -> None:
-    """Ordinary scheduling at nice +:data:`NICE` (threads started later inherit it)."""
-    with contextlib.suppress(AttributeError, OSError):
-        if os.sched_getscheduler(0) != os.SCHED_OTHER:
-            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
-    with contextlib.suppress(OSError):
-        os.nice(NICE)
-
-
-def main(fd_in: int, fd_out: int) -> int:
-    """Run the writer process: open the file, write what arrives until a stop or the end of
-    the pipe, finish the file and report the counts (module docstring)."""
-    _lower_priority()
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    from rths.log.logfile import LogFile
-    from rths.log.mcap_writer import STOP, WriterThread
-
-    source, sink = Connection(fd_in, writable=False), Connection(fd_out, readable=False)
-    lock = threading.Lock()
-
-    def reply(message: tuple[Any, ...]) -> None:
-        with lock, contextlib.suppress(OSError):  # a lost coordinator reads nothing
-            sink.send_bytes(pickle.dumps(message, protocol=5))
-
-    config = pickle.loads(source.recv_bytes())
-    try:
-        stream = LogFile(config["path"], config["reserve"])
-    except OSError as exc:
-        reply(("start_failed", exc.errno or errno.EIO, exc.strerror or str(exc)))
-        return 1
-    inbox: queue.SimpleQueue[Any] = queue.SimpleQueue()
-    writer = WriterThread(
-        stream,
-        inbox,
-        config["metadata"],
-        config["compression"],
-        config["chunk_size"],
-        config["flush_interval"],
-        on_fault=lambda message: reply(("fault", message)),
-    )
-    reply(("started",))  # before the writer's first write can report a fault
-    writer.start()
-    last_ns = 0
-    while True:
-        try:
-            batch = pickle.loads(source.recv_bytes())
-        except (EOFError, OSError):
-            inbox.put(("e", last_ns, {"kind": "error", "message": _LOST}))
-            inbox.put(STOP)
-            break
-        if batch[-1] == ("stop",):
-            batch.pop()
-            batch.append(STOP)
-        for item in batch:
-            if item is not STOP:
-                tag = item[0]
-                if tag == "b":
-                    rows = _Rows(*item[2:])
-                    item = ("b", item[1], rows)
-                    last_ns = int(rows.t_ns[-1]) if rows.count else last_ns
-                elif tag == "w":
-                    item = ("w", _Waiter(item[1], reply))
-                elif tag in ("m", "x"):
-                    last_ns = item[3]
-                elif tag == "e":
-                    last_ns = max(last_ns, item[1])
-            inbox.put(item)
-        if batch and batch[-1] is STOP:
-            break
-    writer.join()
-    try:
-        error = pickle.loads(pickle.dumps(writer.error))
-    except Exception:
-        error = DataError(repr(writer.error))
-    counts = {
-        "stats": writer.stats(),
-        "events": writer.events,
-        "lost": writer.lost,
-        "max_backlog": writer.max_backlog,
-        "fault": writer.fault,
-        "error": error,
-    }
-    reply(("done", counts))
-    sink.close()
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main(int(sys.argv[1]), int(sys.argv[2])))
