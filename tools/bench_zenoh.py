@@ -32,6 +32,8 @@ pooled over ``--rounds`` interleaved rounds.  Mechanisms (``*`` = what rths.wire
 * ``recording``      rths while a :class:`Recorder` records one rths/loop message per step
   (its writer thread competes for the GIL; CPython's default switch interval is 5 ms)
 * ``recording-si``   the same after ``sys.setswitchinterval(1e-4)`` in the coordinator
+* ``recording-process`` the same with the recorder's writer in its own process
+  (``Recorder(writer="process")``; ``tools/bench_recorder.py`` measures its hand-over)
 
 Recorder: ``--messages`` rths/loop records put from one thread; reports the put() cost on the
 producer's thread [µs] and the end-to-end throughput [messages/s] until the file is finished,
@@ -82,6 +84,7 @@ MECHANISMS = (
     "query",
     "recording",
     "recording-si",
+    "recording-process",
     "sync",
     "sync-lowlatency",
     "sync-shm",
@@ -90,7 +93,7 @@ MECHANISMS = (
     "sync-cb-lowlatency",
     "sync-cb-spin",
 )
-RTHS_LINKS = ("rths", "batched", "lowlatency", "recording", "recording-si")
+RTHS_LINKS = ("rths", "batched", "lowlatency", "recording", "recording-si", "recording-process")
 SYNC_LINKS = (
     "sync",
     "sync-lowlatency",
@@ -301,7 +304,12 @@ def round_trips(mechanism: str, steps: int) -> tuple[list[float], list[float]]:
         times, cpu = [], []
         clock, cpu_clock = time.perf_counter_ns, time.thread_time_ns
         with tempfile.TemporaryDirectory() as tmp:
-            rec = Recorder(Path(tmp) / "rt.mcap").start() if "recording" in mechanism else None
+            writer = "process" if mechanism == "recording-process" else "thread"
+            rec = (
+                Recorder(Path(tmp) / "rt.mcap", writer=writer).start()
+                if "recording" in mechanism
+                else None
+            )
             switch_interval = sys.getswitchinterval()
             if mechanism == "recording-si":
                 sys.setswitchinterval(1e-4)

@@ -16,6 +16,7 @@ import os
 import pickle
 import queue
 import signal
+import struct
 import sys
 import threading
 from collections.abc import Callable
@@ -51,6 +52,14 @@ class _Waiter:
 
     def set(self) -> None:
         self.reply(("w", self.ident))
+
+
+def _receive_batch(source: Connection) -> list[Any]:
+    """One batch as :meth:`rths.log.writer_process.WriterProcess` frames it."""
+    head = source.recv_bytes()
+    (count,) = struct.unpack_from("<I", head)
+    buffers = [source.recv_bytes() for _ in range(count)]
+    return list(pickle.loads(memoryview(head)[4:], buffers=buffers))
 
 
 def _lower_priority() -> None:
@@ -106,7 +115,7 @@ def main(fd_in: int, fd_out: int) -> int:
     last_ns = 0
     while True:
         try:
-            batch = pickle.loads(source.recv_bytes())
+            batch = _receive_batch(source)
         except (EOFError, OSError):
             inbox.put(("e", last_ns, {"kind": "error", "message": _LOST}))
             inbox.put(STOP)

@@ -11,8 +11,9 @@ the kernel preempts it whenever the loop, the specimen or zenoh have work.
 Coordinator side (:class:`WriterProcess`): the producers keep filling the recorder's
 :class:`queue.SimpleQueue` exactly as for the in-process :class:`rths.log.mcap_writer.WriterThread`
 (``put_block`` only enqueues).  A *sender* thread takes what is queued, pickles it (protocol 5; a
-:class:`rths.core.channels.RowBlock` goes as its names and its ``values``/``seq``/``t_ns`` arrays:
-~20 µs for 256 rows of 45 channels) and writes it to a pipe (the write releases the GIL).  A
+:class:`rths.core.channels.RowBlock` goes as its names and its ``values``/``seq``/``t_ns`` arrays,
+sent out of band: the arrays' memory is written to the pipe as it is, no copy, with the GIL
+released) and writes it to a pipe.  A
 *reader* thread blocks on a second pipe for what the child reports: a fault (``on_fault`` is called
 at once), a flush (:meth:`rths.log.recorder.Recorder.wait_flushed`) and, at the end, the counts.
 
@@ -33,6 +34,7 @@ import fcntl
 import os
 import pickle
 import queue
+import struct
 import subprocess
 import sys
 import threading
@@ -212,7 +214,7 @@ class WriterProcess:
                 batch.append(("stop",))
             if not broken:
                 try:
-                    self._out.send_bytes(self._pickle(batch))
+                    self._send_batch(batch)
                 except OSError:
                     broken = True
             if broken:
@@ -230,11 +232,13 @@ class WriterProcess:
             self._waiters[self._waiter_ids] = item[1]
         return ("w", self._waiter_ids)
 
-    @staticmethod
-    def _pickle(batch: list[tuple[Any, ...]]) -> bytes:
+    def _send_batch(self, batch: list[tuple[Any, ...]]) -> None:
+        """Frame: ``<u32 buffers>`` + the pickle, then each array's bytes as they are."""
+        buffers: list[pickle.PickleBuffer] = []
         try:
-            return pickle.dumps(batch, protocol=5)
+            data = pickle.dumps(batch, protocol=5, buffer_callback=buffers.append)
         except Exception:  # one item of the batch is not picklable: send a stand-in for it
+            buffers.clear()
             items = []
             for item in batch:
                 try:
@@ -242,7 +246,10 @@ class WriterProcess:
                 except Exception:
                     item = _fallback(item)
                 items.append(item)
-            return pickle.dumps(items, protocol=5)
+            data = pickle.dumps(items, protocol=5, buffer_callback=buffers.append)
+        self._out.send_bytes(struct.pack("<I", len(buffers)) + data)
+        for buffer in buffers:  # no copy: the write reads the block's arrays, GIL released
+            self._out.send_bytes(buffer.raw())
 
     # ------------------------------------------------------------------ reader thread
 

@@ -1,0 +1,140 @@
+"""What recording row blocks costs the coordinator process: writer thread vs writer process.
+
+Usage::
+
+    python tools/bench_recorder.py [--blocks 40] [--rate 8] [--channels 45] [--rounds 2]
+
+The loop hands the recorder one :class:`rths.core.channels.RowBlock` of 256 rows every 256 steps
+(8 blocks/s at 2048 Hz).  This benchmark does the same at ``--rate`` blocks/s with the seed's
+~45 channels, for ``Recorder(writer="thread")`` (encoding, ``mcap`` and zstd in the coordinator)
+and ``Recorder(writer="process")`` (a sender thread pickles the block to a pipe; the rest runs in
+the writer process), interleaved over ``--rounds``.  Per block it reports
+
+* ``put`` -- CPU of ``put_block`` on the caller's thread [µs];
+* ``coord CPU`` -- CPU of the whole coordinator process (all its threads but the probe's) from
+  the first block to the finished file, divided by the blocks [µs]: what competes with the loop for
+  the CPU and the GIL (it includes the caller's own pacing sleeps and closing the recorder);
+* ``writer CPU`` -- CPU of the writer process per block [µs] (``RUSAGE_CHILDREN``; 0 for the
+  thread);
+* ``probe p99/max`` -- lateness [µs] of a thread in the coordinator that sleeps 0.5 ms at a time
+  (as the loop does between steps): a writer that holds the GIL delays its wake-ups;
+* ``start`` -- wall time [ms] until the writer process has opened the file.
+
+CPU times do not depend much on the machine's load; the probe's lateness does (load is printed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import statistics
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+from rths.core.channels import Channel, RowBlock
+from rths.log.recorder import Recorder
+
+ROWS = 256
+PROBE_SLEEP = 0.5e-3  # s
+
+
+def _blocks(n: int, channels: int) -> list[RowBlock]:
+    chans = [Channel(f"ch{i}", "m") for i in range(channels)]
+    rng = np.random.default_rng(1)
+    out = []
+    for b in range(n):
+        block = RowBlock(chans, ROWS)
+        block.values[:] = rng.standard_normal((ROWS, channels)) * 1e-3
+        block.seq[:] = np.arange(b * ROWS, (b + 1) * ROWS)
+        block.t_ns[:] = (block.seq + 1) * 488_281
+        block.count = ROWS
+        out.append(block)
+    return out
+
+
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def handover(writer: str, blocks: list[RowBlock], rate: float) -> dict[str, float]:
+    """One round: the figures of the module docstring for ``writer``."""
+    late: list[float] = []
+    probe_cpu: list[float] = []
+    done = threading.Event()
+
+    def probe() -> None:
+        c0 = time.thread_time()
+        while not done.is_set():
+            t0 = time.perf_counter()
+            time.sleep(PROBE_SLEEP)
+            late.append((time.perf_counter() - t0 - PROBE_SLEEP) * 1e6)
+        probe_cpu.append(time.thread_time() - c0)
+
+    with tempfile.TemporaryDirectory() as tmp:
+        rec = Recorder(Path(tmp) / "bench.mcap", topics={}, writer=writer)  # type: ignore[arg-type]
+        rec.start()
+        start = rec.writer_started_in or 0.0
+        prober = threading.Thread(target=probe, daemon=True)
+        prober.start()
+        puts = []
+        cpu0, child0 = time.process_time(), _children_cpu()
+        t_next = time.perf_counter()
+        for block in blocks:
+            t_next += 1.0 / rate
+            time.sleep(max(0.0, t_next - time.perf_counter()))
+            c0 = time.thread_time()
+            rec.put_block("rths/loop", block)
+            puts.append(time.thread_time() - c0)
+        summary = rec.close()
+        done.set()
+        prober.join()
+        coord = time.process_time() - cpu0 - probe_cpu[0]  # the probe's own CPU is not the writer's
+        child = _children_cpu() - child0
+    assert summary.complete and summary.topics["rths/loop"].written == ROWS * len(blocks)
+    n = len(blocks)
+    return {
+        "put": statistics.median(puts) * 1e6,
+        "coord": coord / n * 1e6,
+        "child": child / n * 1e6,
+        "p99": float(np.percentile(late, 99)),
+        "max": max(late),
+        "start": start * 1e3,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--blocks", type=int, default=40, help="blocks per round")
+    parser.add_argument("--rate", type=float, default=8.0, help="blocks per second")
+    parser.add_argument("--channels", type=int, default=45, help="channels per row")
+    parser.add_argument("--rounds", type=int, default=2, help="interleaved rounds")
+    args = parser.parse_args()
+    blocks = _blocks(args.blocks, args.channels)
+    results: dict[str, list[dict[str, float]]] = {"thread": [], "process": []}
+    for _ in range(args.rounds):
+        for writer, runs in results.items():
+            runs.append(handover(writer, blocks, args.rate))
+    print(
+        f"{args.blocks} blocks of {ROWS} x {args.channels} at {args.rate} blocks/s, "
+        f"{args.rounds} rounds (load average {os.getloadavg()[0]:.2f}); medians over rounds"
+    )
+    print(
+        f"{'writer':<9}{'put [us]':>10}{'coord CPU [us]':>16}{'writer CPU [us]':>17}"
+        f"{'probe p99 [us]':>16}{'probe max [us]':>16}{'start [ms]':>12}"
+    )
+    for writer, runs in results.items():
+        med = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+        print(
+            f"{writer:<9}{med['put']:>10.1f}{med['coord']:>16.0f}{med['child']:>17.0f}"
+            f"{med['p99']:>16.0f}{med['max']:>16.0f}{med['start']:>12.0f}"
+        )
+
+
+if __name__ == "__main__":
+    main()
