@@ -23,8 +23,8 @@ re-import of the parent's ``__main__``) that imports only the log writer, numpy 
 feeds the same :class:`~rths.log.mcap_writer.WriterThread` as the in-process mode, so the file is
 byte for byte the same kind of log.  Should the coordinator die (SIGKILL, a crash), the child sees
 the end of its pipe, writes an ``error`` event "coordinator lost", and finishes the file (footer,
-summary, ``rths.recording``) with everything it had received.  It ignores SIGINT: a Ctrl-C reaches
-the coordinator, which stops the run and closes the recorder.
+summary, ``rths.recording``) with everything it had received.  It ignores SIGINT, SIGTERM and
+SIGHUP: they reach the coordinator too, which stops the run and closes the recorder.
 """
 
 from __future__ import annotations
