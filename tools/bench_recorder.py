@@ -18,7 +18,12 @@ the writer process), interleaved over ``--rounds``.  Per block it reports
   thread);
 * ``probe p99/max`` -- lateness [µs] of a thread in the coordinator that sleeps 0.5 ms at a time
   (as the loop does between steps): a writer that holds the GIL delays its wake-ups;
+* ``late`` -- share of the probe's wake-ups more than 250 µs late [%] (half a 2048 Hz step);
 * ``start`` -- wall time [ms] until the writer process has opened the file.
+
+``--fifo 50`` runs the benchmark as ``RTHS_RT_PRIORITY=50`` runs the coordinator: in
+``SCHED_FIFO``, which the writer thread inherits and the writer process resets; the probe is then
+delayed by the writer (the GIL, the CPU) and hardly by other people's jobs.
 
 CPU times do not depend much on the machine's load; the probe's lateness does (load is printed).
 """
@@ -41,6 +46,7 @@ from rths.log.recorder import Recorder
 
 ROWS = 256
 PROBE_SLEEP = 0.5e-3  # s
+LATE = 250.0  # µs: a probe wake-up this late would cost a 2048 Hz step half its period
 
 
 def _blocks(n: int, channels: int) -> list[RowBlock]:
@@ -103,6 +109,7 @@ def handover(writer: str, blocks: list[RowBlock], rate: float) -> dict[str, floa
         "coord": coord / n * 1e6,
         "child": child / n * 1e6,
         "p99": float(np.percentile(late, 99)),
+        "over": 100.0 * float(np.mean(np.asarray(late) > LATE)),
         "max": max(late),
         "start": start * 1e3,
     }
@@ -114,7 +121,12 @@ def main() -> None:
     parser.add_argument("--rate", type=float, default=8.0, help="blocks per second")
     parser.add_argument("--channels", type=int, default=45, help="channels per row")
     parser.add_argument("--rounds", type=int, default=2, help="interleaved rounds")
+    parser.add_argument(
+        "--fifo", type=int, default=0, help="run this process in SCHED_FIFO at this priority"
+    )
     args = parser.parse_args()
+    if args.fifo:  # as RTHS_RT_PRIORITY does: threads inherit it, the writer process resets it
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(args.fifo))
     blocks = _blocks(args.blocks, args.channels)
     results: dict[str, list[dict[str, float]]] = {"thread": [], "process": []}
     for _ in range(args.rounds):
@@ -122,17 +134,19 @@ def main() -> None:
             runs.append(handover(writer, blocks, args.rate))
     print(
         f"{args.blocks} blocks of {ROWS} x {args.channels} at {args.rate} blocks/s, "
-        f"{args.rounds} rounds (load average {os.getloadavg()[0]:.2f}); medians over rounds"
+        f"{args.rounds} rounds (load average {os.getloadavg()[0]:.2f}, "
+        f"{'SCHED_FIFO ' + str(args.fifo) if args.fifo else 'default priority'}); "
+        "medians over rounds"
     )
     print(
         f"{'writer':<9}{'put [us]':>10}{'coord CPU [us]':>16}{'writer CPU [us]':>17}"
-        f"{'probe p99 [us]':>16}{'probe max [us]':>16}{'start [ms]':>12}"
+        f"{'probe p99 [us]':>16}{'probe max [us]':>16}{'late [%]':>10}{'start [ms]':>12}"
     )
     for writer, runs in results.items():
         med = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
         print(
             f"{writer:<9}{med['put']:>10.1f}{med['coord']:>16.0f}{med['child']:>17.0f}"
-            f"{med['p99']:>16.0f}{med['max']:>16.0f}{med['start']:>12.0f}"
+            f"{med['p99']:>16.0f}{med['max']:>16.0f}{med['over']:>10.2f}{med['start']:>12.0f}"
         )
 
 
