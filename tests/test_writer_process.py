@@ -208,3 +208,14 @@ def test_a_killed_coordinator_leaves_a_finished_log(tmp_path: Path) -> None:
     assert b'"kind":"error"' in events[-1] and b"coordinator process lost" in events[-1]
     assert metadata["rths.recording"]["rths/rows.written"] == str(len(seqs))
     assert metadata["rths.recording"]["complete"] == "true"
+
+
+def test_the_file_is_finished_when_the_body_raises(tmp_path: Path) -> None:
+    path = tmp_path / "raised.mcap"
+    with pytest.raises(ZeroDivisionError), Recorder(path, topics={}, writer="process") as rec:
+        rec.put_block("rths/rows", block(0))
+        _ = 1 / 0
+    messages, metadata, finished = plain(path)
+    assert finished and metadata["rths.recording"]["rths/rows.written"] == "256"
+    assert b"run ended by ZeroDivisionError" in messages[-1][3]
+    assert rec.writer_pid is not None and rec.summary is not None and rec.summary.complete
