@@ -100,6 +100,22 @@ def processes_of(run_id: str) -> list[int]:
     return pids
 
 
+def writer_processes(pid: int) -> list[int]:
+    """Pids of the MCAP writer processes (``rths.log.writer_child``) started by process ``pid``."""
+    children = []
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        children += [int(c) for c in (task / "children").read_text().split()]
+    found = []
+    for child in children:
+        try:
+            cmdline = Path(f"/proc/{child}/cmdline").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if b"rths.log.writer_child" in cmdline:
+            found.append(child)
+    return found
+
+
 class Run:
     """``python -m rths run SCENARIO`` (the seed scenario shortened) in lockstep, listening on a
     known loopback endpoint with a known run id; stderr is captured."""
