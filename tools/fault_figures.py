@@ -5,8 +5,11 @@ Faults (seed scenario, ``realtime`` clock by default, coordinator and specimen a
 on this machine, the specimen started here so its pid is known):
 
 * ``sigint`` / ``sigterm`` / ``sighup``  the signal to the coordinator alone;
-* ``coordinator-sigkill``    SIGKILL of the coordinator (the specimen ramps down by itself; the log
-                             is read after ``rths recover``);
+* ``coordinator-sigkill``    SIGKILL of the coordinator (the specimen ramps down by itself; the
+                             log's writer process finishes the file, ``rths recover`` adds the
+                             run summary the coordinator could not write; "exited" is when
+                             the coordinator's stderr closes, which the writer holds until it
+                             has finished the file);
 * ``specimen-sigkill``       SIGKILL of the specimen process;
 * ``specimen-pause-300ms``   SIGSTOP of the specimen, SIGCONT 0.3 s later;
 * ``specimen-gc-106ms``      a 106 ms pause of the specimen (the full collection measured before
@@ -38,9 +41,11 @@ realtime --repeats 10 --duration 60`` (its ``finished k/n`` column).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import re
+import select
 import signal
 import subprocess
 import sys
@@ -177,6 +182,17 @@ def _fill(folder: Path) -> None:
                 continue
 
 
+def _writer_processes(pid: int) -> list[int]:
+    """Pids of the MCAP writer processes (``rths.log.writer_child``) started by ``pid``."""
+    found = []
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        for child in (task / "children").read_text().split():
+            with contextlib.suppress(OSError):
+                if b"rths.log.writer_child" in Path(f"/proc/{child}/cmdline").read_bytes():
+                    found.append(int(child))
+    return found
+
+
 def _inject(fault: str, coord: subprocess.Popen, spec: subprocess.Popen, tmp: Path) -> None:
     if fault in ("sigint", "sigterm", "sighup"):
         coord.send_signal(getattr(signal, fault.upper()))
@@ -228,12 +244,14 @@ def run_fault(
     counts: dict = {}
     done = threading.Event()
     attacker = None
+    writers: list[int] = []
     if not running:
         pass
     elif fault == "forged-peer":
         attacker = threading.Thread(target=forger, args=(endpoint, run_id, done, counts))
         attacker.start()
     else:
+        writers = _writer_processes(coord.pid) if fault == "coordinator-sigkill" else []
         _inject(fault, coord, spec, tmp)
     try:
         stdout, stderr = coord.communicate(timeout=120)
@@ -250,7 +268,12 @@ def run_fault(
         spec.kill()
         _, spec_err = spec.communicate()
     log = out
-    if fault == "coordinator-sigkill":  # nothing finished the log: rths recover does
+    if fault == "coordinator-sigkill":  # the writer finished the log; recover adds the summary
+        for pid in writers:
+            with contextlib.suppress(ProcessLookupError):
+                fd = os.pidfd_open(pid)
+                select.select([fd], [], [], 60.0)  # readable once the writer has exited
+                os.close(fd)
         subprocess.run([*rths, "recover", str(out)], capture_output=True, check=False)
         log = out.with_name(f"{out.stem}.recovered.mcap")
     readable, meta, logged = read_log(log)
