@@ -406,7 +406,7 @@ def main() -> None:
         f"(load average {os.getloadavg()[0]:.2f}; CPU: the caller thread's CPU time per exchange)"
     )
     print(
-        f"{'mechanism':<16}{'p50 [us]':>10}{'p90 [us]':>10}{'p99 [us]':>10}{'max [us]':>10}"
+        f"{'mechanism':<19}{'p50 [us]':>10}{'p90 [us]':>10}{'p99 [us]':>10}{'max [us]':>10}"
         f"{'CPU p50':>10}{'CPU mean':>10}"
     )
     for mechanism, times in pooled.items():
@@ -414,7 +414,7 @@ def main() -> None:
         star = "*" if mechanism in ("rths", "sync-cb") else ""
         cpu = pooled_cpu[mechanism]
         print(
-            f"{mechanism + star:<16}{p50:>10.1f}{p90:>10.1f}{p99:>10.1f}{max(times):>10.0f}"
+            f"{mechanism + star:<19}{p50:>10.1f}{p90:>10.1f}{p99:>10.1f}{max(times):>10.0f}"
             f"{statistics.median(cpu):>10.1f}{statistics.fmean(cpu):>10.1f}"
         )
     if args.no_recorder:
