@@ -207,7 +207,8 @@ class Recorder:
     def close(self) -> RecordingSummary:
         """Finish the file (footer, summary) and return what was written.
 
-        Blocks until the writer thread has written everything queued.  Idempotent.
+        Blocks until the writer has written everything queued (with ``writer="process"``: until
+        that process has ended).  Idempotent.
 
         Raises
         ------
@@ -293,7 +294,7 @@ class Recorder:
         log_time_ns
             Simulated time [ns] (>= 0).
         message
-            Mapping of named values in SI units; encoded to JSON on the writer thread, so do
+            Mapping of named values in SI units; encoded to JSON by the writer, so do
             not mutate it afterwards.
         publish_time_ns
             Defaults to ``log_time_ns``.
@@ -333,7 +334,7 @@ class Recorder:
         """Queue a block of rows (one message per row); never blocks and does no I/O.
 
         Each row becomes one JSON message ``{"seq": k, <channel>: value, ...}`` with
-        ``Message.sequence = seq`` and ``log_time = t_ns``, encoded on the writer thread.  A
+        ``Message.sequence = seq`` and ``log_time = t_ns``, encoded by the writer.  A
         topic not registered yet is registered with the schema generated from the block's
         channel declarations (:func:`rths.core.channels.json_schema`).
 
@@ -347,7 +348,7 @@ class Recorder:
         Raises
         ------
         DataError
-            If the writer thread has failed (e.g. disk full).
+            If the recorder is not started or already closed.
         """
         if topic == EVENTS_TOPIC:
             raise ParameterError("events go through event(), not put_block()")
@@ -378,7 +379,7 @@ class Recorder:
         topic
             MCAP topic; an unregistered one gets an open schema (any JSON object).
         payload
-            :meth:`rths.wire.codec.LogRecord.encode` bytes, decoded on the writer thread; a bad
+            :meth:`rths.wire.codec.LogRecord.encode` bytes, decoded by the writer; a bad
             payload is counted as ``rejected`` and logged as an event.
         """
         self._check_alive()
