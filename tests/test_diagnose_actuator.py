@@ -220,3 +220,18 @@ def test_rootwise_calibration_with_equal_factors_is_the_common_one():
         h = np.polyval(b, 1j * w) / np.polyval(a, 1j * w)
         h0 = np.polyval(b0, 1j * w) / np.polyval(a0, 1j * w)
         assert h == pytest.approx(h0, rel=1e-9)
+
+
+def test_rootwise_calibration_leaning_on_the_lag_bound_is_no_model_form():
+    # a pole at -10 % (the tolerance's slowest) or the alignment at +1 sample may hide a
+    # delay; a faster pole or an advance cannot
+    from rths.diagnose.effects.calibration import RootwiseActuator
+
+    ch = _channel([np.zeros(100)], [np.zeros(100)])
+    m = RootwiseActuator()
+    m.prepare(ch, {})
+    assert [p.name for p in m.space(ch)] == ["pole_0", "shift"]
+    assert m.lagging(ch, {"pole_0": 0.9, "shift": 0.0})
+    assert m.lagging(ch, {"pole_0": 1.0, "shift": 1.0})
+    assert not m.lagging(ch, {"pole_0": 1.1, "shift": -1.0})
+    assert not m.lagging(ch, {"pole_0": 0.95, "shift": 0.5})

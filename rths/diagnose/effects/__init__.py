@@ -144,7 +144,7 @@ def baseline_for(channel: str) -> Model:
     return ComplianceModel() if channel == "displacement" else RigidSpecimen()
 
 
-def calibration_for(channel: str) -> Model | None:
+def calibration_for(channel: str) -> RootwiseActuator | None:
     """The channel's finer re-calibration of NOMINAL.toml's own parameters that tells model form
     from an unexplained gap (:mod:`rths.diagnose.effects.calibration`), or None.
 

@@ -11,7 +11,8 @@ factor, all within :data:`rths.diagnose.effects.actuator.CALIBRATION_TOLERANCE`,
 gain, the offset and the one-sample alignment of the baseline: still NOMINAL.toml's own
 parameters and nothing else.  It is used only to tell model form from an unexplained gap
 (:func:`rths.diagnose.search.selection.select`), never to absorb an effect a candidate names:
-it is tried when no candidate effect buys its parameters.
+it is tried when no candidate effect buys its parameters, and it counts only when it does not
+lean on the tolerance in the lagging direction (:meth:`RootwiseActuator.lagging`).
 
 Within the tolerance a pole's factor mimics at most a delay of 10 % of its own low-frequency
 group delay ``1/|p|`` (``2 zeta/w`` for a pair), so a delay far beyond that sum is still no
@@ -111,6 +112,30 @@ class RootwiseActuator(ActuatorModel):
     def starts(self, channel: Channel) -> list[Theta]:
         """The nominal TF (unit factors, no shift)."""
         return [{p.name: (0.0 if p.name == "shift" else 1.0) for p in self.space(channel)}]
+
+    def lagging(self, channel: Channel, theta: Theta) -> bool:
+        """Whether the fit leans on the tolerance in the lagging direction: a pole frequency
+        at its lower bound, a zero's at its upper bound, or the alignment at +1 sample.  A
+        calibration that needs all the lag the tolerance allows may be hiding a delay (each
+        pole mimics up to 10 % of its own group delay), so it is no evidence of model form.
+
+        Parameters
+        ----------
+        channel
+            The actuator channel.
+        theta
+            The fitted factors.
+        """
+        eps = 1e-3
+        for p in self.space(channel):
+            v = float(theta.get(p.name, 1.0))
+            if p.name.startswith("pole_") and v <= p.lo + eps:
+                return True
+            if p.name.startswith("zero_") and v >= p.hi - eps:
+                return True
+            if p.name == "shift" and v >= p.hi - eps:
+                return True
+        return False
 
     def _linear(self, channel: Channel, seg: Segment, theta: Theta) -> NDArray:
         a = channel.nominal.actuator

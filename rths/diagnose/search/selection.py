@@ -35,8 +35,9 @@ pole-by-pole calibration) and the channel's verdict is ``none`` (``model_form``)
 holds when no candidate buys its parameters and the channel's finer re-calibration of the
 nominal's own parameters (:func:`rths.diagnose.effects.calibration_for`: the actuator's TF
 calibrated root by root within the +/-10 % tolerance) closes at least :data:`MIN_CLOSED` of
-the gap: a nominal mis-calibrated differently at every pole, which the baseline's common
-factors cannot follow.
+the gap without leaning on the tolerance in the lagging direction (a pole at -10 %: a
+hidden delay): a nominal mis-calibrated differently at every pole, which the baseline's
+common factors cannot follow.
 
 Models of channels listed in :data:`CROSS_FIT` are scored by two-fold cross-validation over
 time blocks of every record (:func:`rths.diagnose.search.identify.cross_fit`).
@@ -382,7 +383,8 @@ def select(
         check = calibration_for(channel.name)
         if check is not None:  # the nominal's own parameters, calibrated root by root
             cal = fitter(check, channel, base.baseline)
-            if excess0 - (cal.held_mse - n0) >= MIN_CLOSED * excess0:
+            closes = excess0 - (cal.held_mse - n0) >= MIN_CLOSED * excess0
+            if closes and not check.lagging(channel, cal.theta):
                 verdict = "none"
     candidates.sort(key=lambda c: (not c.accepted, -c.closed))
     return ChannelResult(
