@@ -127,3 +127,111 @@ def test_square_root_flow_law_with_extra_delay_names_it(tmp_path):
     lag = den[-2] / den[-1] - (num[-2] / num[-1] if len(num) > 1 else 0.0)
     found = r.final.params["actuator_delay"]["delay"]
     assert abs(found - truth) <= 0.1 * lag + 1.0 / label["rate"]
+
+
+def _broadband(n: int, seed: int) -> np.ndarray:
+    """Band-limited random command (0-20 Hz at 1 kHz), 10 mm RMS: a delay and a slower pole
+    differ in phase across the band (a single sine cannot tell them apart)."""
+    from scipy import signal
+
+    rng = np.random.default_rng(seed)
+    sos = signal.butter(4, 20.0 * 2 * DT, output="sos")
+    u = signal.sosfilt(sos, rng.standard_normal(n))
+    return 0.01 * u / np.std(u)
+
+
+def _response(u: np.ndarray, pole_hz: float, delay_samples: float) -> np.ndarray:
+    """``u`` through ``w/(s + w)`` (ZOH, the DAQ convention of the channel) then delayed."""
+    from scipy import signal
+
+    from rths.diagnose.channels.signals import discrete_tf, shifted
+
+    w = 2 * math.pi * pole_hz
+    b, a = discrete_tf((w,), (1.0, w), DT)
+    return shifted(signal.lfilter(b, a, u), delay_samples)
+
+
+@pytest.mark.parametrize("pole_scale", [1.0, 0.95])
+def test_pure_delay_of_known_samples_is_identified(pole_scale):
+    # a pure 6-sample (6 ms) delay behind the nominal TF, and behind one whose pole is 5 %
+    # slower (calibration within the +/-10 % tolerance); noise-free but for 1 um white noise.
+    # Oracle: the delay is the applied one.  Tolerance: 0.2 sample exact TF; with the slower
+    # pole, the trade-off the +/-10 % calibration allows is 10 % of the pole's group delay
+    # 1/w = 15.9 ms at low frequency, broadband excitation pins it far tighter: 1 sample
+    n = 4000
+    rng = np.random.default_rng(3)
+    cmds = [_broadband(n, 1), _broadband(n, 2)]
+    obs = [_response(u, 10.0 * pole_scale, 6.0) + 1e-6 * rng.standard_normal(n) for u in cmds]
+    ch = _channel(obs, cmds)
+    for s in ch.segments:  # second half of every record held out
+        s.held[n // 2 : n - 50] = True
+        s.ident[n // 2 :] = False
+    r = select(ch, ("actuator_delay",))
+    assert r.verdict == "actuator_delay"
+    found = r.final.params["actuator_delay"]["delay"]
+    tol = 0.2 if pole_scale == 1.0 else 1.0
+    assert abs(found / DT - 6.0) <= tol
+    assert r.closed >= 0.9
+
+
+def test_an_advance_is_no_delay():
+    # the actuator faster than the nominal (an advance beyond the nominal's delay) is model
+    # form of the nominal, never the reference-path effect; a lag of one sample or less is
+    # alignment (calibration)
+    ch = _channel([np.zeros(100)], [np.zeros(100)])
+    m = ActuatorModel(("actuator_delay",))
+    assert m.physical(ch, {"actuator_delay": {"delay": 3 * DT}})
+    assert not m.physical(ch, {"actuator_delay": {"delay": 0.9 * DT}})
+    assert not m.physical(ch, {"actuator_delay": {"delay": -3 * DT}})
+
+
+def test_miscalibrated_nominal_without_effect_is_none():
+    # truth: the nominal's pole 7 % faster, gain 3 % high, no delay; the re-calibration
+    # (within its +/-10 % tolerance) reaches the noise floor: none
+    n = 4000
+    rng = np.random.default_rng(5)
+    cmds = [_broadband(n, 4), _broadband(n, 5)]
+    obs = [1.03 * _response(u, 10.7, 0.0) + 1e-6 * rng.standard_normal(n) for u in cmds]
+    ch = _channel(obs, cmds)
+    ch.noise["measured"] = 1e-6
+    for s in ch.segments:
+        s.held[n // 2 : n - 50] = True
+        s.ident[n // 2 :] = False
+    r = select(ch, ("actuator_delay", "rate_limit"))
+    assert r.verdict == "none"
+    assert r.effects == ()
+
+
+def test_rootwise_calibration_with_equal_factors_is_the_common_one():
+    # two implementations, one answer: every root scaled by the same factors is the
+    # baseline's common re-calibration (5th-order servo TF: a real pole, two complex pairs,
+    # a real zero); unit factors give the nominal back
+    from rths.diagnose.effects.actuator import scaled_tf
+    from rths.diagnose.effects.calibration import root_modes, rootwise_tf
+
+    num = (1.0e10, 1.2e11)
+    den = (1.0, 416.5, 1.39e6, 1.73e8, 1.09e10, 1.26e11)
+    nz, npl = len(root_modes(num)), len(root_modes(den))
+    assert (nz, npl) == (1, 3)
+    for f, d in [(1.0, 1.0), (0.93, 1.07), (1.1, 0.9)]:
+        b, a = rootwise_tf(num, den, [f] * nz, [f] * npl, [d] * npl)
+        b0, a0 = scaled_tf(num, den, f, d)
+        w = 2 * math.pi * np.array([0.5, 5.0, 50.0])
+        h = np.polyval(b, 1j * w) / np.polyval(a, 1j * w)
+        h0 = np.polyval(b0, 1j * w) / np.polyval(a0, 1j * w)
+        assert h == pytest.approx(h0, rel=1e-9)
+
+
+def test_rootwise_calibration_leaning_on_the_lag_bound_is_no_model_form():
+    # a pole at -10 % (the tolerance's slowest) or the alignment at +1 sample may hide a
+    # delay; a faster pole or an advance cannot
+    from rths.diagnose.effects.calibration import RootwiseActuator
+
+    ch = _channel([np.zeros(100)], [np.zeros(100)])
+    m = RootwiseActuator()
+    m.prepare(ch, {})
+    assert [p.name for p in m.space(ch)] == ["pole_0", "shift"]
+    assert m.lagging(ch, {"pole_0": 0.9, "shift": 0.0})
+    assert m.lagging(ch, {"pole_0": 1.0, "shift": 1.0})
+    assert not m.lagging(ch, {"pole_0": 1.1, "shift": -1.0})
+    assert not m.lagging(ch, {"pole_0": 0.95, "shift": 0.5})

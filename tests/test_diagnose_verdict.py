@@ -145,3 +145,30 @@ def test_series_element_hints_are_the_compliance_fit_in_chain_coordinates():
     assert hint["frequency"] == pytest.approx(math.sqrt(k / m) / (2 * math.pi), rel=1e-12)
     assert hint["zeta"] == pytest.approx(c / (2 * math.sqrt(k * m)), rel=1e-12)
     assert hint["gap"] == 2e-4
+
+
+def _view(significant: bool, effects: tuple[str, ...], verdict: str):
+    from types import SimpleNamespace
+
+    return SimpleNamespace(
+        decomposition=SimpleNamespace(significant=significant), effects=effects, verdict=verdict
+    )
+
+
+def test_gap_channels_counts_a_secondary_view_only_when_an_effect_closes_its_gap():
+    from rths.diagnose.verdict import gap_channels
+
+    views = ("measured", "force")
+    at_floor = {"measured": _view(False, (), "none"), "force": _view(False, (), "none")}
+    # the counted views at their floor; the force-driven displacement keeps a significant
+    # gap that no candidate touches: that view's model form, not an effect -> none
+    channels = {**at_floor, "displacement": _view(True, (), "unexplained")}
+    assert gap_channels(channels, views) == []  # type: ignore[arg-type]
+    # ... but a series element that only that view shows is reported (never a false none)
+    element = _view(True, ("internal_stiffness",), "internal_stiffness")
+    channels = {**at_floor, "displacement": element}
+    assert gap_channels(channels, views) == [element]  # type: ignore[arg-type]
+    # a counted view's significant gap wins over the others; its model form does not count
+    delay = _view(True, ("actuator_delay",), "actuator_delay")
+    channels = {"measured": delay, "force": _view(True, (), "none"), "displacement": element}
+    assert gap_channels(channels, views) == [delay]  # type: ignore[arg-type]

@@ -12,9 +12,10 @@ Order of work:
 
 The verdict is the first effect of the channel with the largest reducible gap (relative to its
 observation's mean square); ``unexplained`` when that channel's effects close less than half of
-its significant gap; ``none`` when no channel's baseline residual is significant against its
-noise floor or within the model-form allowance of its baseline
-(:mod:`rths.diagnose.search.selection`).  The shrink is the selected set's share ``rho`` of
+its significant gap; ``none`` when no counted channel's baseline residual is significant
+against its noise floor or beyond the model-form allowance of its baseline
+(:mod:`rths.diagnose.search.selection`) and no other view holds a gap an effect closes
+(:func:`gap_channels`).  The shrink is the selected set's share ``rho`` of
 that channel's reducible gap and ``gap.before``/``gap.after`` the held-out NRMSE of the
 baseline and of the set.
 """
@@ -41,7 +42,7 @@ from rths.diagnose.search.identify import Fit
 from rths.diagnose.search.selection import Candidate, ChannelResult, select
 from rths.diagnose.structure import StructureGap, structure_gap
 
-__all__ = ["DRIVES", "REPLAY_CUTOFF", "Diagnosis", "Options", "diagnose"]
+__all__ = ["DRIVES", "REPLAY_CUTOFF", "Diagnosis", "Options", "diagnose", "gap_channels"]
 
 #: Choices of :attr:`Options.drive`.
 DRIVES: tuple[str, ...] = ("auto", "measured")
@@ -289,6 +290,35 @@ def _magnitude(result: ChannelResult, channels: dict[str, ChannelResult]) -> flo
     return result.relative_gap
 
 
+def gap_channels(channels: dict[str, ChannelResult], views: tuple[str, ...]) -> list[ChannelResult]:
+    """The channels whose gap the verdict speaks for: the counted ``views`` (the actuator and
+    the specimen's view) whose gap is significant, or holds effects, and is not the
+    baseline's model form; when none is, the other views of the specimen whose gap an
+    effect closes (e.g. the force-driven displacement of a series element that the rigid
+    force channel absorbs into its calibration: no ``none``, by the contract).  A gap of such
+    a view that no candidate closes even :data:`rths.diagnose.search.selection.PRICE` per
+    parameter of is that view's own model form (a double integration of the force through
+    the nominal body: a rod mass, a sensor's dynamics), not evidence of an effect the counted
+    views do not show.
+
+    Parameters
+    ----------
+    channels
+        Every channel's result by name.
+    views
+        The names of the counted views.
+    """
+    counted = [
+        channels[name]
+        for name in views
+        if (channels[name].decomposition.significant or channels[name].effects)
+        and channels[name].verdict != "none"  # model form
+    ]
+    if counted:
+        return counted
+    return [c for name, c in channels.items() if name not in views and c.effects]
+
+
 def element_hints(result: ChannelResult | None) -> dict[str, dict[str, float]]:
     """Starting values for the ``force`` channel's series chain from the force-driven
     ``displacement`` channel's single-element fits (linear in compliance and clearance: a
@@ -375,22 +405,7 @@ def _diagnose(records: list[Record], nominal: NominalModel, options: Options) ->
         channels["displacement"] = compliance
     view = _specimen_view(channels)
     views = ("measured", view.channel.name)
-    significant = [
-        c
-        for c in (transfer, view)
-        if (c.decomposition.significant or c.effects) and c.verdict != "none"  # model form
-    ]
-    if not significant:
-        # the counted views are explained, but another view of the specimen still holds a
-        # significant gap (e.g. the force-driven displacement of a series element the rigid
-        # force channel absorbs into its calibration): that is no ``none`` (contract)
-        significant = [
-            c
-            for name, c in channels.items()
-            if name not in views
-            and (c.decomposition.significant or c.effects)
-            and c.verdict != "none"
-        ]
+    significant = gap_channels(channels, views)
     where = max(significant, key=lambda c: _magnitude(c, channels), default=None)
     split = transfer.channel.segments
     ident = [s.name for s in split if np.any(s.ident)]

@@ -39,6 +39,7 @@ from dataclasses import dataclass
 
 from rths.core.errors import ParameterError
 from rths.diagnose.effects.actuator import ActuatorModel
+from rths.diagnose.effects.calibration import RootwiseActuator
 from rths.diagnose.effects.chain import SeriesChain
 from rths.diagnose.effects.compliance import ComplianceModel
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
@@ -55,9 +56,11 @@ __all__ = [
     "Model",
     "Param",
     "RigidSpecimen",
+    "RootwiseActuator",
     "SeriesChain",
     "Theta",
     "baseline_for",
+    "calibration_for",
     "compatible",
     "models_for",
 ]
@@ -139,6 +142,18 @@ def baseline_for(channel: str) -> Model:
     if channel == "measured":
         return ActuatorModel()
     return ComplianceModel() if channel == "displacement" else RigidSpecimen()
+
+
+def calibration_for(channel: str) -> RootwiseActuator | None:
+    """The channel's finer re-calibration of NOMINAL.toml's own parameters that tells model form
+    from an unexplained gap (:mod:`rths.diagnose.effects.calibration`), or None.
+
+    Parameters
+    ----------
+    channel
+        ``"measured"``, ``"force"`` or ``"displacement"``.
+    """
+    return RootwiseActuator() if channel == "measured" else None
 
 
 def models_for(channel: str, effects: tuple[str, ...]) -> list[Model]:

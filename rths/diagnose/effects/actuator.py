@@ -23,9 +23,10 @@ costs the piston the speed ``|v| F/(2 P_s A)`` to first order: the signal ``|v| 
 (the delta-P feedback reshapes that path) gives linear columns of the baseline (reported
 ``load_flow``: the first one's coefficient, ``-1/(2 P_s A)`` [1/N] for the ideal loop).
 
-Effects: ``actuator_delay`` frees ``tau`` beyond one sample (reported ``delay = tau`` [s]
-beyond the nominal); ``rate_limit`` puts a velocity (flow) limiter ``RL`` (Simulink Rate
-Limiter semantics, :func:`plants.lines.rate_limited`) on the motion, the gain moving inside it.
+Effects: ``actuator_delay`` frees ``tau`` beyond one sample of lag (reported ``delay = tau``
+[s] beyond the nominal; an advance is the nominal's model form, never a delay);
+``rate_limit`` puts a velocity (flow) limiter ``RL`` (Simulink Rate Limiter semantics,
+:func:`plants.lines.rate_limited`) on the motion, the gain moving inside it.
 """
 
 from __future__ import annotations
@@ -288,7 +289,10 @@ class ActuatorModel(Model):
         return params, base
 
     def physical(self, channel: Channel, params: dict[str, dict[str, float]]) -> bool:
-        """A delay must exceed one sample (less is alignment); a rate limit must be a speed the
+        """A delay must exceed one sample (less is alignment) and be a lag: an *advance* beyond
+        the nominal's delay is no reference-path effect (nothing can act before its command)
+        but a nominal slower than the actuator -- pole calibration beyond the common
+        re-calibration, model form -- and a rate limit must be a speed the
         measured displacement reaches and holds: the median of its secant speed over
         :data:`SECANT_WINDOW` at or above 90 % of the limit where the linear motion would
         exceed it by 20 % (a limiter that only mimics a linear attenuation in a sweep is never
@@ -297,7 +301,7 @@ class ActuatorModel(Model):
         median).  The linear motion is the nominal TF's with its gain calibrated on the
         record the limit touches least (a gain calibrated where the limiter acts is biased
         low)."""
-        if self.delay and abs(params["actuator_delay"]["delay"]) <= channel.dt:
+        if self.delay and params["actuator_delay"]["delay"] <= channel.dt:
             return False
         if self.limit:
             v_max = params["rate_limit"]["velocity_limit"]

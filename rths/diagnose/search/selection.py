@@ -31,7 +31,13 @@ parameters and the reducible gap ``J_0 - N_0`` is at most the baseline model's r
 ``R`` (:meth:`rths.diagnose.effects.model.Model.resolution`; for the actuator the mean square a
 one-sample shift of its motion leaves), the gap is the linear model's form (a servo-valve's
 flow gain changing with load pressure beyond the first-order orifice term the baseline holds,
-pole-by-pole calibration) and the channel's verdict is ``none`` (``model_form``).
+pole-by-pole calibration) and the channel's verdict is ``none`` (``model_form``).  The same
+holds when no candidate buys its parameters and the channel's finer re-calibration of the
+nominal's own parameters (:func:`rths.diagnose.effects.calibration_for`: the actuator's TF
+calibrated root by root within the +/-10 % tolerance) closes at least :data:`MIN_CLOSED` of
+the gap without leaning on the tolerance in the lagging direction (a pole at -10 %: a
+hidden delay): a nominal mis-calibrated differently at every pole, which the baseline's
+common factors cannot follow.
 
 Models of channels listed in :data:`CROSS_FIT` are scored by two-fold cross-validation over
 time blocks of every record (:func:`rths.diagnose.search.identify.cross_fit`).
@@ -51,6 +57,7 @@ from rths.diagnose.effects import (
     EFFECTS,
     NESTS,
     baseline_for,
+    calibration_for,
     compatible,
     models_for,
 )
@@ -372,6 +379,13 @@ def select(
     resolution = base.model.resolution(channel, base.prediction)
     if not chosen and excess0 <= resolution:
         verdict = "none"  # the model-form allowance (module docstring)
+    elif not chosen and verdict == "unexplained":
+        check = calibration_for(channel.name)
+        if check is not None:  # the nominal's own parameters, calibrated root by root
+            cal = fitter(check, channel, base.baseline)
+            closes = excess0 - (cal.held_mse - n0) >= MIN_CLOSED * excess0
+            if closes and not check.lagging(channel, cal.theta):
+                verdict = "none"
     candidates.sort(key=lambda c: (not c.accepted, -c.closed))
     return ChannelResult(
         channel, base, n0, dec, candidates, chosen, current, closed, verdict, resolution

@@ -1,0 +1,155 @@
+"""The actuator's nominal transfer function re-calibrated pole by pole: the model-form check.
+
+The baseline (:class:`rths.diagnose.effects.actuator.ActuatorModel`) scales every pole and zero
+frequency of NOMINAL.toml's transfer function by *one* factor and every complex pole's damping
+ratio by another.  A nominal mis-calibrated within the contract's +/-10 % may be off by a
+different factor at every root (design.md section 7; an identified TF's poles are not off
+together), which no common factor follows: the re-calibrated baseline then leaves a
+significant gap that no effect closes either.  :class:`RootwiseActuator` gives every real root
+and every complex pair its own frequency factor, and every complex pole pair its own damping
+factor, all within :data:`rths.diagnose.effects.actuator.CALIBRATION_TOLERANCE`, besides the
+gain, the offset and the one-sample alignment of the baseline: still NOMINAL.toml's own
+parameters and nothing else.  It is used only to tell model form from an unexplained gap
+(:func:`rths.diagnose.search.selection.select`), never to absorb an effect a candidate names:
+it is tried when no candidate effect buys its parameters, and it counts only when it does not
+lean on the tolerance in the lagging direction (:meth:`RootwiseActuator.lagging`).
+
+Within the tolerance a pole's factor mimics at most a delay of 10 % of its own low-frequency
+group delay ``1/|p|`` (``2 zeta/w`` for a pair), so a delay far beyond that sum is still no
+calibration.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import signal
+
+from rths.diagnose.channels.channel import Channel, Segment
+from rths.diagnose.channels.signals import discrete_tf, shifted
+from rths.diagnose.effects.actuator import CALIBRATION_TOLERANCE, ActuatorModel, _move
+from rths.diagnose.effects.model import Param, Theta
+
+__all__ = ["RootwiseActuator", "root_modes", "rootwise_tf"]
+
+_LO, _HI = 1.0 - CALIBRATION_TOLERANCE, 1.0 + CALIBRATION_TOLERANCE
+
+
+def root_modes(coeffs: tuple[float, ...]) -> list[complex]:
+    """One root per mode of a polynomial: every real root and the upper member of every
+    complex pair (roots at the origin kept: they are not scaled).
+
+    Parameters
+    ----------
+    coeffs
+        Polynomial coefficients, descending powers of ``s``.
+    """
+    if len(coeffs) <= 1:
+        return []
+    roots = np.roots(coeffs)
+    out = [complex(q) for q in roots if q.imag >= 0.0 or abs(q.imag) <= 1e-9 * abs(q)]
+    return [complex(q.real, 0.0) if abs(q.imag) <= 1e-9 * abs(q) else q for q in out]
+
+
+def rootwise_tf(
+    num: tuple[float, ...],
+    den: tuple[float, ...],
+    zero_freq: list[float],
+    pole_freq: list[float],
+    pole_damp: list[float],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``num/den`` with every mode's frequency (and every complex pole pair's damping ratio)
+    scaled by its own factor; the DC gain kept (as
+    :func:`rths.diagnose.effects.actuator.scaled_tf`).
+
+    Parameters
+    ----------
+    num, den
+        Continuous-time transfer function, descending powers of ``s``.
+    zero_freq, pole_freq
+        Factor [-] per mode of :func:`root_modes` of ``num`` and of ``den``.
+    pole_damp
+        Factor [-] per mode of ``den`` (ignored for real modes).
+    """
+    new_z: list[complex] = []
+    for q, f in zip(root_modes(num), zero_freq, strict=True):
+        new_z += _move(np.array([q]), f, 1.0)
+    new_p: list[complex] = []
+    for q, f, d in zip(root_modes(den), pole_freq, pole_damp, strict=True):
+        new_p += _move(np.array([q]), f, d)
+    b = np.real(np.poly(new_z)) if new_z else np.array([1.0])
+    a = np.real(np.poly(new_p)) if new_p else np.array([1.0])
+    if den[-1] != 0.0 and num[-1] != 0.0 and a[-1] != 0.0 and b[-1] != 0.0:
+        k = (num[-1] / den[-1]) / (b[-1] / a[-1])
+    else:
+        k = num[0] / den[0]
+    return k * b, a
+
+
+class RootwiseActuator(ActuatorModel):
+    """The baseline with every root calibrated on its own (module docstring); no effect."""
+
+    structure = "rootwise"
+
+    def __init__(self) -> None:
+        super().__init__(())
+
+    def space(self, channel: Channel) -> list[Param]:
+        a = channel.nominal.actuator
+        f0 = float(np.clip(self._base.get("frequency_scale", 1.0), _LO, _HI))
+        d0 = float(np.clip(self._base.get("damping_scale", 1.0), _LO, _HI))
+        out = [
+            Param(f"zero_{i}", _LO, _HI, log=False, start=f0) for i in range(len(root_modes(a.num)))
+        ]
+        for i, q in enumerate(root_modes(a.den)):
+            out.append(Param(f"pole_{i}", _LO, _HI, log=False, start=f0))
+            if q.imag > 0.0:
+                out.append(Param(f"damping_{i}", _LO, _HI, log=False, start=d0))
+        start = float(np.clip(self._base.get("alignment", 0.0) / channel.dt, -1.0, 1.0))
+        out.append(Param("shift", -1.0, 1.0, log=False, start=start))
+        return out
+
+    def starts(self, channel: Channel) -> list[Theta]:
+        """The nominal TF (unit factors, no shift)."""
+        return [{p.name: (0.0 if p.name == "shift" else 1.0) for p in self.space(channel)}]
+
+    def lagging(self, channel: Channel, theta: Theta) -> bool:
+        """Whether the fit leans on the tolerance in the lagging direction: a pole frequency
+        at its lower bound, a zero's at its upper bound, or the alignment at +1 sample.  A
+        calibration that needs all the lag the tolerance allows may be hiding a delay (each
+        pole mimics up to 10 % of its own group delay), so it is no evidence of model form.
+
+        Parameters
+        ----------
+        channel
+            The actuator channel.
+        theta
+            The fitted factors.
+        """
+        eps = 1e-3
+        for p in self.space(channel):
+            v = float(theta.get(p.name, 1.0))
+            if p.name.startswith("pole_") and v <= p.lo + eps:
+                return True
+            if p.name.startswith("zero_") and v >= p.hi - eps:
+                return True
+            if p.name == "shift" and v >= p.hi - eps:
+                return True
+        return False
+
+    def _linear(self, channel: Channel, seg: Segment, theta: Theta) -> NDArray:
+        a = channel.nominal.actuator
+        nz, np_ = len(root_modes(a.num)), len(root_modes(a.den))
+        zf = [float(theta.get(f"zero_{i}", 1.0)) for i in range(nz)]
+        pf = [float(theta.get(f"pole_{i}", 1.0)) for i in range(np_)]
+        pd = [float(theta.get(f"damping_{i}", 1.0)) for i in range(np_)]
+        key = f"root:{zf!r}:{pf!r}:{pd!r}"
+        if key not in seg.cache:
+            num, den = rootwise_tf(a.num, a.den, zf, pf, pd)
+            b, aa = discrete_tf(tuple(num), tuple(den), seg.dt)
+            seg.cache[key] = signal.lfilter(b, aa, seg.signals["command"])
+            if len(seg.cache) > 64:  # keep the cache bounded during a search
+                for k in [k for k in seg.cache if k.startswith("root:")][:32]:
+                    del seg.cache[k]
+        total = a.delay / seg.dt + float(theta["shift"])
+        return shifted(seg.cache[key], total)
