@@ -103,6 +103,18 @@ class RunKeys:
             raise ParameterError(f"role must be one of {ROLES}; got {role!r}")
         return f"{self.root}/control/ready/{role}"
 
+    def warmup(self, role: Role) -> str:
+        """Key of ``role``'s link warm-up frame (:meth:`rths.wire.presence.Presence.wait_for_peer`).
+
+        Parameters
+        ----------
+        role
+            ``"coordinator"`` or ``"specimen"``.
+        """
+        if role not in ROLES:
+            raise ParameterError(f"role must be one of {ROLES}; got {role!r}")
+        return f"{self.root}/control/warmup/{role}"
+
     @property
     def log_all(self) -> str:
         """``rths/<run_id>/log/**``: JSON log records any process may publish for the recorder."""
