@@ -10,10 +10,10 @@ the process ending, however it ends) withdraws it.  A bound of 0 keeps idle CPUs
 of halting.  It is what ``cyclictest`` does by default and what the ``latency-performance``
 profile of ``tuned`` sets; it costs power (idle CPUs spin), not CPU time of other work.
 
-Measured on the 2-core development VM (``haltpoll`` cpuidle driver), quiet, with and without
-the request held: a pipe round trip between two processes p50 53 → 11 µs, p99 98 → 13 µs; a
-zenoh peer-to-peer round trip between two Python processes p50 272 → 120 µs, p99 585 → 231 µs
-(``tools/bench_zenoh.py`` reports the same with ``--cpu-latency``).
+Measured on the 2-core development VM (``haltpoll`` cpuidle driver), quiet, without and with
+the request held (``python tools/bench_wakeup.py``): a pipe round trip between two processes
+p50 55 → 8 µs, p99 152 → 31 µs; a zenoh peer-to-peer round trip between two Python processes
+p50 246 → 94 µs, p99 444 → 190 µs.
 
 The request needs write access to the device (root, or a udev rule granting it to a lab group);
 without it nothing changes and :attr:`CpuLatency.held` says so, in the run's summary.
