@@ -101,7 +101,7 @@ def processes_of(run_id: str) -> list[int]:
 
 
 def writer_processes(pid: int) -> list[int]:
-    """Pids of the MCAP writer processes (``rths.log.writer_child``) started by process ``pid``."""
+    """Pids of the MCAP writer processes (``rths.log.writer.writer_child``) started by process ``pid``."""
     children = []
     for task in Path(f"/proc/{pid}/task").iterdir():
         children += [int(c) for c in (task / "children").read_text().split()]
@@ -111,7 +111,7 @@ def writer_processes(pid: int) -> list[int]:
             cmdline = Path(f"/proc/{child}/cmdline").read_bytes().split(b"\0")
         except OSError:
             continue
-        if b"rths.log.writer_child" in cmdline:
+        if b"rths.log.writer.writer_child" in cmdline:
             found.append(child)
     return found
 

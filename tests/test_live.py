@@ -16,7 +16,7 @@ from rths.core.channels import RowBlock
 from rths.core.errors import ConfigError
 from rths.log.live import LiveServer, parse_where
 from rths.log.recorder import block_schema
-from rths.log.rowjson import block_messages
+from rths.log.writer.rowjson import block_messages
 from rths.runtime.loop import LOOP_CHANNELS
 
 PROTOCOL = "foxglove.sdk.v1"  # the SDK's name for the Foxglove WebSocket protocol

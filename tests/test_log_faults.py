@@ -27,10 +27,10 @@ from mcap.reader import make_reader
 from mcap.stream_reader import StreamReader
 
 from rths.config.scenario import parse_scenario
-from rths.log import logfile
-from rths.log.logfile import LogFile
 from rths.log.reader import LOOP_FIELDS, read_topic
 from rths.log.recorder import LOOP_TOPIC, Recorder, RecordingFailed
+from rths.log.writer import logfile
+from rths.log.writer.logfile import LogFile
 from rths.session.runner import RunOptions, run_scenario
 
 CORPUS_CUT = Path(__file__).resolve().parent / "bad_inputs" / "mcap_cut"

@@ -1,4 +1,4 @@
-"""Oracles for the recorder's writer process (rths.log.writer_process).
+"""Oracles for the recorder's writer process (rths.log.writer.writer_process).
 
 The writer process must write the same log as the in-process writer thread (cross-check of the two
 modes on the same input, read back with the plain ``mcap`` reader), report a failed write through
@@ -24,7 +24,7 @@ from mcap.reader import make_reader
 from rths.core.channels import Channel, RowBlock
 from rths.core.errors import DataError, ParameterError
 from rths.log.recorder import EVENTS_TOPIC, LOOP_TOPIC, Recorder, RecordingFailed
-from rths.log.writer_child import NICE
+from rths.log.writer.writer_child import NICE
 from rths.wire.codec import LogRecord
 
 PATIENCE = 30.0  # upper bound for a process to start or end; reached only if the code is broken

@@ -183,12 +183,12 @@ def _fill(folder: Path) -> None:
 
 
 def _writer_processes(pid: int) -> list[int]:
-    """Pids of the MCAP writer processes (``rths.log.writer_child``) started by ``pid``."""
+    """Pids of the MCAP writer processes (``rths.log.writer.writer_child``) started by ``pid``."""
     found = []
     for task in Path(f"/proc/{pid}/task").iterdir():
         for child in (task / "children").read_text().split():
             with contextlib.suppress(OSError):
-                if b"rths.log.writer_child" in Path(f"/proc/{child}/cmdline").read_bytes():
+                if b"rths.log.writer.writer_child" in Path(f"/proc/{child}/cmdline").read_bytes():
                     found.append(int(child))
     return found
 

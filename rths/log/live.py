@@ -7,7 +7,7 @@
 run's MCAP file just as well.
 
 The loop hands the server the same row blocks it hands the recorder; a background thread encodes
-them (:func:`rths.log.rowjson.block_messages`: byte for byte the log's JSON) and logs them on
+them (:func:`rths.log.writer.rowjson.block_messages`: byte for byte the log's JSON) and logs them on
 one Foxglove channel per topic, thinned to at most ``max_rate`` rows per second per topic (a plot
 needs no more, and the viewer's bandwidth is not the loop's).  Nothing happens on the loop thread
 but an enqueue.
@@ -23,7 +23,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from rths.core.errors import ConfigError, DataError
-from rths.log.rowjson import block_messages
+from rths.log.writer.rowjson import block_messages
 
 __all__ = ["DEFAULT_LIVE", "LiveServer", "parse_where"]
 

@@ -72,7 +72,7 @@ class _WholeReads:
     ``mcap``'s stream reader raises ``EndOfFile`` only on an empty read; a record cut in the
     middle would otherwise reach its parser short and fail with a confusing error.  An opcode
     byte of 0 (no MCAP record has it: the zeros of the disk space a killed recorder had
-    reserved, :mod:`rths.log.logfile`) ends the data too; only opcodes are read one byte at a
+    reserved, :mod:`rths.log.writer.logfile`) ends the data too; only opcodes are read one byte at a
     time.
     """
 

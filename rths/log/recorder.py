@@ -2,15 +2,15 @@
 
 The loop thread only calls :meth:`Recorder.put` / :meth:`Recorder.put_block`, which put a tuple on
 a :class:`queue.SimpleQueue` and return: no JSON encoding, no compression, no I/O.  A writer
-(:class:`rths.log.mcap_writer.WriterThread`) encodes each message as JSON, writes it to an MCAP
-file with the ``mcap`` package (one ``jsonschema`` schema per topic, zstd-compressed chunks,
+(:class:`rths.log.writer.mcap_writer.WriterThread`) encodes each message as JSON, writes it to an
+MCAP file with the ``mcap`` package (one ``jsonschema`` schema per topic, zstd-compressed chunks,
 ``log_time`` = simulated time [ns]), counts per topic the messages written and the gaps in their
 sequence numbers, and finishes the file -- footer and summary -- when the recorder is closed, also
-when the ``with`` body raises.  The writer runs as a thread of this process (``writer="thread"``,
-the default: the ``fast`` clock, tests) or in a process of its own at ordinary priority
-(``writer="process"``, :mod:`rths.log.writer_process`: the ``realtime`` and ``lockstep`` clocks),
-where it neither holds this process's GIL nor competes with the loop for the CPU; that process
-also finishes the file if this one is killed.
+when the ``with`` body raises. The writer runs as a thread of this process (``writer="thread"``, the
+default: the ``fast`` clock, tests) or in a process of its own at ordinary priority
+(``writer="process"``, :mod:`rths.log.writer.writer_process`: the ``realtime`` and ``lockstep``
+clocks), where it neither holds this process's GIL nor competes with the loop for the CPU; that
+process also finishes the file if this one is killed.
 
 Log contract (read it with ``mcap.reader.make_reader``, no project code needed):
 
@@ -51,8 +51,6 @@ from rths.core.errors import (
     check_positive,
     check_positive_int,
 )
-from rths.log.logfile import RESERVE
-from rths.log.mcap_writer import STOP, WriterThread
 from rths.log.schemas import (
     EVENTS_SCHEMA,
     EVENTS_TOPIC,
@@ -62,8 +60,10 @@ from rths.log.schemas import (
     check_metadata,
     object_schema,
 )
-from rths.log.summary import RecordingFailed, RecordingSummary, TopicStats
-from rths.log.writer_process import WriterProcess
+from rths.log.writer.logfile import RESERVE
+from rths.log.writer.mcap_writer import STOP, WriterThread
+from rths.log.writer.summary import RecordingFailed, RecordingSummary, TopicStats
+from rths.log.writer.writer_process import WriterProcess
 
 __all__ = [
     "EVENTS_SCHEMA",
@@ -105,7 +105,7 @@ class Recorder:
         Wall time [s] after which the writer finishes the current chunk and flushes the file,
         bounding what a crashed process loses.
     reserve
-        Disk space [B] kept allocated past the data (:mod:`rths.log.logfile`); 0: none.
+        Disk space [B] kept allocated past the data (:mod:`rths.log.writer.logfile`); 0: none.
     on_fault
         Called once, from the writer thread (or, with ``writer="process"``, the thread that
         reads the writer process's reports), with a message when the log is in danger: the disk
@@ -114,7 +114,7 @@ class Recorder:
     writer
         ``"thread"`` (default): the writer is a thread of this process.  ``"process"``: it runs
         in a process of its own at ordinary priority, nice +10
-        (:mod:`rths.log.writer_process`); for real-time runs.
+        (:mod:`rths.log.writer.writer_process`); for real-time runs.
 
     Examples
     --------

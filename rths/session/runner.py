@@ -10,7 +10,7 @@
               :class:`rths.wire.transport.LogBridge`, writes them into the MCAP log.  The loop's
               rows go to the recorder's queue a block at a time (never lost): the loop thread
               only fills preallocated rows and publishes the command.  The MCAP writer runs in a
-              process of its own at ordinary priority (:mod:`rths.log.writer_process`), so
+              process of its own at ordinary priority (:mod:`rths.log.writer.writer_process`), so
               encoding and compressing a block neither holds this process's GIL nor takes the
               loop's CPU; it finishes the log even if this process is killed.
 

@@ -131,7 +131,7 @@ class Presence:
         self._warm_sent = False
         self._warm_sub = session.declare_subscriber(
             keys.warmup(self.peer),
-            zenoh.handlers.Callback(lambda sample: self._warmed.set(), indirect=False),
+            zenoh.handlers.Callback(self._on_warmup, indirect=False),
             allowed_origin=zenoh.Locality.REMOTE,
         )
         # the side streams' settings (reliable, blocking, batched, default priority)
@@ -140,6 +140,9 @@ class Presence:
             congestion_control=zenoh.CongestionControl.BLOCK,
             reliability=zenoh.Reliability.RELIABLE,
         )
+
+    def _on_warmup(self, sample: zenoh.Sample) -> None:
+        self._warmed.set()
 
     def _on_liveliness(self, sample: zenoh.Sample) -> None:
         if sample.kind == zenoh.SampleKind.PUT:

@@ -1,7 +1,8 @@
 """What a recording wrote: per-topic counts and the run's :class:`RecordingSummary`.
 
-The writer (:mod:`rths.log.mcap_writer`) keeps the counts; :meth:`rths.log.recorder.Recorder.close`
-returns them; the same counts are written to the log as the ``rths.recording`` metadata record.
+The writer (:mod:`rths.log.writer.mcap_writer`) keeps the counts;
+:meth:`rths.log.recorder.Recorder.close` returns them; the same counts are written to the log as the
+``rths.recording`` metadata record.
 """
 
 from __future__ import annotations

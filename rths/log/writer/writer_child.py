@@ -1,14 +1,14 @@
-"""The writer process itself (``python -m rths.log.writer_child FD_IN FD_OUT``; private).
+"""The writer process itself (``python -m rths.log.writer.writer_child FD_IN FD_OUT``; private).
 
-Started by :class:`rths.log.writer_process.WriterProcess`, which describes the protocol.  It lowers
-its own scheduling to ``SCHED_OTHER`` at nice +:data:`NICE` before any thread exists (threads
-inherit it), ignores SIGINT, SIGTERM and SIGHUP (a Ctrl-C, a closed terminal or a service
-manager's stop reach the whole process group: the coordinator stops the run and closes the
-recorder; this process ends when its pipe does), opens the file and feeds what arrives on
-``FD_IN`` to a :class:`rths.log.mcap_writer.WriterThread`; it reports on ``FD_OUT``.  When
-``FD_IN`` ends without a stop -- the coordinator is gone -- it logs an ``error`` event and
-finishes the file.  Imports: the log writer, numpy and ``mcap`` only (no zenoh, no plants), so it
-starts fast (~0.2 s, most of it numpy).
+Started by :class:`rths.log.writer.writer_process.WriterProcess`, which describes the protocol. It
+lowers its own scheduling to ``SCHED_OTHER`` at nice +:data:`NICE` before any thread exists (threads
+inherit it), ignores SIGINT, SIGTERM and SIGHUP (a Ctrl-C, a closed terminal or a service manager's
+stop reach the whole process group: the coordinator stops the run and closes the recorder; this
+process ends when its pipe does), opens the file and feeds what arrives on ``FD_IN`` to a
+:class:`rths.log.writer.mcap_writer.WriterThread`; it reports on ``FD_OUT``. When ``FD_IN`` ends
+without a stop -- the coordinator is gone -- it logs an ``error`` event and finishes the file.
+Imports: the log writer, numpy and ``mcap`` only (no zenoh, no plants), so it starts fast (~0.2 s,
+most of it numpy).
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ class _Waiter:
 
 
 def _receive_batch(source: Connection) -> list[Any]:
-    """One batch as :meth:`rths.log.writer_process.WriterProcess` frames it."""
+    """One batch as :meth:`rths.log.writer.writer_process.WriterProcess` frames it."""
     head = source.recv_bytes()
     (count,) = struct.unpack_from("<I", head)
     buffers = [source.recv_bytes() for _ in range(count)]
@@ -93,7 +93,7 @@ def main(fd_in: int, fd_out: int) -> int:
     _lower_priority()
     for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):  # the coordinator's to act on
         signal.signal(signum, signal.SIG_IGN)
-    from rths.log.mcap_writer import STOP, WriterThread
+    from rths.log.writer.mcap_writer import STOP, WriterThread
 
     source, sink = Connection(fd_in, writable=False), Connection(fd_out, readable=False)
     lock = threading.Lock()

@@ -1,10 +1,10 @@
 """The writer thread behind :class:`rths.log.recorder.Recorder` (private).
 
 It owns the ``mcap`` writer and the output stream; everything it does -- JSON encoding, gap
-counting, chunk compression, flushing -- happens here, never on the loop thread.  It runs in the
-recorder's process (``writer="thread"``) or in a writer process of its own
-(``writer="process"``, :mod:`rths.log.writer_process`), where the same items arrive over a pipe.
-It consumes tagged tuples from a :class:`queue.SimpleQueue`:
+counting, chunk compression, flushing -- happens here, never on the loop thread. It runs in the
+recorder's process (``writer="thread"``) or in a writer process of its own (``writer="process"``,
+:mod:`rths.log.writer.writer_process`), where the same items arrive over a pipe. It consumes tagged
+tuples from a :class:`queue.SimpleQueue`:
 
 * ``("s", topic, schema_json_bytes)`` -- register a topic;
 * ``("m", topic, seq, log_time_ns, publish_time_ns, message)`` -- a message from this process;
@@ -17,12 +17,12 @@ It consumes tagged tuples from a :class:`queue.SimpleQueue`:
   (by the next periodic flush; at once if nothing is pending; at the end of the file);
 * :data:`STOP` -- finish the file and end.
 
-When something endangers the log -- the disk space reserve can no longer be renewed (the disk
-is nearly full) or a write failed -- the thread calls ``on_fault(message)`` once, so the run can
-be stopped while the log is whole.  After a failure it keeps draining the queue until
-:data:`STOP` (producers never block or fail), counts the messages it could not write as ``lost``
-and ends the file readably (:meth:`rths.log.logfile.LogFile.close_salvaged`) with the metadata
-queued meanwhile -- the run's summary among them.
+When something endangers the log -- the disk space reserve can no longer be renewed (the disk is
+nearly full) or a write failed -- the thread calls ``on_fault(message)`` once, so the run can be
+stopped while the log is whole. After a failure it keeps draining the queue until :data:`STOP`
+(producers never block or fail), counts the messages it could not write as ``lost`` and ends the
+file readably (:meth:`rths.log.writer.logfile.LogFile.close_salvaged`) with the metadata queued
+meanwhile -- the run's summary among them.
 """
 
 from __future__ import annotations
@@ -40,10 +40,10 @@ from mcap.writer import CompressionType, Writer
 
 from rths import __version__
 from rths.core.errors import DataError
-from rths.log.logfile import LogFile
-from rths.log.rowjson import LENIENT, STRICT, block_messages, finite, open_schema
 from rths.log.schemas import EVENTS_TOPIC
-from rths.log.summary import COUNTS, TopicStats
+from rths.log.writer.logfile import LogFile
+from rths.log.writer.rowjson import LENIENT, STRICT, block_messages, finite, open_schema
+from rths.log.writer.summary import COUNTS, TopicStats
 from rths.wire.codec import LogRecord
 
 __all__ = ["POLL", "STOP", "WriterThread", "messages_in"]
@@ -95,7 +95,7 @@ class WriterThread(threading.Thread):
     Parameters
     ----------
     stream
-        The output file (:class:`rths.log.logfile.LogFile`).
+        The output file (:class:`rths.log.writer.logfile.LogFile`).
     inbox
         The queue the producers fill (module docstring).
     metadata
@@ -152,8 +152,8 @@ class WriterThread(threading.Thread):
         config: Mapping[str, Any],
         on_fault: Callable[[str], None] | None = None,
     ) -> WriterThread:
-        """Create the file (:class:`rths.log.logfile.LogFile`) and its writer; ``config`` holds
-        ``reserve`` [B] and the other parameters of the class by name.
+        """Create the file (:class:`rths.log.writer.logfile.LogFile`) and its writer; ``config``
+        holds ``reserve`` [B] and the other parameters of the class by name.
 
         Raises
         ------

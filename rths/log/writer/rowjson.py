@@ -1,7 +1,7 @@
 """Log messages as JSON bytes: row blocks, mappings with non-finite numbers, open schemas.
 
-The writer (:mod:`rths.log.mcap_writer`) and the live view (:mod:`rths.log.live`) write the same
-bytes: a row of a :class:`rths.core.channels.RowBlock` becomes ``{"seq": k, <channel>: value,
+The writer (:mod:`rths.log.writer.mcap_writer`) and the live view (:mod:`rths.log.live`) write the
+same bytes: a row of a :class:`rths.core.channels.RowBlock` becomes ``{"seq": k, <channel>: value,
 ...}`` (:func:`block_messages`); a NaN or infinity becomes ``null`` (JSON has none).
 """
 

@@ -1,5 +1,5 @@
 """The file under an MCAP log: disk space reserved ahead of the data, and a readable end after
-a write failed (private to :mod:`rths.log.mcap_writer`).
+a write failed (private to :mod:`rths.log.writer.mcap_writer`).
 
 A full disk must not cost the log.  :class:`LogFile` keeps :data:`RESERVE` bytes allocated past
 the end of the data (``posix_fallocate``), so the writes of a run never need new space; when the

@@ -9,22 +9,22 @@ its own GIL, and it runs in ``SCHED_OTHER`` at nice +10 (an inherited ``SCHED_FI
 the kernel preempts it whenever the loop, the specimen or zenoh have work.
 
 Coordinator side (:class:`WriterProcess`): the producers keep filling the recorder's
-:class:`queue.SimpleQueue` exactly as for the in-process :class:`rths.log.mcap_writer.WriterThread`
-(``put_block`` only enqueues).  A *sender* thread takes what is queued, pickles it (protocol 5; a
-:class:`rths.core.channels.RowBlock` goes as its names and its ``values``/``seq``/``t_ns`` arrays,
-sent out of band: the arrays' memory is written to the pipe as it is, no copy, with the GIL
-released) and writes it to a pipe.  A
-*reader* thread blocks on a second pipe for what the child reports: a fault (``on_fault`` is called
-at once), a flush (:meth:`rths.log.recorder.Recorder.wait_flushed`) and, at the end, the counts.
+:class:`queue.SimpleQueue` exactly as for the in-process
+:class:`rths.log.writer.mcap_writer.WriterThread` (``put_block`` only enqueues). A *sender* thread
+takes what is queued, pickles it (protocol 5; a :class:`rths.core.channels.RowBlock` goes as its
+names and its ``values``/``seq``/``t_ns`` arrays, sent out of band: the arrays' memory is written to
+the pipe as it is, no copy, with the GIL released) and writes it to a pipe. A *reader* thread blocks
+on a second pipe for what the child reports: a fault (``on_fault`` is called at once), a flush
+(:meth:`rths.log.recorder.Recorder.wait_flushed`) and, at the end, the counts.
 
-Child side (:mod:`rths.log.writer_child`): a fresh interpreter
-(fork + exec, never a bare fork of a process with zenoh's threads, and without multiprocessing's
-re-import of the parent's ``__main__``) that imports only the log writer, numpy and ``mcap``.  It
-feeds the same :class:`~rths.log.mcap_writer.WriterThread` as the in-process mode, so the file is
-byte for byte the same kind of log.  Should the coordinator die (SIGKILL, a crash), the child sees
-the end of its pipe, writes an ``error`` event "coordinator lost", and finishes the file (footer,
-summary, ``rths.recording``) with everything it had received.  It ignores SIGINT, SIGTERM and
-SIGHUP: they reach the coordinator too, which stops the run and closes the recorder.
+Child side (:mod:`rths.log.writer.writer_child`): a fresh interpreter (fork + exec, never a bare
+fork of a process with zenoh's threads, and without multiprocessing's re-import of the parent's
+``__main__``) that imports only the log writer, numpy and ``mcap``. It feeds the same
+:class:`~rths.log.writer.mcap_writer.WriterThread` as the in-process mode, so the file is byte for
+byte the same kind of log. Should the coordinator die (SIGKILL, a crash), the child sees the end of
+its pipe, writes an ``error`` event "coordinator lost", and finishes the file (footer, summary,
+``rths.recording``) with everything it had received. It ignores SIGINT, SIGTERM and SIGHUP: they
+reach the coordinator too, which stops the run and closes the recorder.
 """
 
 from __future__ import annotations
@@ -45,8 +45,8 @@ from pathlib import Path
 from typing import Any
 
 from rths.core.errors import DataError
-from rths.log.mcap_writer import STOP, messages_in
-from rths.log.summary import TopicStats
+from rths.log.writer.mcap_writer import STOP, messages_in
+from rths.log.writer.summary import TopicStats
 
 __all__ = ["WriterProcess"]
 
@@ -81,19 +81,19 @@ class WriterProcess:
     """Coordinator side of the writer process; the recorder's writer when ``writer="process"``.
 
     It offers what :class:`rths.log.recorder.Recorder` uses of a
-    :class:`~rths.log.mcap_writer.WriterThread`: :meth:`start`, :meth:`join` (after
-    :data:`~rths.log.mcap_writer.STOP` is queued), :meth:`stats` and the attributes ``error``,
-    ``fault``, ``lost``, ``max_backlog``, ``events``.
+    :class:`~rths.log.writer.mcap_writer.WriterThread`: :meth:`start`, :meth:`join` (after
+    :data:`~rths.log.writer.mcap_writer.STOP` is queued), :meth:`stats` and the attributes
+    ``error``, ``fault``, ``lost``, ``max_backlog``, ``events``.
 
     Parameters
     ----------
     path
         The MCAP file to write.
     inbox
-        The recorder's queue (items as in :mod:`rths.log.mcap_writer`).
+        The recorder's queue (items as in :mod:`rths.log.writer.mcap_writer`).
     config
         ``reserve``, ``metadata``, ``compression``, ``chunk_size``, ``flush_interval`` of the
-        :class:`~rths.log.mcap_writer.WriterThread` the child runs.
+        :class:`~rths.log.writer.mcap_writer.WriterThread` the child runs.
     on_fault
         Called once, from the reader thread, when the child reports the log in danger, or when
         the child ends without finishing.
@@ -138,7 +138,13 @@ class WriterProcess:
         begin = time.perf_counter()
         try:
             self._proc = subprocess.Popen(
-                [sys.executable, "-m", "rths.log.writer_child", str(from_parent), str(to_parent)],
+                [
+                    sys.executable,
+                    "-m",
+                    "rths.log.writer.writer_child",
+                    str(from_parent),
+                    str(to_parent),
+                ],
                 pass_fds=(from_parent, to_parent),
                 stdin=subprocess.DEVNULL,
                 stdout=subprocess.DEVNULL,
