@@ -123,19 +123,16 @@ def main() -> None:
     print(f"load average {os.getloadavg()[0]:.2f}; round trips [µs], {args.steps} each")
     print(f"{'path':<8}{'CPU latency request':<34}{'p50':>8}{'p90':>8}{'p99':>8}")
     for name, measure in (("pipe", pipe_round_trips), ("zenoh", zenoh_round_trips)):
-        for bound in (None, 0):
-            with CpuLatency(bound) if bound is not None else _off() as latency:
+        for held in (False, True):
+            latency = CpuLatency(0)
+            if held:
+                with latency:
+                    times = measure(args.steps)
+            else:
                 times = measure(args.steps)
+            label = latency.describe() if held else "off"
             p50, p90, p99 = np.percentile(times, [50, 90, 99])
-            print(f"{name:<8}{latency.describe():<34}{p50:>8.1f}{p90:>8.1f}{p99:>8.1f}")
-
-
-def _off() -> CpuLatency:
-    os.environ["RTHS_CPU_LATENCY_US"] = "off"
-    try:
-        return CpuLatency()
-    finally:
-        del os.environ["RTHS_CPU_LATENCY_US"]
+            print(f"{name:<8}{label:<34}{p50:>8.1f}{p90:>8.1f}{p99:>8.1f}")
 
 
 if __name__ == "__main__":
