@@ -113,7 +113,8 @@ def test_models_hold_only_compatible_effect_sets():
     assert compatible(("coulomb_friction", "backlash"))
     assert not compatible(("backlash", "internal_stiffness"))  # one series element
     assert not compatible(("actuator_delay", "backlash"))  # two channels
-    assert len(models_for("force", ("coulomb_friction", "backlash"))) == 3
+    # chains with a linear and a Hertz contact, friction at the drive, massless friction
+    assert len(models_for("force", ("coulomb_friction", "backlash"))) == 4
 
 
 def test_white_noise_level_and_noise_floor_two_ways():

@@ -204,10 +204,10 @@ class Channel:
             )
             return np.asarray(f, dtype=np.float64), psd * scale
         sos = self.segments[0].sos
-        assert sos is not None
-        if self.name == "displacement":
-            k_h = np.abs(np.fft.rfft(impulse_kernel(sos, dt))) ** 2
+        if self.name == "displacement":  # unsmoothed: white
+            k_h = 1.0 if sos is None else np.abs(np.fft.rfft(impulse_kernel(sos, dt))) ** 2
             return np.asarray(f, dtype=np.float64), self.noise["measured"] ** 2 * k_h * scale
+        assert sos is not None
         spec = self.nominal.specimen
         lin = linear or (spec.inertance, spec.damping, spec.stiffness)
         k_f = np.abs(np.fft.rfft(impulse_kernel(sos, dt))) ** 2
@@ -287,10 +287,14 @@ def displacement_channel(
     """The ``displacement`` channel: the measured displacement predicted from the measured
     force (:mod:`rths.diagnose.effects.compliance`).
 
-    Both go through zero-phase low-passes: the displacement (observed) at :data:`DRIVE_CUTOFF`
-    of the sampling rate (no derivative: its noise is not amplified), the force (the drive) at
-    the same cutoff.  Samples where the force is within ``2 F_0`` of zero are not scored;
-    ``F_0`` (signal ``f0``) is five times the smoothed force noise or 1 % of the force's RMS.
+    Both are used as sampled, unsmoothed: the model is nonlinear in the force (the clearance's
+    sign, a contact law), scored only where the force is live, and a smoother would mix the
+    samples where a contact is open -- where the displacement is the piston's, not the
+    specimen's -- into the scored ones next to them (a rattling contact is open most of the
+    time); the converters' anti-alias filters act alike on both channels.  Samples where the
+    force, as sampled or low-passed at :data:`DRIVE_CUTOFF` of the sampling rate, is within
+    ``2 F_0`` of zero are not scored; ``F_0`` (signal ``f0``) is five times the low-passed
+    force's noise or 1 % of its RMS.
 
     Parameters
     ----------
@@ -312,13 +316,18 @@ def displacement_channel(
     f0 = max(5.0 * noise["force"] * gain, 0.01 * rms, 1e-12)
     roles = split_roles(records, cutoff, held_out)
     for i, (r, f, (ident, held)) in enumerate(zip(records, forces, roles, strict=True)):
-        live = np.abs(f - np.median(f)) >= 2.0 * f0
-        signals = {"f": f, "f0": np.full(1, f0)}
+        raw = np.asarray(r.force, dtype=float)
+        # live in the low-passed force (not a noise spike) and in the sampled one (the
+        # low-pass spreads a contact's force over the samples where it has opened)
+        live = (np.abs(f - np.median(f)) >= 2.0 * f0) & (np.abs(raw - np.median(f)) >= 2.0 * f0)
+        signals = {"f": raw, "f0": np.full(1, f0)}
         segments.append(
-            Segment(r.name, i, dt, smooth(r.measured, sos), signals, ident & live, held & live, sos)
+            Segment(
+                r.name, i, dt, np.asarray(r.measured, float), signals, ident & live, held & live
+            )
         )
     noise["drive"] = 0.0
-    return Channel("displacement", "specimen", segments, nominal, noise, cutoff, sos)
+    return Channel("displacement", "specimen", segments, nominal, noise, cutoff)
 
 
 def force_deviation(record: Record, nominal: NominalModel) -> NDArray[np.float64]:

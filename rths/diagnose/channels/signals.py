@@ -13,6 +13,12 @@ smoothed, ``x_f = h*x``, and differentiated by second-order central differences
 Noise level.  White measurement noise is estimated from the record itself as the median of its
 Welch PSD over the top of the band (:data:`NOISE_BAND` of the Nyquist frequency), where lab
 signals hold nothing but converter noise and quantisation; the median ignores narrow tones.
+Impacts (a stiff contact closing) put broadband energy at the top of the band too, but only
+for the few milliseconds of each impact: the level is therefore at most the robust
+time-domain estimate, the median absolute third difference (white noise of variance
+``s^2`` gives third differences of variance ``20 s^2``, and a smooth signal's third
+difference is negligible), which ignores the impacts' samples, floored at a quantised
+record's ``LSB/sqrt(12)``.
 
 Replay (DAQ timing convention, :mod:`rths.diagnose.data.records`).  The command ``u_k`` is held
 from ``t_k`` to ``t_{k+1}`` (zero-order hold) and the displacement is sampled at ``t_k``: with
@@ -160,7 +166,14 @@ def white_noise_rms(x: NDArray[np.float64], dt: float) -> float:
     nyquist = 0.5 / dt
     band = (f >= NOISE_BAND[0] * nyquist) & (f <= NOISE_BAND[1] * nyquist)
     level = float(np.median(p[band])) if np.any(band) else 0.0
-    return float(np.sqrt(max(level, 0.0) * nyquist))
+    spectral = float(np.sqrt(max(level, 0.0) * nyquist))
+    if x.size < 64:
+        return spectral
+    d3 = np.diff(x, 3)
+    robust = 1.4826 * float(np.median(np.abs(d3 - np.median(d3)))) / math.sqrt(20.0)
+    steps = np.diff(np.unique(x))
+    lsb = float(np.min(steps)) if steps.size else 0.0
+    return min(spectral, max(robust, lsb / math.sqrt(12.0)))
 
 
 def impulse_kernel(

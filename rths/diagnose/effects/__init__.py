@@ -183,6 +183,8 @@ def models_for(channel: str, effects: tuple[str, ...]) -> list[Model]:
     if not element:
         return [RigidSpecimen(effects)]
     out: list[Model] = [SeriesChain(effects)]
+    if "backlash" in effects:
+        out.append(SeriesChain(effects, contact="hertz"))
     if "coulomb_friction" in effects:
         out.append(SeriesChain(effects, friction_at="drive"))
         if element == {"backlash"}:

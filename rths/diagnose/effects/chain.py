@@ -7,8 +7,11 @@
 with ``e`` the force per unit body inertance of :func:`rths.diagnose.effects.kernels.
 series_chain`: the element (``internal_stiffness``: a series spring ``k_e = m omega^2`` with its
 own damping ``c_e = 2 zeta omega m``, S0 Eq.12 with a Kelvin-Voigt element; ``backlash``: a
-clearance ``g`` before a contact of that stiffness and damping which only pushes, S0 Table 6,
-S1 Eq.11) drives the body, which carries the re-calibrated nominal damping and spring and, as
+clearance ``g`` before a contact which only pushes, S0 Table 6, S1 Eq.11, whose force grows
+as the penetration to a power ``n``: 1 a linear contact, 3/2 a Hertz contact with damping
+that vanishes at first touch (two structures) -- :func:`rths.diagnose.effects.kernels.
+series_chain`; stiffness and damping are reported at :func:`reference_penetration`)
+drives the body, which carries the re-calibrated nominal damping and spring and, as
 further effects, an elasto-plastic friction and an amplitude-dependent damping ``c_1/(A +
 c_2)`` (S0 Eq.17-18).  The body inertance ``m`` and a direct inertance ``m_r`` ahead of the
 element (a rod, a load-cell adapter) are linear; the rest is searched.  For fixed per-mass
@@ -38,12 +41,43 @@ from rths.diagnose.effects.specimen import (
     rigid_columns,
 )
 
-__all__ = ["MIN_INERTIAL_SHARE", "STIFFNESS_RANGE", "SeriesChain", "free_response"]
+__all__ = [
+    "CONTACT_EXPONENT",
+    "HERTZ_EXPONENT",
+    "MIN_INERTIAL_SHARE",
+    "REFERENCE_PENETRATION",
+    "STIFFNESS_RANGE",
+    "SeriesChain",
+    "free_response",
+    "reference_penetration",
+]
 
 #: Smallest share of the force the body's inertia must carry for a chain to apply.
 MIN_INERTIAL_SHARE: float = 0.05
 #: Element stiffness searched [N/m] (issue range), mapped to frequencies with the inertance.
 STIFFNESS_RANGE: tuple[float, float] = (1e5, 1e10)
+#: Exponents ``n`` of the contact law ``F ~ p^n`` searched for backlash by the force-driven
+#: view: 1 a linear (Kelvin-Voigt) contact, 3/2 Hertz's sphere on a flat (Johnson, Contact
+#: Mechanics, Eq. 4.23), up to 2 (conforming, rough or layered contacts).
+CONTACT_EXPONENT: tuple[float, float] = (1.0, 2.0)
+#: The replayed chain's contact laws are two structures, not a searched exponent (which trades
+#: against the clearance in a replay's rough cost surface): linear, and Hertz's 3/2.
+HERTZ_EXPONENT: float = 1.5
+#: Reference penetration of the contact law, as a fraction of the drive's standard deviation:
+#: where the reported ``stiffness`` and ``contact_damping`` hold (the secant ``F/p`` there).
+REFERENCE_PENETRATION: float = 0.01
+
+
+def reference_penetration(channel: Channel) -> float:
+    """Reference penetration ``p_r`` [m] of the contact law (:data:`REFERENCE_PENETRATION`
+    times the drive's standard deviation).
+
+    Parameters
+    ----------
+    channel
+        The specimen channel.
+    """
+    return REFERENCE_PENETRATION * drive_scale(channel)
 
 
 def free_response(
@@ -88,16 +122,23 @@ class SeriesChain(Model):
         damping).
     friction_at
         ``"body"`` (behind the element) or ``"drive"`` (ahead of it).
+    contact
+        Contact law of a backlash: ``"linear"`` or ``"hertz"`` (:data:`HERTZ_EXPONENT`).
     """
 
     subsystem = "specimen"
 
-    def __init__(self, effects: tuple[str, ...] = (), friction_at: str = "body") -> None:
+    def __init__(
+        self, effects: tuple[str, ...] = (), friction_at: str = "body", contact: str = "linear"
+    ) -> None:
         super().__init__(effects)
         self.backlash = "backlash" in effects
+        self.exponent = HERTZ_EXPONENT if contact == "hertz" and self.backlash else 1.0
         self.friction = "coulomb_friction" in effects
         self.on_body = self.friction and friction_at == "body"
         self.structure = "chain" if not self.friction else f"chain, friction at the {friction_at}"
+        if self.exponent != 1.0:
+            self.structure += ", Hertz contact"
         self.amplitude = "amplitude_damping" in effects
         self.polish = self.backlash
         self._base: dict[str, float] = {}
@@ -178,6 +219,8 @@ class SeriesChain(Model):
             stiffness=float(theta["body_stiffness"]),
             friction=theta.get("friction_level", 0.0) if self.on_body else 0.0,
             presliding=theta.get("presliding", 1.0),
+            exponent=self.exponent,
+            reference=reference_penetration(channel),
         )
         cols = [seg.h(per_mass), rigid_columns(seg)[0]]
         if self.friction and not self.on_body:
@@ -225,7 +268,15 @@ class SeriesChain(Model):
             base["friction"] = float(beta[2])
         params: dict[str, dict[str, float]] = {}
         if self.backlash:
-            params["backlash"] = {"gap": theta["gap"], "stiffness": k_e, "contact_damping": c_e}
+            n, p_r = self.exponent, reference_penetration(channel)
+            params["backlash"] = {
+                "gap": theta["gap"],
+                "stiffness": k_e,
+                "contact_damping": c_e,
+                "exponent": n,
+                "contact_law_stiffness": k_e * p_r ** (1.0 - n),
+                "reference_penetration": p_r,
+            }
         else:
             params["internal_stiffness"] = {
                 "stiffness": k_e,

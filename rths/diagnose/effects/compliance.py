@@ -11,11 +11,13 @@ spring ``k``) integrates the force, and the element's deflection is a smooth fun
 .. math::
 
     \\hat x = \\underbrace{\\frac{F}{m s^2 + c s + k}}_{\\text{body}}
-        + \\underbrace{\\frac{F}{k_e (1 + \\tau s)}}_{\\text{element}}
+        + \\underbrace{\\frac{F_0 \\mathrm{sgn}(F) |F/F_0|^{1/n}}{k_e (1+\\tau s)}}_{\\text{elem}}
         + \\frac{g}{2}\\tanh\\frac{F}{F_0} + \\text{free response}
 
 with ``tau = c_e/k_e`` (Kelvin-Voigt element: ``internal_stiffness`` without clearance,
-``backlash`` with a total clearance ``g`` crossed while the force changes sign).  The body's
+``backlash`` with a total clearance ``g`` crossed while the force changes sign, and a contact
+law ``F ~ p^n`` whose exponent ``n`` in [1, 2] is searched: 3/2 for a Hertz contact; ``k_e``
+is then the secant stiffness at ``F_0``).  The body's
 initial state is unknown, so each record is cut into blocks of :data:`BLOCK_SECONDS`; every block
 integrates from rest and its free response (two columns) is calibrated on the block itself, like
 the per-record offsets and the load cell's offset (the body's response to a constant force).
@@ -34,8 +36,9 @@ from numpy.typing import NDArray
 from scipy import linalg, signal
 
 from rths.diagnose.channels.channel import Channel, Segment
+from rths.diagnose.effects.chain import CONTACT_EXPONENT
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
-from rths.diagnose.effects.specimen import clearance_resolved
+from rths.diagnose.effects.specimen import RESOLVED_CLEARANCE, clearance_resolved
 
 __all__ = ["BLOCK_SECONDS", "ComplianceModel", "blocks"]
 
@@ -145,6 +148,8 @@ class ComplianceModel(Model):
         ]
         if self.element:
             out.append(Param("tau", 1e-6, 5e-3, grid=6, start=1e-4))
+        if self.backlash:  # linear columns: a fine grid is cheap
+            out.append(Param("exponent", *CONTACT_EXPONENT, log=False, grid=5, start=1.0))
         return out
 
     def columns(self, channel: Channel, seg: Segment, theta: Theta) -> Columns:
@@ -155,15 +160,24 @@ class ComplianceModel(Model):
             seg.cache[key] = seg.h(_blockwise(f, seg.dt, (1.0,), (1.0, c, k)))
         cols = [seg.cache[key]]
         if self.element:
-            tau = float(theta["tau"])
-            key = f"elem:{tau!r}"
+            tau, n = float(theta["tau"]), float(theta.get("exponent", 1.0))
+            key = f"elem:{tau!r}:{n!r}"
             if key not in seg.cache:
-                seg.cache[key] = seg.h(_blockwise(f, seg.dt, (1.0,), (tau, 1.0)))
+                f0 = float(seg.signals["f0"][0])
+                law = f if n == 1.0 else f0 * np.sign(f) * (np.abs(f) / f0) ** (1.0 / n)
+                seg.cache[key] = seg.h(_blockwise(law, seg.dt, (1.0,), (tau, 1.0)))
             cols.append(seg.cache[key])
         if self.backlash:
             if "sign" not in seg.cache:
                 seg.cache["sign"] = seg.h(np.tanh(f / float(seg.signals["f0"][0])))
             cols.append(seg.cache["sign"])
+            n = float(theta.get("exponent", 1.0))
+            key = f"hc:{n!r}"
+            if key not in seg.cache:
+                f0 = float(seg.signals["f0"][0])
+                law = f0 * np.sign(f) * (np.abs(f) / f0) ** (1.0 / n)
+                seg.cache[key] = seg.h(law * np.gradient(law, seg.dt))
+            cols.append(seg.cache[key])
         return np.column_stack(cols), np.zeros_like(f)
 
     def nuisance(self, channel: Channel, seg: Segment, theta: Theta) -> NDArray[np.float64]:
@@ -177,13 +191,21 @@ class ComplianceModel(Model):
             seg.cache[key] = np.column_stack([_free(n, seg.dt, c, k), offset])
         return seg.cache[key]
 
+    @staticmethod
+    def _peak(channel: Channel) -> float:
+        return max(float(np.max(np.abs(s.signals["f"]))) for s in channel.segments)
+
+    @staticmethod
+    def _f0(channel: Channel) -> float:
+        return float(channel.segments[0].signals["f0"][0])
+
     def prior(self, channel: Channel) -> NDArray[np.float64]:
         s = channel.nominal.specimen
         out = [1.0 / s.inertance if s.inertance > 0.0 else 0.0]
         if self.element:
             out.append(0.0)
         if self.backlash:
-            out.append(0.0)
+            out += [0.0, 0.0]
         return np.array(out)
 
     def describe(self, channel: Channel, theta: Theta, beta: NDArray[np.float64]):
@@ -200,10 +222,21 @@ class ComplianceModel(Model):
             k_e = 1.0 / inv_k if inv_k > 0.0 else math.inf
             c_e = float(theta["tau"]) * k_e
             if self.backlash:
+                n, f0 = float(theta.get("exponent", 1.0)), self._f0(channel)
                 params["backlash"] = {
                     "gap": 2.0 * float(beta[2]),
                     "stiffness": k_e,
                     "contact_damping": c_e,
+                    "exponent": n,
+                    # F = k p^n with p = (F0/k_e) (F/F0)^(1/n): k = F0 (k_e/F0)^n
+                    "contact_law_stiffness": f0 * (k_e / f0) ** n,
+                    "reference_force": f0,
+                    # the contact's deflection at the peak force [m] (< 0: a negative
+                    # compliance, unphysical beyond the displacement's resolution)
+                    "peak_deflection": inv_k * f0 * (self._peak(channel) / f0) ** (1.0 / n),
+                    # Hunt-Crossley: p = (F/(k (1 + a p')))^(1/n) ~ u - (a/n) u u' with
+                    # u = (F/k)^(1/n): a = -n beta_hc / (1/k_e) [s/m]
+                    "hunt_crossley": -n * float(beta[3]) / inv_k if inv_k > 0.0 else 0.0,
                 }
             else:
                 w = math.sqrt(k_e / m) if math.isfinite(k_e) and inv_m > 0 else math.inf
@@ -218,7 +251,11 @@ class ComplianceModel(Model):
         element = params.get("backlash") or params.get("internal_stiffness")
         if element is None:
             return True
-        ok = 0.0 < element["stiffness"] < math.inf
         if self.backlash:
-            ok = ok and clearance_resolved(channel, params["backlash"]["gap"])
-        return ok
+            # a contact stiffer than the displacement resolves is a rigid one: backlash still
+            p = params["backlash"]
+            resolution = RESOLVED_CLEARANCE * float(channel.noise.get("measured", 0.0))
+            return clearance_resolved(channel, p["gap"]) and (
+                p.get("peak_deflection", 0.0) >= -resolution
+            )
+        return 0.0 < element["stiffness"] < math.inf

@@ -11,7 +11,12 @@
     the body (inertance ``m``) carries a viscous damping (per sample, e.g. amplitude
     dependent), a spring and an elasto-plastic friction; the element is a series spring with
     its own damping (``gap = 0``: internal stiffness) or a contact of finite stiffness and
-    damping after a clearance that only pushes (``gap > 0``: backlash).  Newmark average
+    damping after a clearance that only pushes (``gap > 0``: backlash).  The contact law is
+    general: ``e = (p/p_r)^(n-1) (w^2 p + c_e p')`` for a penetration ``p > 0``: ``n = 1`` is
+    the Kelvin-Voigt element, ``n = 3/2`` a Hertz contact (Johnson, Contact Mechanics, Eq.
+    4.23) whose damping grows with the contact stiffness and vanishes at first touch, like
+    Hunt and Crossley's (J. Appl. Mech. 42 (1975) 440); ``w^2``, ``c_e`` are its stiffness and
+    damping per mass at the reference penetration ``p_r``.  Newmark average
     acceleration (trapezoidal rule) with a scalar Newton iteration per sub-step on the
     piecewise-linear forces (return mapping for the friction), the drive interpolated between
     samples by cubic Hermite polynomials.
@@ -72,23 +77,30 @@ def friction_operator(x: NDArray[np.float64], delta: float, gap: float = 0.0) ->
 
 
 @njit(cache=True)
-def _element(d, dv, w2, ce, hg, pushes):  # pragma: no cover - numba
-    """Element force per mass and its derivative w.r.t. the body displacement."""
+def _element(d, dv, w2, ce, hg, pushes, n, pref):  # pragma: no cover - numba
+    """Element force per mass, its derivatives w.r.t. the element's deflection and deflection
+    rate, and whether it acts."""
     if d > hg:
-        f = w2 * (d - hg) + ce * dv
-        if pushes and f < 0.0:
-            return 0.0, 0.0, False
-        return f, 1.0, True
-    if d < -hg:
-        f = w2 * (d + hg) + ce * dv
-        if pushes and f > 0.0:
-            return 0.0, 0.0, False
-        return f, 1.0, True
-    return 0.0, 0.0, False
+        p, sgn = d - hg, 1.0
+    elif d < -hg:
+        p, sgn = -d - hg, -1.0
+    else:
+        return 0.0, 0.0, 0.0, False
+    if n == 1.0:
+        s, ps = 1.0, 0.0
+    else:
+        s = (p / pref) ** (n - 1.0)
+        ps = (n - 1.0) * s  # p ds/dp
+    f = s * (sgn * w2 * p + ce * dv)
+    if pushes and sgn * f < 0.0:
+        return 0.0, 0.0, 0.0, False
+    return f, w2 * (s + ps), s * ce, True
 
 
 @njit(cache=True)
-def _chain(x, v, dt, w2, ce, hg, pushes, damp, kb, fc, kf, n_sub):  # pragma: no cover - numba
+def _chain(
+    x, v, dt, w2, ce, hg, pushes, damp, kb, fc, kf, n_sub, n_exp, pref
+):  # pragma: no cover - numba
     n = x.size
     out = np.empty(n)
     h = dt / n_sub
@@ -117,7 +129,7 @@ def _chain(x, v, dt, w2, ce, hg, pushes, damp, kb, fc, kf, n_sub):  # pragma: no
             for _ in range(30):
                 vy = 2.0 * (y - xb) / h - vb
                 ay = 4.0 * (y - xb - h * vb) / (h * h) - ab
-                fe, contact, _c = _element(xd - y, vd - vy, w2, ce, hg, pushes)
+                fe, kd, cd, _c = _element(xd - y, vd - vy, w2, ce, hg, pushes, n_exp, pref)
                 trial = ff + kf * (y - xb)
                 if fc > 0.0 and trial > fc:
                     f_new, kt = fc, 0.0
@@ -126,7 +138,7 @@ def _chain(x, v, dt, w2, ce, hg, pushes, damp, kb, fc, kf, n_sub):  # pragma: no
                 else:
                     f_new, kt = trial, kf
                 r = ay + c * vy + kb * y + f_new - fe
-                dr = 4.0 / (h * h) + 2.0 * c / h + kb + kt + contact * (w2 + 2.0 * ce / h)
+                dr = 4.0 / (h * h) + 2.0 * c / h + kb + kt + kd + 2.0 * cd / h
                 step = r / dr
                 y -= step
                 if abs(step) <= 1e-13 * (1.0 + abs(y)):
@@ -136,7 +148,7 @@ def _chain(x, v, dt, w2, ce, hg, pushes, damp, kb, fc, kf, n_sub):  # pragma: no
             trial = ff + kf * (y - xb)
             ff = min(max(trial, -fc), fc) if fc > 0.0 else 0.0
             xb, vb, ab = y, vy, ay
-            f_el = _element(xd - y, vd - vy, w2, ce, hg, pushes)[0]
+            f_el = _element(xd - y, vd - vy, w2, ce, hg, pushes, n_exp, pref)[0]
         out[i] = f_el
     return out
 
@@ -153,6 +165,8 @@ def series_chain(
     stiffness: float = 0.0,
     friction: float = 0.0,
     presliding: float = 1.0,
+    exponent: float = 1.0,
+    reference: float = 1.0,
 ) -> NDArray[np.float64]:
     """Force per unit body inertance [m/s^2] of the series chain (module docstring).
 
@@ -186,6 +200,10 @@ def series_chain(
     presliding
         Presliding displacement ``delta`` [m] of the friction (its stiffness is
         ``F_c/delta``).
+    exponent
+        Contact-law exponent ``n`` [-] (1: linear; 3/2: Hertz), >= 1; only with ``gap > 0``.
+    reference
+        Reference penetration ``p_r`` [m] at which ``omega`` and ``zeta`` hold, > 0.
     """
     n = len(x)
     d = np.asarray(damping, dtype=float)
@@ -194,6 +212,8 @@ def series_chain(
     rate = max(
         omega, math.sqrt(max(kf, 0.0)), float(np.max(np.abs(damp))), math.sqrt(abs(stiffness))
     )
+    if exponent != 1.0:  # the contact stiffens beyond the reference penetration
+        rate *= math.sqrt(exponent)
     n_sub = int(min(MAX_SUBSTEPS, max(1, math.ceil(rate * dt / _MAX_STEP_PHASE))))
     return _chain(
         np.ascontiguousarray(x, dtype=float),
@@ -208,4 +228,6 @@ def series_chain(
         float(friction),
         float(kf),
         n_sub,
+        float(exponent) if gap > 0.0 else 1.0,
+        float(reference),
     )

@@ -269,6 +269,56 @@ def _nested_preferred(
     return out or trials
 
 
+def _prune(
+    channel: Channel,
+    fitter,
+    base: Fit,
+    state: tuple[Fit, float],
+    chosen: tuple[str, ...],
+    candidates: list[Candidate],
+    excess0: float,
+    seed: int,
+    price: float,
+) -> tuple[Fit, float, tuple[str, ...]]:
+    """Backward elimination after the forward steps: an effect of a set of two or more is
+    dropped when the set without it, re-identified from the set's own parameters, leaves a
+    gap the effect does not close :data:`PRICE` per parameter of.  A later step's joint
+    search often refines an earlier effect's parameters (a contact law's exponent found only
+    with a second effect in the search), and the second effect then took credit for that
+    refinement, not for structure of its own."""
+    current, current_floor = state
+    while len(chosen) >= 2:
+        dropped = False
+        for e in chosen:
+            rest = tuple(x for x in chosen if x != e)
+            if not compatible(rest):
+                continue
+            models = [
+                m for m in models_for(channel.name, rest) if m.applicable(channel, base.baseline)
+            ]
+            if not models:
+                continue
+            fits = [fitter(m, channel, base.baseline, [dict(current.theta)]) for m in models]
+            sub = _best(fits)
+            if not sub.model.physical(channel, sub.params):
+                continue
+            floor = noise_floor(sub, channel, seed)
+            left = max(sub.held_mse - floor, 1e-300)
+            gain = (left - (current.held_mse - current_floor)) / left
+            if gain < price * EFFECTS[e].n_params:
+                for i, c in enumerate(candidates):
+                    if c.accepted and set(c.fit.effects) == set(chosen):
+                        candidates[i] = Candidate(c.fit, c.floor, c.closed, c.gain, False, True)
+                closed = (excess0 - left) / excess0
+                candidates.append(Candidate(sub, floor, closed, -gain, True, True))
+                current, current_floor, chosen = sub, floor, rest
+                dropped = True
+                break
+        if not dropped:
+            break
+    return current, current_floor, chosen
+
+
 def _best(fits: list[Fit]) -> Fit:
     return min(fits, key=lambda f: f.ident_mse)
 
@@ -374,6 +424,9 @@ def select(
         chosen = cand.fit.effects
         if not _decompose(channel, current, current_floor / max(n0, 1e-300)).significant:
             break
+    current, current_floor, chosen = _prune(
+        channel, fitter, base, (current, current_floor), chosen, candidates, excess0, seed, price
+    )
     closed = (excess0 - (current.held_mse - current_floor)) / excess0
     verdict = chosen[0] if chosen and closed >= MIN_CLOSED else "unexplained"
     resolution = base.model.resolution(channel, base.prediction)

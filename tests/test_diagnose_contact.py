@@ -1,0 +1,125 @@
+"""Backlash with a Hertz / Hunt-Crossley contact and impacts in the noise estimate."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import integrate, interpolate, optimize, signal
+
+from rths.diagnose.channels import displacement_channel
+from rths.diagnose.channels.signals import white_noise_rms
+from rths.diagnose.data.nominal import ActuatorNominal, NominalModel, SpecimenNominal
+from rths.diagnose.data.records import Record
+from rths.diagnose.effects.kernels import series_chain
+
+UNIT = NominalModel(ActuatorNominal((1.0,), (1.0,), 0.0), SpecimenNominal(1000.0, 0.0))
+
+
+def _record(t: np.ndarray, u: np.ndarray, x: np.ndarray, f: np.ndarray) -> Record:
+    return Record("r", float(t[1] - t[0]), t, u, x, f)
+
+
+def test_hertz_contact_of_the_chain_is_the_quasi_static_closed_form():
+    """A slow ramp into a Hertz contact (n = 3/2) held by an overdamped body: once the start's
+    transient has decayed the body creeps with the drive, and the spring and damper force
+    ``k_b y + c x'`` equals the contact force ``w^2 p_r^(1-n) (x - y - g/2)^n`` -- solved per
+    sample by a root finder independent of the kernel's Newton iteration."""
+    dt, n_exp, p_r, gap = 1e-3, 1.5, 50e-6, 200e-6
+    w2, kb = (2 * math.pi * 300.0) ** 2, (2 * math.pi * 3.0) ** 2  # contact >> body spring
+    t = np.arange(0, 4.0, dt)
+    x = 300e-6 * np.clip(t - 0.5, 0, None)  # reaches the clearance's edge at ~0.83 s
+    v = np.gradient(x, dt)
+    c = 100.0  # per unit mass [1/s]: damping ratio 2.6, slow mode c/k_b = 0.28 s
+    out = series_chain(
+        x, v, dt, omega=math.sqrt(w2), zeta=0.0, gap=gap, damping=c, stiffness=kb,
+        exponent=n_exp, reference=p_r,
+    )  # fmt: skip
+    for i in range(2500, t.size, 250):
+
+        def balance(y, xi=x[i], vi=v[i]):
+            p = max(xi - y - gap / 2, 0.0)
+            return kb * y + c * vi - w2 * p_r ** (1 - n_exp) * p**n_exp
+
+        y = optimize.brentq(balance, -1e-3, x[i])
+        # the transient's residue exp(-(t - 0.83 s)/0.28 s) < 0.3 %, the penetration's creep
+        # rate (p grows as F^(2/3)) ~ 1 % of the drive's
+        assert out[i] == pytest.approx(kb * y + c * v[i], rel=0.01)
+    assert np.all(out[t < 0.8] == 0.0)  # no force inside the clearance
+
+
+def _hertz_record(seed: int = 5):
+    """Drive -> clearance (300 um total) -> Hertz contact with Hunt-Crossley damping
+    ``F = k p^1.5 (1 + alpha p')`` (k = 2e10 N/m^1.5, alpha = 25 s/m), never pulling ->
+    body of 1000 kg with 2 kN s/m and a 2 Hz spring: integrated by scipy's LSODA (1e-6 relative tolerance)
+    at 8 x 1024 Hz, both channels through a 4-pole Bessel anti-alias filter at 256 Hz (an
+    impact is shorter than a sample: the filter keeps its impulse), sampled at 1024 Hz with
+    1 um / 0.5 N of white noise."""
+    rng = np.random.default_rng(seed)
+    fs, up, dur = 1024.0, 8, 6.0
+    tf = np.arange(1, int(fs * dur * up) + 1) / (fs * up)
+    band = signal.butter(4, [0.3, 1.5], "bandpass", fs=fs * up, output="sos")
+    drive = signal.sosfiltfilt(band, rng.standard_normal(tf.size))
+    drive *= 2e-3 / np.std(drive)
+    spl = interpolate.CubicSpline(tf, drive)
+    dspl = spl.derivative()
+    m, c, kb, k, hg, alpha = 1000.0, 2000.0, 1000.0 * (2 * math.pi * 2.0) ** 2, 2e10, 150e-6, 25.0
+
+    def contact(xd, vd, y, vy):
+        r = xd - y
+        if abs(r) <= hg:
+            return 0.0
+        s = math.copysign(1.0, r)
+        f = s * k * (abs(r) - hg) ** 1.5 * (1.0 + alpha * s * (vd - vy))
+        return f if f * s > 0.0 else 0.0
+
+    def rhs(ti, z):
+        f = contact(float(spl(ti)), float(dspl(ti)), z[0], z[1])
+        return [z[1], (f - c * z[1] - kb * z[0]) / m]
+
+    sol = integrate.solve_ivp(
+        rhs, (tf[0], tf[-1]), [0.0, 0.0], method="LSODA", t_eval=tf, rtol=1e-6,
+        atol=[1e-11, 1e-9], max_step=1e-4,
+    )  # fmt: skip
+    vd = dspl(tf)
+    force = np.array([contact(drive[i], vd[i], *sol.y[:, i]) for i in range(tf.size)])
+    b, a = signal.bessel(4, 0.25 * fs, fs=fs * up, norm="mag")
+    aa = [
+        signal.lfilter(b, a, q, zi=signal.lfilter_zi(b, a) * q[0])[0][::up] for q in (drive, force)
+    ]
+    t = tf[::up]
+    x = aa[0] + 1e-6 * rng.standard_normal(t.size)
+    return [_record(t, drive[::up], x, aa[1] + 0.5 * rng.standard_normal(t.size))]
+
+
+def test_a_hertz_contact_is_backlash_with_its_clearance_and_exponent():
+    from rths.diagnose.search.selection import select
+
+    channel = displacement_channel(_hertz_record(), UNIT, None)
+    res = select(channel, ("internal_stiffness", "backlash"))
+    # the force-driven view: scored only where the contact carries force, linear in the
+    # clearance -- no replay of the impacts (which the force channel cannot reproduce)
+    assert res.effects == ("backlash",)
+    p = res.final.params["backlash"]
+    # the clearance within 10 % (the issue's target; measured 0.6 %): the contact law's
+    # exponent is searched, the deflection at the peak force (~100 um) is not taken for play
+    assert p["gap"] == pytest.approx(300e-6, rel=0.1)
+    assert res.closed > 0.9
+
+
+def test_noise_level_ignores_sparse_impacts():
+    """White noise of 1 N plus a decaying 300 Hz ring of 200 N every 0.5 s (impacts): the top
+    of the band is dominated by the rings, the median third difference is not."""
+    rng = np.random.default_rng(2)
+    dt = 1.0 / 2048.0
+    t = np.arange(16 * 2048) * dt
+    rings = np.zeros_like(t)
+    for t0 in np.arange(0.2, t[-1], 0.5):
+        on = t >= t0
+        rings[on] += 200.0 * np.exp(-(t[on] - t0) / 0.004) * np.sin(2 * np.pi * 300 * (t[on] - t0))
+    slow = 500.0 * np.sin(2 * np.pi * 1.5 * t)
+    x = slow + rings + rng.standard_normal(t.size)
+    # the median absolute deviation of ~3e4 samples: a few per cent; the rings occupy ~4 %
+    assert white_noise_rms(x, dt) == pytest.approx(1.0, rel=0.1)
+    assert white_noise_rms(slow + rng.standard_normal(t.size), dt) == pytest.approx(1.0, rel=0.05)
