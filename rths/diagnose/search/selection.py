@@ -20,6 +20,9 @@ closes :data:`PRICE` per extra parameter of the gap the special one leaves; the 
 after the general one and starts also from its fit (a series spring from a contact's fit whose
 clearance closed: the two search spaces differ and either may find the element).
 
+After the forward steps, an effect whose removal costs less than :data:`PRICE` per parameter
+of the gap the rest leaves is dropped again (:func:`_prune`).
+
 Effects that only act together (friction behind a clearance: neither alone describes the
 device) would stall step 2: when no single effect buys its parameters, every compatible pair
 is identified and priced as one step (its parameters counted together).
