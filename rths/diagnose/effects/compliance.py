@@ -21,7 +21,8 @@ is then the secant stiffness at ``F_0``; a Hunt-Crossley contact ``F = k p^n (1 
 deflects ``u - (a/n) u u'`` to first order, ``u = (F/k)^(1/n)``: one more linear column).
 The body's initial state is unknown, so each record is cut into blocks of
 :data:`BLOCK_SECONDS`; every block integrates from rest and its free response (two columns) is
-calibrated on the block itself, like the per-record offsets and the load cell's offset (the body's response to a constant force).
+calibrated on the block itself, like the per-record offsets and the load cell's offset (the
+body's response to a constant force).
 Samples where ``|F| < 2 F_0`` (the clearance being crossed: the piston's motion there is the
 actuator's, not the specimen's) are not scored.  ``1/m``, ``1/k_e`` and ``g/2`` are linear;
 ``c/m``, ``k/m`` and ``tau`` are searched.  The baseline is the body alone (the nominal rigid
