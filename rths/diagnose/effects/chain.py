@@ -48,6 +48,7 @@ __all__ = [
     "REFERENCE_PENETRATION",
     "STIFFNESS_RANGE",
     "SeriesChain",
+    "element_resolved",
     "free_response",
     "reference_penetration",
 ]
@@ -66,6 +67,29 @@ HERTZ_EXPONENT: float = 1.5
 #: Reference penetration of the contact law, as a fraction of the drive's standard deviation:
 #: where the reported ``stiffness`` and ``contact_damping`` hold (the secant ``F/p`` there).
 REFERENCE_PENETRATION: float = 0.01
+
+
+def element_resolved(channel: Channel, element: dict[str, float]) -> bool:
+    """Whether a series spring shows in the data: its resonance ``frequency`` [Hz] lies in the
+    band the channel tests (up to 1.5 times its smoother's cutoff), or its deflection under the
+    RMS force exceeds the displacement's resolution (:data:`rths.diagnose.effects.specimen.
+    RESOLVED_CLEARANCE` times its white-noise RMS).  A stiffer element is a rigid link to the
+    data -- a resonance above the band is filtered out and a static deflection inside the
+    noise band is none -- and a fit that places one there (at the top of the frequency range,
+    say) buys its free response's nuisance terms, not an element.
+
+    Parameters
+    ----------
+    channel
+        The specimen's ``force`` channel.
+    element
+        ``stiffness`` [N/m] and ``frequency`` [Hz] of the series element.
+    """
+    band = 1.5 * float(channel.cutoff) if channel.cutoff else 0.45 / channel.dt
+    if float(element.get("frequency", 0.0)) <= band:
+        return True
+    force = float(np.sqrt(np.mean(channel.stack("observed") ** 2)))
+    return clearance_resolved(channel, force / float(element["stiffness"]))
 
 
 def reference_penetration(channel: Channel) -> float:
@@ -303,4 +327,8 @@ class SeriesChain(Model):
             return False
         if self.backlash and not clearance_resolved(channel, params["backlash"]["gap"]):
             return False
-        return element.get("stiffness", 0.0) > 0.0
+        if element.get("stiffness", 0.0) <= 0.0:
+            return False
+        if not self.backlash and not element_resolved(channel, element):
+            return False
+        return True

@@ -280,6 +280,7 @@ def _prune(
     chosen: tuple[str, ...],
     candidates: list[Candidate],
     excess0: float,
+    n0: float,
     seed: int,
     price: float,
 ) -> tuple[Fit, float, tuple[str, ...]]:
@@ -288,7 +289,9 @@ def _prune(
     gap the effect does not close :data:`PRICE` per parameter of.  A later step's joint
     search often refines an earlier effect's parameters (a contact law's exponent found only
     with a second effect in the search), and the second effect then took credit for that
-    refinement, not for structure of its own."""
+    refinement, not for structure of its own.  An effect is also dropped when the set
+    without it already reaches its noise floor (no significant residual): a gain measured
+    against a remaining gap inside the floor's uncertainty is none."""
     current, current_floor = state
     while len(chosen) >= 2:
         dropped = False
@@ -299,6 +302,10 @@ def _prune(
             models = [
                 m for m in models_for(channel.name, rest) if m.applicable(channel, base.baseline)
             ]
+            # the set's own structure without the effect (its contact law, where its friction
+            # sits), when there is one: the question is the effect, not the structure
+            same = [m for m in models if m.structure == current.model.structure]
+            models = same or models
             if not models:
                 continue
             fits = [fitter(m, channel, base.baseline, [dict(current.theta)]) for m in models]
@@ -308,7 +315,8 @@ def _prune(
             floor = noise_floor(sub, channel, seed)
             left = max(sub.held_mse - floor, 1e-300)
             gain = (left - (current.held_mse - current_floor)) / left
-            if gain < price * EFFECTS[e].n_params:
+            at_floor = not _decompose(channel, sub, floor / max(n0, 1e-300)).significant
+            if at_floor or gain < price * EFFECTS[e].n_params:
                 for i, c in enumerate(candidates):
                     if c.accepted and set(c.fit.effects) == set(chosen):
                         candidates[i] = Candidate(c.fit, c.floor, c.closed, c.gain, False, True)
@@ -428,7 +436,16 @@ def select(
         if not _decompose(channel, current, current_floor / max(n0, 1e-300)).significant:
             break
     current, current_floor, chosen = _prune(
-        channel, fitter, base, (current, current_floor), chosen, candidates, excess0, seed, price
+        channel,
+        fitter,
+        base,
+        (current, current_floor),
+        chosen,
+        candidates,
+        excess0,
+        n0,
+        seed,
+        price,
     )
     closed = (excess0 - (current.held_mse - current_floor)) / excess0
     verdict = chosen[0] if chosen and closed >= MIN_CLOSED else "unexplained"
