@@ -123,3 +123,27 @@ def test_noise_level_ignores_sparse_impacts():
     # the median absolute deviation of ~3e4 samples: a few per cent; the rings occupy ~4 %
     assert white_noise_rms(x, dt) == pytest.approx(1.0, rel=0.1)
     assert white_noise_rms(slow + rng.standard_normal(t.size), dt) == pytest.approx(1.0, rel=0.05)
+
+
+def test_a_series_spring_stiffer_than_the_data_resolve_is_no_element():
+    """Band-limited drive of 2 mm RMS into 1000 kg (force RMS ~ 1 kN), 2 um displacement noise,
+    the force channel smoothed at 30 Hz (tested up to 45 Hz): a resonance inside the band is an
+    element, one far above it only if its static deflection F_rms/k exceeds 2 x 2 um."""
+    from rths.diagnose.channels import specimen_channel
+    from rths.diagnose.effects.chain import element_resolved
+
+    rng = np.random.default_rng(7)
+    dt = 1.0 / 1024.0
+    t = dt * np.arange(1, 6 * 1024 + 1)
+    band = signal.butter(4, [0.5, 8.0], "bandpass", fs=1024, output="sos")
+    drive = signal.sosfiltfilt(band, rng.standard_normal(t.size))
+    drive *= 2e-3 / np.std(drive)
+    force = 1000.0 * np.gradient(np.gradient(drive, dt), dt)
+    x = drive + 2e-6 * rng.standard_normal(t.size)
+    ch = specimen_channel([_record(t, drive, x, force)], UNIT, 30.0)
+    f_rms = float(np.sqrt(np.mean(ch.stack("observed") ** 2)))
+    assert element_resolved(ch, {"stiffness": 5e6, "frequency": 11.3})  # in the band
+    stiff = f_rms / (0.5 * 4e-6)  # deflects 2 um: inside the noise band
+    assert not element_resolved(ch, {"stiffness": stiff, "frequency": 450.0})
+    soft = f_rms / (4.0 * 4e-6)  # deflects 16 um: resolved although its resonance is not
+    assert element_resolved(ch, {"stiffness": soft, "frequency": 450.0})
