@@ -147,3 +147,19 @@ def test_a_series_spring_stiffer_than_the_data_resolve_is_no_element():
     assert not element_resolved(ch, {"stiffness": stiff, "frequency": 450.0})
     soft = f_rms / (4.0 * 4e-6)  # deflects 16 um: resolved although its resonance is not
     assert element_resolved(ch, {"stiffness": soft, "frequency": 450.0})
+
+
+def test_a_friction_inside_the_force_noise_is_no_friction():
+    from rths.diagnose.effects.specimen import RESOLVED_CLEARANCE, friction_resolved
+
+    rng = np.random.default_rng(8)
+    dt = 1.0 / 1024.0
+    t = dt * np.arange(1, 4 * 1024 + 1)
+    drive = 2e-3 * np.sin(2 * np.pi * 1.5 * t)
+    force = 1000.0 * np.gradient(np.gradient(drive, dt), dt) + 3.0 * rng.standard_normal(t.size)
+    from rths.diagnose.channels import specimen_channel
+
+    ch = specimen_channel([_record(t, drive, drive, force)], UNIT, 30.0)
+    assert ch.noise["force"] == pytest.approx(3.0, rel=0.1)  # the estimator sees the 3 N
+    assert not friction_resolved(ch, 0.5 * RESOLVED_CLEARANCE * 3.0)
+    assert friction_resolved(ch, 2.0 * RESOLVED_CLEARANCE * 3.0)

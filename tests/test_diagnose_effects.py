@@ -174,7 +174,7 @@ def test_a_clearance_inside_the_displacement_noise_is_no_backlash():
         RigidSpecimen(("coulomb_friction", "backlash")),
     ):
         element = {"stiffness": 1e7, "contact_damping": 0.0}
-        friction = {"coulomb_friction": {"friction": 1.0, "presliding_stiffness": 1e6}}
+        friction = {"coulomb_friction": {"friction": 10.0, "presliding_stiffness": 1e6}}
         below = {"backlash": {"gap": 0.5 * RESOLVED_CLEARANCE * sigma, **element}, **friction}
         above = {"backlash": {"gap": 2.0 * RESOLVED_CLEARANCE * sigma, **element}, **friction}
         assert not model.physical(ch, below) and model.physical(ch, above)

@@ -38,6 +38,7 @@ from rths.diagnose.effects.specimen import (
     clearance_resolved,
     drive_scale,
     friction_column,
+    friction_resolved,
     rigid_columns,
 )
 
@@ -323,7 +324,7 @@ class SeriesChain(Model):
 
     def physical(self, channel: Channel, params: dict[str, dict[str, float]]) -> bool:
         element = params.get("backlash") or params.get("internal_stiffness") or {}
-        if self.friction and params["coulomb_friction"]["friction"] <= 0.0:
+        if self.friction and not friction_resolved(channel, params["coulomb_friction"]["friction"]):
             return False
         if self.backlash and not clearance_resolved(channel, params["backlash"]["gap"]):
             return False

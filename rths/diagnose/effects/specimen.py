@@ -39,6 +39,7 @@ __all__ = [
     "RigidSpecimen",
     "clearance_resolved",
     "drive_scale",
+    "friction_resolved",
     "smoothed",
 ]
 
@@ -89,6 +90,22 @@ def clearance_resolved(channel: Channel, gap: float) -> bool:
     """
     noise = float(channel.noise.get("measured", 0.0))
     return gap > RESOLVED_CLEARANCE * noise
+
+
+def friction_resolved(channel: Channel, friction: float) -> bool:
+    """Whether a friction level ``friction`` [N] exceeds the force's resolution,
+    :data:`RESOLVED_CLEARANCE` times its white-noise RMS (``noise["force"]``): a friction
+    inside the load cell's noise band is no lab's friction, only a patch of a model-form
+    difference.
+
+    Parameters
+    ----------
+    channel
+        The specimen channel.
+    friction
+        Friction level [N].
+    """
+    return friction > RESOLVED_CLEARANCE * float(channel.noise.get("force", 0.0))
 
 
 def drive_scale(channel: Channel) -> float:
@@ -234,7 +251,7 @@ class RigidSpecimen(Model):
         return params, base
 
     def physical(self, channel: Channel, params: dict[str, dict[str, float]]) -> bool:
-        if self.friction and params["coulomb_friction"]["friction"] <= 0.0:
+        if self.friction and not friction_resolved(channel, params["coulomb_friction"]["friction"]):
             return False
         if self.backlash and not clearance_resolved(channel, params["backlash"]["gap"]):
             return False
