@@ -67,7 +67,7 @@ __all__ = ["serve"]
 #: 13 kB (64 rows) held the zenoh ``put`` for 5.3-7.5 ms the first time one was sent while the
 #: real-time loop ran, and the coordinator missed the measurements of the 3-6 steps after it in
 #: every run at 2048 Hz (the "stall at step 80"; a primer of that size sent before step 0 moved
-#: the stall to the start instead of removing it).  16-row frames (3.4 kB) never took more than
+#: the stall to the start instead of removing it).  16-row frames (4.5 kB) never took more than
 #: 0.35 ms (36 puts in 3 runs, ``RTHS_RT_PRIORITY=50``).
 BLOCK_ROWS = 16
 #: Resolution [s] of the command watchdog (the inbox's wake-up tick).
