@@ -309,7 +309,7 @@ def _prune(
             if not models:
                 continue
             fits = [fitter(m, channel, base.baseline, [dict(current.theta)]) for m in models]
-            sub = _best(fits)
+            sub = _best(fits, channel)
             if not sub.model.physical(channel, sub.params):
                 continue
             floor = noise_floor(sub, channel, seed)
@@ -330,7 +330,13 @@ def _prune(
     return current, current_floor, chosen
 
 
-def _best(fits: list[Fit]) -> Fit:
+def _best(fits: list[Fit], channel: Channel | None = None) -> Fit:
+    """The structure that fits the identification data best -- among those whose parameters
+    are physical, when ``channel`` is given and any is (a structure that fits better with a
+    clearance below the resolution must not hide one that names a resolved clearance)."""
+    if channel is not None:
+        ok = [f for f in fits if f.model.physical(channel, f.params)]
+        fits = ok or fits
     return min(fits, key=lambda f: f.ident_mse)
 
 
@@ -394,7 +400,7 @@ def select(
         if not models:
             return None
         tried.add(tuple(sorted((*chosen, *add))))
-        fit = _best([fitter(m, channel, base.baseline, starts) for m in models])
+        fit = _best([fitter(m, channel, base.baseline, starts) for m in models], channel)
         if not chosen and len(add) == 1:
             singles[add[0]] = fit
         floor = noise_floor(fit, channel, seed)
