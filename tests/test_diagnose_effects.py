@@ -113,8 +113,9 @@ def test_models_hold_only_compatible_effect_sets():
     assert compatible(("coulomb_friction", "backlash"))
     assert not compatible(("backlash", "internal_stiffness"))  # one series element
     assert not compatible(("actuator_delay", "backlash"))  # two channels
-    # chains with a linear and a Hertz contact, friction at the drive, massless friction
-    assert len(models_for("force", ("coulomb_friction", "backlash"))) == 4
+    # a chain (friction at the body or at the drive), massless friction behind the clearance
+    assert len(models_for("force", ("coulomb_friction", "backlash"))) == 3
+    assert len(models_for("force", ("backlash",))) == 2  # linear and Hertz contact
 
 
 def test_white_noise_level_and_noise_floor_two_ways():

@@ -7,7 +7,8 @@ actuator_delay          actuator   delay [s] beyond the nominal (> 1 sample)    
 rate_limit              actuator   velocity_limit [m/s]                          flow limit
 coulomb_friction        specimen   friction [N], presliding_stiffness [N/m]      elasto-plastic
 backlash                specimen   gap [m] (total clearance), stiffness [N/m]    dead zone +
-                                   (contact), contact_damping [N s/m]            Kelvin-Voigt
+                                   (contact), contact_damping [N s/m],           contact p^n
+                                   exponent n [-]                                (1 or 3/2)
 internal_stiffness      specimen   stiffness [N/m], series_damping [N s/m],      series spring
                                    frequency [Hz]                                (S0 Eq.12)
 amplitude_damping       specimen   c1 [N s], c2 [m] of ``c1/(A + c2)``           S0 Eq.17-18
@@ -23,7 +24,8 @@ set of effects, built by :func:`models_for`:
               :class:`~rths.diagnose.effects.chain.SeriesChain` (drive -> element -> body
               carrying damping, friction, amplitude damping); friction behind a clearance is
               also tried as the massless play of :class:`RigidSpecimen` (a friction damper
-              whose inertia is negligible).  Backlash and internal stiffness share the
+              whose inertia is negligible); a backlash without friction also with a Hertz
+              contact (force ~ penetration^(3/2)).  Backlash and internal stiffness share the
               element, so a model holds at most one of them.
 ``displacement``  the specimen the other way round, force -> displacement
               (:class:`~rths.diagnose.effects.compliance.ComplianceModel`): a stiff series
@@ -183,7 +185,9 @@ def models_for(channel: str, effects: tuple[str, ...]) -> list[Model]:
     if not element:
         return [RigidSpecimen(effects)]
     out: list[Model] = [SeriesChain(effects)]
-    if "backlash" in effects:
+    if "backlash" in effects and "coulomb_friction" not in effects:
+        # a friction device behind a clearance has three structures already (its contact is
+        # the friction's presliding spring, no impact law)
         out.append(SeriesChain(effects, contact="hertz"))
     if "coulomb_friction" in effects:
         out.append(SeriesChain(effects, friction_at="drive"))
