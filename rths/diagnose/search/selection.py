@@ -72,6 +72,7 @@ from rths.diagnose.search.identify import Fit, cross_fit, fit_model
 __all__ = [
     "CROSS_FIT",
     "MIN_CLOSED",
+    "NESTED_RESOLUTION",
     "PRICE",
     "Candidate",
     "ChannelResult",
@@ -82,6 +83,10 @@ __all__ = [
 
 #: Fraction of the remaining reducible gap an added effect must close per identified parameter.
 PRICE: float = 0.1
+#: Share of the reducible gap below which what a special case of a nested pair leaves (a
+#: series spring for a backlash) is at its floor: the general one must then still close
+#: :data:`PRICE` per extra parameter of this share (not of a remainder that is noise).
+NESTED_RESOLUTION: float = 0.05
 #: Smallest share of a significant reducible gap the selected effects must close together.
 MIN_CLOSED: float = 0.5
 #: Channels whose models are scored by two-fold cross-validation over time blocks (cheap
@@ -265,7 +270,9 @@ def _nested_preferred(
                 other = by_set.get((names - {general}) | {special})
                 extra = EFFECTS[general].n_params - EFFECTS[special].n_params
                 left = 1.0 - other if other is not None else 0.0  # at the floor: nothing
-                if other is not None and (left <= 0.0 or g - other < price * max(extra, 1) * left):
+                # a gap the special one leaves within NESTED_RESOLUTION of its floor is none
+                need = price * max(extra, 1) * max(left, NESTED_RESOLUTION)
+                if other is not None and (left <= 0.0 or g - other < need):
                     dominated = True
         if not dominated:
             out.append((g, c))
