@@ -302,6 +302,8 @@ class SeriesChain(Model):
                 "contact_law_stiffness": k_e * p_r ** (1.0 - n),
                 "reference_penetration": p_r,
             }
+            if n != 1.0:  # Hunt-Crossley's alpha [s/m] of k p^n (1 + alpha p')
+                params["backlash"]["hunt_crossley"] = c_e / (k_e * p_r)
         else:
             params["internal_stiffness"] = {
                 "stiffness": k_e,

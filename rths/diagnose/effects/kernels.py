@@ -12,10 +12,11 @@
     dependent), a spring and an elasto-plastic friction; the element is a series spring with
     its own damping (``gap = 0``: internal stiffness) or a contact of finite stiffness and
     damping after a clearance that only pushes (``gap > 0``: backlash).  The contact law is
-    general: ``e = (p/p_r)^(n-1) (w^2 p + c_e p')`` for a penetration ``p > 0``: ``n = 1`` is
-    the Kelvin-Voigt element, ``n = 3/2`` a Hertz contact (Johnson, Contact Mechanics, Eq.
-    4.23) whose damping grows with the contact stiffness and vanishes at first touch, like
-    Hunt and Crossley's (J. Appl. Mech. 42 (1975) 440); ``w^2``, ``c_e`` are its stiffness and
+    general: ``e = w^2 p`` + ``c_e p'`` for ``n = 1`` (the Kelvin-Voigt element) and
+    ``e = (p/p_r)^(n-1) (w^2 p + c_e (p/p_r) p')`` for ``n > 1`` (a Hertz contact for ``n =
+    3/2``, Johnson, Contact Mechanics, Eq. 4.23, with Hunt and Crossley's damping, J. Appl.
+    Mech. 42 (1975) 440: ``k p^n (1 + alpha p')``, ``alpha = c_e/(w^2 p_r)``, which vanishes
+    at first touch) for a penetration ``p > 0``; ``w^2``, ``c_e`` are its stiffness and
     damping per mass at the reference penetration ``p_r``.  Newmark average
     acceleration (trapezoidal rule) with a scalar Newton iteration per sub-step on the
     piecewise-linear forces (return mapping for the friction), the drive interpolated between
@@ -87,14 +88,15 @@ def _element(d, dv, w2, ce, hg, pushes, n, pref):  # pragma: no cover - numba
     else:
         return 0.0, 0.0, 0.0, False
     if n == 1.0:
-        s, ps = 1.0, 0.0
+        s, ps, q = 1.0, 0.0, 1.0
     else:
         s = (p / pref) ** (n - 1.0)
         ps = (n - 1.0) * s  # p ds/dp
-    f = s * (sgn * w2 * p + ce * dv)
+        q = p / pref  # Hunt-Crossley: the damping grows as p^n, like the force
+    f = s * (sgn * w2 * p + q * ce * dv)
     if pushes and sgn * f < 0.0:
         return 0.0, 0.0, 0.0, False
-    return f, w2 * (s + ps), s * ce, True
+    return f, w2 * (s + ps), s * q * ce, True
 
 
 @njit(cache=True)
