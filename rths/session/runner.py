@@ -174,6 +174,15 @@ class _TruthLink(InProcessLink):
             self.flush()
         return sample
 
+    def fused(self) -> tuple[Any, CommandGuard | None, Any]:
+        """The lab, the guard and this link as the sink of the lab's rows (the compiled path
+        fills :meth:`current` and calls :meth:`flush` when it is full)."""
+        return self.lab, self.guard, self
+
+    def current(self) -> RowBlock:
+        """The block of the lab's rows being filled."""
+        return self._block
+
     def flush(self) -> None:
         """Hand the filled rows to the recorder."""
         if self._block.count:
