@@ -6,6 +6,10 @@ the saturation counted in place: three per loop step (the DAC and the two ADCs) 
 the same order (the code is kept as a float; below ``2**53`` that is the Python integer exactly),
 so the two agree bit for bit; :func:`plants.lab.convert` stays the reference
 (``EmulatedLab(use_jit=False)``) and ``tests/test_lab.py`` compares them.
+
+:func:`lab_step` is the whole :meth:`plants.lab.EmulatedLab.step` for a transfer-function
+actuator driving an IMD model, for the loop's fused kernel (:mod:`rths.core.compiled`); its
+oracle is the lab's Python step (``tests/test_fastpath.py``, row by row).
 """
 
 from __future__ import annotations
