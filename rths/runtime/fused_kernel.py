@@ -9,6 +9,10 @@ force correction (:class:`rths.core.filters.LowPass`), and writes every logged r
 the loop's preallocated block (:data:`rths.runtime.loop.LOOP_CHANNELS`, ``ctrl_*``, ``sub_*``)
 and the lab's rows into the specimen topic's block.
 
+The kernel releases the interpreter lock (``nogil``): it touches only the arrays it is given, and
+the recorder's writer thread (JSON encoding, MCAP) runs on the other core meanwhile instead of
+taking turns with the loop.
+
 Every step is the Python path's operations in the same order (no fastmath), so the rows agree bit
 for bit.  Whatever would make the Python path stop or raise -- a non-finite value anywhere, the
 command outside the stroke, the guard tripping -- makes :func:`run_steps` return the number of
@@ -87,7 +91,7 @@ def _low_pass(c: NDArray[np.float64], z: NDArray[np.float64], x: float) -> float
     return x
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def run_steps(
     k0: int,
     count: int,

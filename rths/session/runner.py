@@ -331,8 +331,9 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
         if progress is not None:
             progress.start()
         switch = sys.getswitchinterval()
-        if clock != "fast":  # see rths.runtime.clocks.SWITCH_INTERVAL
-            sys.setswitchinterval(SWITCH_INTERVAL)
+        # see rths.runtime.clocks.SWITCH_INTERVAL; on the fast clock the compiled path releases
+        # the GIL to the writer thread during each block and takes it back right after
+        sys.setswitchinterval(SWITCH_INTERVAL)
         error: BaseException | None = None
         try:
             if clock == "fast":
