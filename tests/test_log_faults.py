@@ -120,6 +120,7 @@ def test_a_nearly_full_disk_stops_the_run_with_a_finished_log(tmp_path, monkeypa
 
 def test_an_exception_in_the_loop_still_writes_the_summary(tmp_path, monkeypatch):
     from controllers.base import Compensator
+    from rths.runtime.fastpath import FusedPlan
 
     real = Compensator.step
     count = [0]
@@ -131,6 +132,8 @@ def test_an_exception_in_the_loop_still_writes_the_summary(tmp_path, monkeypatch
         return real(self, target, measured)
 
     monkeypatch.setattr(Compensator, "step", breaks)
+    # the bug is planted in the Python step: keep the fast clock on its Python path
+    monkeypatch.setattr(FusedPlan, "of", classmethod(lambda cls, loop: None))
     path = tmp_path / "bug.mcap"
     with pytest.raises(RuntimeError, match="compensator bug"):
         run_scenario(parse_scenario(short(1.0), "s.toml"), RunOptions(clock="fast", out=path))
