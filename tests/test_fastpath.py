@@ -174,3 +174,33 @@ def test_runner_logs_the_same_mcap_rows_on_both_paths(tmp_path, monkeypatch):
         for name in a:
             if name != "publish_time_ns":
                 assert np.array_equal(a[name], b[name]), (topic, name)
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_a_stop_request_is_honoured_at_the_next_block(compiled):
+    """A stop asked for from the sink (as the runner's signal handler does between blocks)
+    ends the run after the block on both paths, with the request's reason and a ramp-down."""
+    scn = parse_scenario(SEED)
+    lab = build.lab(scn, scn.run.seed)
+    blocks: list[RowBlock] = []
+
+    def sink(block):
+        blocks.append(block)
+        if len(blocks) == 3:
+            loop.stop("stopped by the test")
+
+    loop = Loop(
+        build.substructure(scn),
+        build.compensator(scn),
+        InProcessLink(lab, CommandGuard(build.guard_limits(scn), scn.run.dt)),
+        scn.scaling,
+        scn.run.steps,
+        sink=sink,
+        force_filter=build.correction_filter(scn),
+        command_limit=scn.loop.stroke,
+    )
+    loop.compiled = compiled
+    result = loop.run()
+    assert (result.steps, result.stopped) == (3 * 256, "stopped by the test")
+    assert loop.compiled_steps == (3 * 256 if compiled else 0)
+    assert loop.safe_stop_steps > 0 and lab.truth()["command"] == 0.0
