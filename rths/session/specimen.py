@@ -63,8 +63,13 @@ from rths.wire.transport import (
 
 __all__ = ["serve"]
 
-#: Rows per published block of the lab's truth.
-BLOCK_ROWS = 64
+#: Rows per published block of the lab's truth.  Small on purpose: a side-stream frame of
+#: 13 kB (64 rows) held the zenoh ``put`` for 5.3-7.5 ms the first time one was sent while the
+#: real-time loop ran, and the coordinator missed the measurements of the 3-6 steps after it in
+#: every run at 2048 Hz (the "stall at step 80"; a primer of that size sent before step 0 moved
+#: the stall to the start instead of removing it).  16-row frames (4.5 kB) never took more than
+#: 0.35 ms (36 puts in 3 runs, ``RTHS_RT_PRIORITY=50``).
+BLOCK_ROWS = 16
 #: Resolution [s] of the command watchdog (the inbox's wake-up tick).
 WATCHDOG_TICK = 0.002
 #: Longest wait [s] for a command before a stop request is looked at: a long command watchdog
