@@ -136,8 +136,10 @@ def test_compiled_path_logs_the_seed_scenario_bit_for_bit():
         ),
         # backlash and fixed damping (S0 Table 6 EIMD), FF+LQG
         ({r'^preset = "type_ii".*$': 'preset = "eimd_small"'}, None, True),
+        # the feedforward alone (the MTS model's order 3: one difference of the acceleration)
+        ({}, "ff", True),
     ],
-    ids=["simplified-friction-lqg", "backlash-ff_lqg"],
+    ids=["simplified-friction-lqg", "backlash-ff_lqg", "ff"],
 )
 def test_compiled_path_matches_other_specimens_and_compensators(substitutions, compensator, guard):
     result, loop, *_ = _same(short(1.0, **substitutions), compensator, guard)
@@ -204,3 +206,29 @@ def test_a_stop_request_is_honoured_at_the_next_block(compiled):
     assert (result.steps, result.stopped) == (3 * 256, "stopped by the test")
     assert loop.compiled_steps == (3 * 256 if compiled else 0)
     assert loop.safe_stop_steps > 0 and lab.truth()["command"] == 0.0
+
+
+@pytest.mark.parametrize("hold", [True, False])
+@pytest.mark.parametrize("order", [1, 2, 4, 5])
+def test_compiled_feedforward_steps_as_the_python_one_for_every_order(order, hold):
+    """The differences of the acceleration history (orders 4 and 5: dt**2 and dt**3) that the
+    seed's third-order model does not reach: ``ff_step`` against ``FeedforwardCompensator.step``
+    on a noisy target, bit for bit, and the committed state equal to the Python one."""
+    from controllers.model_based._lqg_kernel import ff_step
+    from controllers.model_based.feedforward import FeedforwardCompensator, LowOrderModel
+    from rths.core.kinematics import Kinematics
+
+    den = tuple(np.poly(-np.arange(1.0, order + 1.0) * 30.0))
+    model = LowOrderModel(b0=float(den[-1]), den=den)
+    ref, new = (FeedforwardCompensator(1 / 2048, model, hold) for _ in range(2))
+    step = new.compiled_step()
+    (p,), (s, counter) = step.constants, step.state
+    rng = np.random.default_rng(order)
+    for r, v, a in rng.standard_normal((300, 3)) * (1e-3, 1e-2, 1.0):
+        expected = ref.step(Kinematics(r, v, a), 0.0)
+        assert ff_step(p, s, r, v, a) == expected
+        counter[0] += 1.0
+    step.commit()
+    assert (new.steps, new.state(), new._prev, list(new._acc)) == (
+        ref.steps, ref.state(), ref._prev, list(ref._acc),
+    )  # fmt: skip

@@ -4,7 +4,7 @@
 is one when the run is not paced, the link is in process and offers its parts
 (:meth:`rths.runtime.loop.InProcessLink.fused`) and every component offers a compiled step
 (:mod:`rths.core.compiled`) of a family the fused kernel knows (:mod:`rths.runtime.fused_kernel`:
-cable, LQG/FF+LQG, command guard, lab with a transfer-function actuator and an IMD model,
+cable, LQG/FF+LQG/FF, command guard, lab with a transfer-function actuator and an IMD model,
 low-pass force filter).  Otherwise -- any other component, a paced clock, a link over zenoh --
 the loop runs its Python path, unchanged.
 
@@ -35,8 +35,8 @@ __all__ = ["FusedPlan", "RowSink"]
 #: Steps between progress reports (as the Python path).
 PROGRESS_EVERY = 256
 
-_FAMILIES = ("cable", "lqg", "lab_tf_imd")
-_LQG_COLUMNS = 6
+#: The compensator families and their ``ctrl_*`` columns.
+_COMPENSATORS = {"lqg": 6, "ff": 1}
 _LAB_COLUMNS = {"imd_internal": 12 + 9, "imd_simplified": 12 + 2}
 
 
@@ -123,9 +123,10 @@ class FusedPlan:
             None if guard is None else _offer(guard),
             None if filt is None else _offer(filt),
         )
-        families = tuple(s.family if s is not None else "" for s in steps[:3])
+        sub, comp, lab_step = (s.family if s is not None else "" for s in steps[:3])
         if (
-            families != _FAMILIES
+            (sub, lab_step) != ("cable", "lab_tf_imd")
+            or comp not in _COMPENSATORS
             or (guard is not None and steps[3] is None)
             or (filt is not None and steps[4] is None)
         ):
@@ -134,7 +135,7 @@ class FusedPlan:
         s0, s1 = loop._sub_cols
         series = steps[2].constants[-1][0] != 0.0  # type: ignore[union-attr]
         width = _LAB_COLUMNS["imd_internal" if series else "imd_simplified"]
-        if c1 - c0 != _LQG_COLUMNS or s1 - s0 > 4:
+        if c1 - c0 != _COMPENSATORS[comp] or s1 - s0 > 4:
             return None
         if rows is not None and rows.current().values.shape[1] != width:
             return None
@@ -147,6 +148,8 @@ class FusedPlan:
                 float(filt is not None),
                 float(guard is not None),
                 float(s1 - s0),
+                float(comp == "ff"),
+                float(c1 - c0),
             ]
         )
         return cls(steps, lab, rows, constants)

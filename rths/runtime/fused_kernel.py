@@ -2,7 +2,7 @@
 
 :func:`run_steps` runs ``count`` loop steps of :meth:`rths.runtime.loop.Loop.run` back to back
 for the component families it knows -- a cable substructure (:mod:`plants.cable.kernel`), an
-LQG or FF+LQG compensator (:mod:`controllers.model_based._lqg_kernel`), the specimen side's
+LQG, FF+LQG or FF compensator (:mod:`controllers.model_based._lqg_kernel`), the specimen side's
 :class:`rths.runtime.guard.CommandGuard` and an emulated lab with a transfer-function actuator
 driving an IMD model (:func:`plants.lab_kernel.lab_step`) -- with the optional low-pass on the
 force correction (:class:`rths.core.filters.LowPass`), and writes every logged row straight into
@@ -36,7 +36,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from controllers.model_based._lqg_kernel import LOG_NAMES, lqg_step
+from controllers.model_based._lqg_kernel import ff_step, lqg_step
 from plants.cable.kernel import cable_loop_step
 from plants.imd.step_kernel import imd_channels
 from plants.lab_kernel import lab_step
@@ -44,8 +44,12 @@ from plants.lab_kernel import lab_step
 __all__ = ["GUARD_CONSTANTS", "GUARD_STATE", "LOOP_CONSTANTS", "LOOP_STATE", "run_steps"]
 
 #: ``loop_c``: displacement and force scale factors, ``dt`` [s], the stroke interlock [m], 1.0
-#: with a force filter, 1.0 with a guard, the number of ``sub_*`` columns.
-LOOP_CONSTANTS = ("lam_u", "lam_f", "dt", "command_limit", "filter", "guard", "sub_columns")
+#: with a force filter, 1.0 with a guard, the number of ``sub_*`` columns, 1.0 for the ``ff``
+#: compensator (else ``lqg``), the number of ``ctrl_*`` columns (the tail of its state).
+LOOP_CONSTANTS = (
+    "lam_u", "lam_f", "dt", "command_limit", "filter", "guard", "sub_columns", "ff",
+    "ctrl_columns",
+)  # fmt: skip
 #: ``loop_s``: the measurement the next step uses [m], its force [N], the correction fed [N].
 LOOP_STATE = ("measured", "force", "fed")
 #: ``guard_c``: stroke [m], largest change per step [m], steps of clamping that trip, ramp step.
@@ -54,7 +58,6 @@ GUARD_CONSTANTS = ("stroke", "max_step", "trip_steps", "ramp_step")
 #: current run of clamped commands, commands ignored.
 GUARD_STATE = ("last", "largest_step", "limited", "run", "ignored")
 
-_N_LOG = len(LOG_NAMES)
 _N_OWN = 11  # len(LOOP_CHANNELS)
 _N_LAB = 12  # the lab's 9 channels and the actuator's 3
 
@@ -149,7 +152,8 @@ def run_steps(
     cab_ops, cab_params, cab_cfg, cab_state, cab_out, cab_counters
         The cable's (:func:`plants.cable.kernel.cable_loop_step`).
     lqg_p, lqg_s, lqg_counter
-        The compensator's (:func:`controllers.model_based._lqg_kernel.lqg_step`) and its count.
+        The compensator's (:func:`controllers.model_based._lqg_kernel.lqg_step`, or ``ff_step``)
+        and its count.
     table, noise, saturations, lab, act_a, act_b, act_c, act_d, act_cfg, act_z, act_y, act_s
         The lab's and its actuator's (:func:`plants.lab_kernel.lab_step`).
     spec_c, spec_s
@@ -157,7 +161,8 @@ def run_steps(
     """
     lam_u, lam_f, dt, limit = loop_c[0], loop_c[1], loop_c[2], loop_c[3]
     has_filter, has_guard, n_sub = loop_c[4] != 0.0, loop_c[5] != 0.0, int(loop_c[6])
-    log0 = lqg_s.size - _N_LOG
+    is_ff, n_ctrl = loop_c[7] != 0.0, int(loop_c[8])
+    log0 = lqg_s.size - n_ctrl
     logged = truth.shape[1] > 0
     measured, force, fed = loop_s[0], loop_s[1], loop_s[2]
     for j in range(count):
@@ -172,7 +177,10 @@ def run_steps(
         # compensator.step(target, measured)
         if not math.isfinite(measured + r + v + acc):
             return j
-        command = lqg_step(lqg_p, lqg_s, r, v, acc, measured)
+        if is_ff:
+            command = ff_step(lqg_p, lqg_s, r, v, acc)
+        else:
+            command = lqg_step(lqg_p, lqg_s, r, v, acc, measured)
         lqg_counter[0] += 1.0
         if not abs(command) <= limit:  # also NaN: the Python path stops or raises
             return j
@@ -199,10 +207,10 @@ def run_steps(
         values[i, 1], values[i, 2], values[i, 3] = r, v, acc
         values[i, 4], values[i, 5], values[i, 6], values[i, 7] = command, measured, force, fed
         values[i, 8] = values[i, 9] = values[i, 10] = 0.0  # age, lag, lateness: none here
-        for m in range(_N_LOG):
+        for m in range(n_ctrl):
             values[i, _N_OWN + m] = lqg_s[log0 + m]
         for m in range(n_sub):
-            values[i, _N_OWN + _N_LOG + m] = cab_out[3 + m]
+            values[i, _N_OWN + n_ctrl + m] = cab_out[3 + m]
         seq[i], t_ns[i] = k, t
         if logged:
             q = truth_row0 + j
