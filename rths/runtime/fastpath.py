@@ -191,42 +191,44 @@ class FusedPlan:
         empty = RowBlock((), 0)
         k = i = 0
         stopped: str | None = None
-        while k < n:
-            if loop._stop.is_set():
-                stopped = loop._stop_reason
-                break
-            if lab_s[0] == noise_rows:  # the lab draws its next block of noise here
-                self.lab.draw_noise()
-                lab_s[0] = 0.0
-            truth = empty if self.rows is None else self.rows.current()
-            count = min(rows - i, n - k, noise_rows - int(lab_s[0]))
-            count = min(count, PROGRESS_EVERY - k % PROGRESS_EVERY)
-            if self.rows is not None:
-                count = min(count, truth.seq.size - truth.count)
-            saved = [x.copy() for x in self._state]
-            start = now()
-            done = run_steps(
-                k, count, i, block.values, block.seq, block.t_ns,
-                truth.count, truth.values, truth.seq, truth.t_ns, *self._args,
-            )  # fmt: skip
-            if done < count:  # the Python path takes it from the segment's first step
-                for x, copy in zip(self._state, saved, strict=True):
-                    x[...] = copy
-                break
-            timing(k, count, start)
-            k += count
-            i += count
-            if self.rows is not None:
-                truth.count += count
-                if truth.count == truth.seq.size:
-                    self.rows.flush()
-            if i == rows:
-                block.count = i
-                loop.sink(block)
-                block = RowBlock(loop.channels, rows)
-                i = 0
-            if progress is not None and k % PROGRESS_EVERY == 0:
-                progress(k)
-        self.commit()
+        try:
+            while k < n:
+                if loop._stop.is_set():
+                    stopped = loop._stop_reason
+                    break
+                if lab_s[0] == noise_rows:  # the lab draws its next block of noise here
+                    self.lab.draw_noise()
+                    lab_s[0] = 0.0
+                truth = empty if self.rows is None else self.rows.current()
+                count = min(rows - i, n - k, noise_rows - int(lab_s[0]))
+                count = min(count, PROGRESS_EVERY - k % PROGRESS_EVERY)
+                if self.rows is not None:
+                    count = min(count, truth.seq.size - truth.count)
+                saved = [x.copy() for x in self._state]
+                start = now()
+                done = run_steps(
+                    k, count, i, block.values, block.seq, block.t_ns,
+                    truth.count, truth.values, truth.seq, truth.t_ns, *self._args,
+                )  # fmt: skip
+                if done < count:  # the Python path takes it from the segment's first step
+                    for x, copy in zip(self._state, saved, strict=True):
+                        x[...] = copy
+                    break
+                timing(k, count, start)
+                k += count
+                i += count
+                if self.rows is not None:
+                    truth.count += count
+                    if truth.count == truth.seq.size:
+                        self.rows.flush()
+                if i == rows:
+                    block.count = i
+                    loop.sink(block)
+                    block = RowBlock(loop.channels, rows)
+                    i = 0
+                if progress is not None and k % PROGRESS_EVERY == 0:
+                    progress(k)
+        finally:  # the components get their state back however the segments end
+            self.commit()
         measured, force, fed = self.loop_s.tolist()
         return k, block, i, (measured, force, fed), stopped
