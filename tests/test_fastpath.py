@@ -232,3 +232,24 @@ def test_compiled_feedforward_steps_as_the_python_one_for_every_order(order, hol
     assert (new.steps, new.state(), new._prev, list(new._acc)) == (
         ref.steps, ref.state(), ref._prev, list(ref._acc),
     )  # fmt: skip
+
+
+def test_throttle_holds_a_producer_until_the_writer_has_caught_up(tmp_path):
+    """The fast clock's compiled loop outruns the writer thread; ``Recorder.throttle`` returns
+    only once no more than the given number of items wait (what a nearly full disk's reserve
+    must still take when it stops the run), and the log has every row."""
+    from rths.core.channels import Channel
+    from rths.log.recorder import Recorder
+
+    channels = (Channel("x", "m", "a value"),)
+    with Recorder(tmp_path / "t.mcap", topics={}, writer="thread") as rec:
+        for b in range(200):
+            block = RowBlock(channels, 256)
+            block.values[:, 0] = np.arange(256.0)
+            block.seq[:] = np.arange(256) + 256 * b
+            block.t_ns[:] = block.seq
+            block.count = 256
+            rec.put_block("rows", block)
+        rec.throttle(4)
+        assert rec._queue.qsize() <= 4
+    assert read_topic(tmp_path / "t.mcap", "rows")["sequence"].size == 200 * 256

@@ -150,6 +150,12 @@ class _Progress(threading.Thread):
         self.report(self.done, self.total)
 
 
+#: Items (row blocks) the fast clock lets wait for the recorder's writer thread: the compiled
+#: loop runs about twice as fast as the writer, and what is queued when a nearly full disk stops
+#: the run must fit the log's 8 MiB disk reserve (32 blocks of 256 rows: ~2 MB at 2048 Hz).
+FAST_BACKLOG = 32
+
+
 class _TruthLink(InProcessLink):
     """The fast clock's link, also recording the lab's rows on ``rths/specimen`` (in blocks)."""
 
@@ -299,6 +305,8 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
         def make_loop(link: Any, extra_sink: Callable[[RowBlock], None] | None = None) -> Loop:
             def sink(block: RowBlock) -> None:
                 collector(block)
+                if clock == "fast":  # the compiled loop outruns the writer thread
+                    rec.throttle(FAST_BACKLOG)
                 rec.put_block(LOOP_TOPIC, block)
                 if live is not None:
                     live.put_block(LOOP_TOPIC, block)
