@@ -26,8 +26,9 @@ from typing import Any
 
 import numpy as np
 from mcap._chunk_builder import ChunkBuilder
+from mcap.data_stream import RecordBuilder
 from mcap.opcode import Opcode
-from mcap.records import MessageIndex, Statistics
+from mcap.records import Message, MessageIndex, Statistics
 from mcap.writer import Writer
 from numpy.typing import NDArray
 
@@ -48,8 +49,26 @@ _HEADER_SIZE = _HEADER.itemsize
 _FIELDS = 22  # channel_id, sequence, log_time, publish_time [B]
 
 
+class _MessageIndex(MessageIndex):
+    """``mcap``'s MessageIndex record, its entries packed at once (numpy) instead of by two
+    ``struct.pack`` calls each: ~2 µs per message less when the chunk is finished."""
+
+    def write(self, stream: RecordBuilder) -> None:
+        stream.start_record(Opcode.MESSAGE_INDEX)
+        stream.write2(self.channel_id)
+        stream.write4(len(self.records) * 16)
+        stream.write(np.array(self.records, dtype="<u8").tobytes())  # (log_time, offset) pairs
+        stream.finish_record()
+
+
 class _BlockChunkBuilder(ChunkBuilder):
-    """``mcap``'s chunk builder plus :meth:`add_records` (the rest is inherited unchanged)."""
+    """``mcap``'s chunk builder plus :meth:`add_records`; its message indexes are
+    :class:`_MessageIndex` (the rest is inherited unchanged)."""
+
+    def add_message(self, message: Message) -> None:
+        if message.channel_id not in self.message_indices:
+            self.message_indices[message.channel_id] = _MessageIndex(message.channel_id, [])
+        super().add_message(message)
 
     def add_records(
         self, channel_id: int, log_times: list[int], starts: NDArray[np.int64], records: bytes
@@ -72,7 +91,7 @@ class _BlockChunkBuilder(ChunkBuilder):
         self.message_end_time = max(self.message_end_time, hi)
         index = self.message_indices.get(channel_id)
         if index is None:
-            index = self.message_indices[channel_id] = MessageIndex(channel_id, [])
+            index = self.message_indices[channel_id] = _MessageIndex(channel_id, [])
         index.records.extend(zip(log_times, (starts + self.record_writer.count).tolist()))
         self.num_messages += len(log_times)
         self.record_writer.write(records)
