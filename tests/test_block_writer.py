@@ -9,6 +9,7 @@ blocks (schemas, channels, metadata) and NaN/infinity rows are in the mix.
 from __future__ import annotations
 
 import io
+import json
 import queue
 from pathlib import Path
 
@@ -127,18 +128,23 @@ def _block(names: list[str], start: int, rows: int, rng: np.random.Generator) ->
     return block
 
 
-def test_block_json_is_the_per_row_json():
+def test_block_json_parses_to_the_rows():
+    """Oracle: the stdlib's JSON parser and ``repr`` (shortest round trip) against the block."""
     rng = np.random.default_rng(4)
     block = _block(["x", "y.z", "w"], 5, 40, rng)
     block.values[3, 1] = np.nan
     block.values[7] = [np.inf, -np.inf, 1e300]
     data, nonfinite = block_json(block, {})
-    rows = block_messages(block, {})
-    assert data == [d for _, _, d, _ in rows]
-    assert nonfinite == 2 == sum(not ok for *_, ok in rows)
+    want = [
+        {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in r.items()}
+        for r in block.records()
+    ]
+    assert [json.loads(d) for d in data] == want
+    assert nonfinite == 2 == sum(not ok for *_, ok in block_messages(block, {}))
     assert data[3] == b'{"seq":8,"x":%s,"y.z":null,"w":%s}' % tuple(
         repr(float(v)).encode() for v in block.values[3, [0, 2]]
     )
+    assert block_json(_block(["x"], 0, 0, rng)) == ([], 0)
 
 
 def _log(path: Path, items: list[tuple], reference: bool) -> tuple[bytes, int]:
