@@ -18,7 +18,6 @@ import pytest
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
-import rths.log.writer.mcap_writer
 from rths import __version__
 from rths.core.errors import DataError, ParameterError
 from rths.log.reader import is_complete, list_topics, read_metadata, read_topic

@@ -131,6 +131,7 @@ class BlockWriter(Writer):
 
     @property
     def batched(self) -> bool:
+        """Whether :meth:`add_messages` takes the batched path (class docstring)."""
         return self._chunks is not None
 
     def add_messages(
@@ -151,7 +152,7 @@ class BlockWriter(Writer):
         sequences
             Each message's sequence number, in ``[0, 2**32)``.
         log_times, publish_times
-            Each message's log and publish time [ns], in ``[0, 2**64)``.
+            Each message's log and publish time [ns], in ``[0, 2**63)``.
         data
             Each message's payload.
 
