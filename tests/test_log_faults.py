@@ -240,12 +240,14 @@ def test_a_real_full_disk_stops_the_run_with_a_whole_log(tmp_path):
     disk = tmp_path / "disk"
     disk.mkdir()
     scenario = tmp_path / "s.toml"
-    # its log (~17 MB) fits the disk with the reserve; a rate limiter (never reached at 1 m/s)
-    # keeps the loop on its Python path (no compiled step): the run is still writing seconds
-    # later, when the disk is filled -- the compiled path can finish all 19.5 s in about a
-    # second, before the filler strikes
+    # its whole log (~24 MB; the budget check estimates 44 MB) would fit the disk with the
+    # reserve; a rate limiter (never reached at 1 m/s) keeps the loop on its Python path (no
+    # compiled step): the run is still writing seconds later, when the disk is filled -- the
+    # compiled path can finish the run in about a second, before the filler strikes.  30 s, not
+    # 19.5 s: with the batched log writer the Python path is faster too, and at load 4 a 19.5 s
+    # run sometimes ended before the filler struck (so did main's, 2 of 6)
     limited = {r'^preset = "mts_identified".*$': 'preset = "mts_identified"\nvelocity_limit = 1.0'}
-    scenario.write_text(short(19.5, **limited))
+    scenario.write_text(short(30.0, **limited))
     script = tmp_path / "fill.py"
     script.write_text(_FILL)
     done = subprocess.run(
