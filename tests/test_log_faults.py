@@ -188,7 +188,7 @@ def test_recover_refuses_what_is_not_a_log(tmp_path):
 
 # ------------------------------------------------------------------ a real full disk (tmpfs)
 _FILL = r"""
-import ctypes, os, select, subprocess, sys, warnings
+import ctypes, os, select, signal, subprocess, sys, warnings
 from rths.core.errors import DataError
 from rths.log.reader import read_topic
 warnings.simplefilter("ignore")
@@ -212,6 +212,8 @@ while seen < 2000:  # the loop runs and its first chunks are on the disk: woken 
         seen = read_topic(log, "rths/loop")["sequence"].size
     except DataError:
         seen = 0
+os.kill(run.pid, signal.SIGSTOP)  # held while the disk fills: it cannot finish meanwhile
+os.waitpid(run.pid, os.WUNTRACED)  # returns once it is stopped (not reaped)
 with open(os.path.join(disk, "filler"), "wb") as f:  # another process fills the disk
     for margin in (1 << 20, 2 << 20, 4 << 20):  # < the 8 MiB reserve: the run must stop
         st = os.statvfs(disk)
@@ -222,6 +224,7 @@ with open(os.path.join(disk, "filler"), "wb") as f:  # another process fills the
             f.truncate(0)
     else:
         raise SystemExit("could not fill the disk")
+os.kill(run.pid, signal.SIGCONT)
 _, err = run.communicate(timeout=120)
 with open(os.path.join(out, "result.txt"), "w") as f:
     f.write(f"{run.returncode}\n{err}")
@@ -240,12 +243,10 @@ def test_a_real_full_disk_stops_the_run_with_a_whole_log(tmp_path):
     disk = tmp_path / "disk"
     disk.mkdir()
     scenario = tmp_path / "s.toml"
-    # its whole log (~24 MB; the budget check estimates 44 MB) would fit the disk with the
-    # reserve; a rate limiter (never reached at 1 m/s) keeps the loop on its Python path (no
-    # compiled step): the run is still writing seconds later, when the disk is filled -- the
-    # compiled path can finish the run in about a second, before the filler strikes.  30 s, not
-    # 19.5 s: with the batched log writer the Python path is faster too, and at load 4 a 19.5 s
-    # run sometimes ended before the filler struck (so did main's, 2 of 6)
+    # its whole log would fit the disk with the reserve; the run is stopped (SIGSTOP) while
+    # the disk is filled, so it cannot finish first however fast it runs.  A rate limiter
+    # (never reached at 1 m/s) keeps the loop on its Python path (no compiled step), which
+    # leaves the watcher seconds, not one, to see the first 2000 rows on the disk.
     limited = {r'^preset = "mts_identified".*$': 'preset = "mts_identified"\nvelocity_limit = 1.0'}
     scenario.write_text(short(30.0, **limited))
     script = tmp_path / "fill.py"
