@@ -30,7 +30,10 @@ the logged channels -- into an output array, so ``step``, ``device_force`` and
 ``write_channels`` only copy from it.  The readable NumPy/Python path stays as the reference
 (``use_numba=False`` / ``use_jit=False``) and a test compares the two step for step: bit for bit
 where the arithmetic is the same, else within a stated round-off tolerance.  The base classes
-check finiteness once per step on the results (no tuples, no generators).
+check finiteness once per step on the results (no tuples, no generators).  A plant may also
+offer ``compiled_step()`` (:mod:`rths.core.compiled`): its kernel, constants and state arrays, so
+that the ``fast`` clock runs whole blocks of loop steps in one fused kernel
+(:mod:`rths.runtime.fastpath`); it is tested row by row against the Python path.
 """
 
 from __future__ import annotations

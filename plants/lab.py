@@ -23,8 +23,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from plants.actuator.base import Actuator
 from plants.base import Kinematics
-from plants.lab_kernel import convert_counting
+from plants.lab_kernel import LAB_STATE, convert_counting
 from rths.core.channels import Channel
+from rths.core.compiled import CompiledStep
 from rths.core.errors import (
     ParameterError,
     check_finite,
@@ -262,6 +263,7 @@ class EmulatedLab:
         self.actuator.reset()
         self._rng = np.random.default_rng(self._seed_sequence)
         self._noise_block: list[list[float]] = []
+        self._noise_array = np.zeros((self.NOISE_BLOCK, 3))  # the same draws (compiled step)
         self._noise_next = 0
         self._saturations = np.zeros(3, dtype=np.int64)  # per channel of _CHANNELS
         self._steps = 0
@@ -270,6 +272,41 @@ class EmulatedLab:
         self._command = 0.0
         self._command_dac = 0.0
         self._measured = (0.0, 0.0)
+
+    def draw_noise(self) -> None:
+        """Draw the next :attr:`NOISE_BLOCK` steps of converter noise [V] (the step does when
+        the block is used up; so does the loop's compiled path, at the same step)."""
+        draws = self._rng.standard_normal((self.NOISE_BLOCK, 3)) * self._noise_rms
+        self._noise_array[:] = draws
+        self._noise_block, self._noise_next = draws.tolist(), 0
+
+    def compiled_step(self) -> CompiledStep | None:
+        """The lab's step for the loop's fused kernel (:mod:`rths.core.compiled`; family
+        ``"lab_tf_imd"``, :func:`plants.lab_kernel.lab_step`), or None unless the actuator and
+        its specimen offer theirs (a transfer-function actuator driving an IMD model) and the
+        compiled converters are on."""
+        offer = getattr(self.actuator, "compiled_step", None)
+        act = offer() if offer is not None and self.use_jit else None
+        if act is None or act.family != "transfer_function_imd":
+            return None
+        lab = np.zeros(len(LAB_STATE))
+        lab[0] = self._noise_next if self._noise_block else self.NOISE_BLOCK  # (used up)
+        lab[1], lab[2], lab[3] = self._steps, self._command, self._command_dac
+        lab[4:7] = self._kinematics
+        lab[7], lab[8:10] = self._force, self._measured
+
+        def commit() -> None:
+            act.commit()
+            self._noise_next = int(lab[0]) if self._noise_block else 0
+            self._steps = int(lab[1])
+            self._command, self._command_dac = float(lab[2]), float(lab[3])
+            self._kinematics = Kinematics(*lab[4:7].tolist())
+            self._force = float(lab[7])
+            self._measured = (float(lab[8]), float(lab[9]))
+
+        constants = (self._constant_table, *act.constants)
+        state = (self._noise_array, self._saturations, lab, *act.state)
+        return CompiledStep("lab_tf_imd", constants, state, commit)
 
     def step(self, command: float) -> tuple[float, float]:
         """Send ``command`` [m] through the DAC, advance one step and read both ADCs.
@@ -282,8 +319,7 @@ class EmulatedLab:
         command = check_finite(command, "lab command")
         dac, adc_x, adc_f = self._constants
         if self._noise_next == len(self._noise_block):
-            draws = self._rng.standard_normal((self.NOISE_BLOCK, 3)) * self._noise_rms
-            self._noise_block, self._noise_next = draws.tolist(), 0
+            self.draw_noise()
         noise = self._noise_block[self._noise_next]
         self._noise_next += 1
         if self.use_jit:

@@ -120,6 +120,7 @@ def test_a_nearly_full_disk_stops_the_run_with_a_finished_log(tmp_path, monkeypa
 
 def test_an_exception_in_the_loop_still_writes_the_summary(tmp_path, monkeypatch):
     from controllers.base import Compensator
+    from rths.runtime.fastpath import FusedPlan
 
     real = Compensator.step
     count = [0]
@@ -131,6 +132,8 @@ def test_an_exception_in_the_loop_still_writes_the_summary(tmp_path, monkeypatch
         return real(self, target, measured)
 
     monkeypatch.setattr(Compensator, "step", breaks)
+    # the bug is planted in the Python step: keep the fast clock on its Python path
+    monkeypatch.setattr(FusedPlan, "of", classmethod(lambda cls, loop: None))
     path = tmp_path / "bug.mcap"
     with pytest.raises(RuntimeError, match="compensator bug"):
         run_scenario(parse_scenario(short(1.0), "s.toml"), RunOptions(clock="fast", out=path))
@@ -185,7 +188,7 @@ def test_recover_refuses_what_is_not_a_log(tmp_path):
 
 # ------------------------------------------------------------------ a real full disk (tmpfs)
 _FILL = r"""
-import ctypes, os, select, subprocess, sys, warnings
+import ctypes, os, select, signal, subprocess, sys, warnings
 from rths.core.errors import DataError
 from rths.log.reader import read_topic
 warnings.simplefilter("ignore")
@@ -209,6 +212,8 @@ while seen < 2000:  # the loop runs and its first chunks are on the disk: woken 
         seen = read_topic(log, "rths/loop")["sequence"].size
     except DataError:
         seen = 0
+os.kill(run.pid, signal.SIGSTOP)  # held while the disk fills: it cannot finish meanwhile
+os.waitpid(run.pid, os.WUNTRACED)  # returns once it is stopped (not reaped)
 with open(os.path.join(disk, "filler"), "wb") as f:  # another process fills the disk
     for margin in (1 << 20, 2 << 20, 4 << 20):  # < the 8 MiB reserve: the run must stop
         st = os.statvfs(disk)
@@ -219,6 +224,7 @@ with open(os.path.join(disk, "filler"), "wb") as f:  # another process fills the
             f.truncate(0)
     else:
         raise SystemExit("could not fill the disk")
+os.kill(run.pid, signal.SIGCONT)
 _, err = run.communicate(timeout=120)
 with open(os.path.join(out, "result.txt"), "w") as f:
     f.write(f"{run.returncode}\n{err}")
@@ -237,7 +243,12 @@ def test_a_real_full_disk_stops_the_run_with_a_whole_log(tmp_path):
     disk = tmp_path / "disk"
     disk.mkdir()
     scenario = tmp_path / "s.toml"
-    scenario.write_text(short(19.5))  # its log (~17 MB) fits the disk with the reserve
+    # its whole log would fit the disk with the reserve; the run is stopped (SIGSTOP) while
+    # the disk is filled, so it cannot finish first however fast it runs.  A rate limiter
+    # (never reached at 1 m/s) keeps the loop on its Python path (no compiled step), which
+    # leaves the watcher seconds, not one, to see the first 2000 rows on the disk.
+    limited = {r'^preset = "mts_identified".*$': 'preset = "mts_identified"\nvelocity_limit = 1.0'}
+    scenario.write_text(short(30.0, **limited))
     script = tmp_path / "fill.py"
     script.write_text(_FILL)
     done = subprocess.run(

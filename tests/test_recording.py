@@ -18,7 +18,6 @@ import pytest
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
-import rths.log.writer.mcap_writer
 from rths import __version__
 from rths.core.errors import DataError, ParameterError
 from rths.log.reader import is_complete, list_topics, read_metadata, read_topic
@@ -129,14 +128,14 @@ def test_producer_never_waits_for_the_writer(tmp_path: Path, monkeypatch) -> Non
     5000 puts still return, all queued.  Events order everything: the test waits until the
     writer is inside the stuck write, and releases it only after the producer is done."""
     entered, gate = threading.Event(), threading.Event()
-    original = rths.log.writer.mcap_writer.Writer.add_message
+    original = Writer.add_message
 
     def stuck(self, *args, **kwargs):
         entered.set()
         gate.wait()
         return original(self, *args, **kwargs)
 
-    monkeypatch.setattr(rths.log.writer.mcap_writer.Writer, "add_message", stuck)
+    monkeypatch.setattr(Writer, "add_message", stuck)
     rec = Recorder(tmp_path / "stuck.mcap").start()
     rec.put(LOOP_TOPIC, 0, 0, loop_row(0))
     assert entered.wait(PATIENCE)  # the writer holds message 0 and is stuck
@@ -184,7 +183,7 @@ def test_writer_failure_stops_nothing_and_ends_the_log_readably(
     def broken(self, *args, **kwargs):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(rths.log.writer.mcap_writer.Writer, "add_message", broken)
+    monkeypatch.setattr(Writer, "add_message", broken)
     faults: list[str] = []
     told = threading.Event()
     rec = Recorder(

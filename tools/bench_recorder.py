@@ -3,6 +3,14 @@
 Usage::
 
     python tools/bench_recorder.py [--blocks 40] [--rate 8] [--channels 45] [--rounds 2]
+    python tools/bench_recorder.py --writer-only [--blocks 80] [--channels 21] [--rounds 5]
+
+``--writer-only`` measures the writer's own CPU per row instead (no threads, no pacing): the
+writer thread's code writing ``--blocks`` blocks to memory, by the batched path
+(:meth:`rths.log.writer.block_writer.BlockWriter.add_messages`, what runs) and by the reference
+path (``mcap``'s ``add_message`` per row, what ran before; the same bytes), interleaved over
+``--rounds``, with the parts: JSON formatting of the rows, zstd compression of the chunks.  The
+seed scenario's two topics have 21 channels each (~640 B per row).
 
 The loop hands the recorder one :class:`rths.core.channels.RowBlock` of 256 rows every 256 steps
 (8 blocks/s at 2048 Hz).  This benchmark does the same at ``--rate`` blocks/s with the seed's
@@ -31,7 +39,9 @@ CPU times do not depend much on the machine's load; the probe's lateness does (l
 from __future__ import annotations
 
 import argparse
+import io
 import os
+import queue
 import resource
 import statistics
 import tempfile
@@ -40,9 +50,13 @@ import time
 from pathlib import Path
 
 import numpy as np
+import zstandard
+from mcap.writer import CompressionType, Writer
 
 from rths.core.channels import Channel, RowBlock
 from rths.log.recorder import Recorder
+from rths.log.writer.mcap_writer import WriterThread
+from rths.log.writer.rowjson import block_json
 
 ROWS = 256
 PROBE_SLEEP = 0.5e-3  # s
@@ -115,6 +129,46 @@ def handover(writer: str, blocks: list[RowBlock], rate: float) -> dict[str, floa
     }
 
 
+def writer_cost(blocks: list[RowBlock], batched: bool) -> tuple[float, int]:
+    """CPU [s] of the writer thread's code writing ``blocks`` to memory, and the file's size."""
+    out = io.BytesIO()
+    thread = WriterThread(out, queue.SimpleQueue(), {}, "zstd", 1 << 20, 1.0)  # type: ignore[arg-type]
+    if not batched:  # the reference: mcap's add_message per row
+        thread._writer = Writer(out, chunk_size=1 << 20, compression=CompressionType.ZSTD)
+        thread._block = thread._block_rows  # type: ignore[method-assign]
+    thread._writer.start()
+    thread._register("rths/loop", b"{}")
+    c0 = time.thread_time()
+    for block in blocks:
+        thread._block("rths/loop", block)
+    thread._writer.finish()
+    return time.thread_time() - c0, out.tell()
+
+
+def writer_only(blocks: list[RowBlock], rounds: int) -> None:
+    """Print the writer's CPU per row, batched and reference, and its parts (``--writer-only``)."""
+    rows = sum(b.count for b in blocks)
+    runs: dict[str, list[float]] = {"batched": [], "reference": [], "json": [], "zstd": []}
+    for _ in range(rounds):
+        for name in ("batched", "reference"):
+            cpu, size = writer_cost(blocks, name == "batched")
+            runs[name].append(cpu / rows * 1e6)
+        c0 = time.thread_time()
+        data = b"".join(m for b in blocks for m in block_json(b, {})[0])
+        runs["json"].append((time.thread_time() - c0) / rows * 1e6)
+        c0 = time.thread_time()
+        for i in range(0, len(data), 1 << 20):
+            zstandard.compress(data[i : i + (1 << 20)])
+        runs["zstd"].append((time.thread_time() - c0) / rows * 1e6)
+    print(
+        f"writer CPU per row [us], {len(blocks)} blocks of {ROWS} x {blocks[0].values.shape[1]}, "
+        f"{size / rows:.0f} B per row in the file, {rounds} rounds, median (worst) "
+        f"(load average {os.getloadavg()[0]:.2f})"
+    )
+    for name, values in runs.items():
+        print(f"{name:<10}{statistics.median(values):>8.2f} ({max(values):.2f})")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--blocks", type=int, default=40, help="blocks per round")
@@ -124,7 +178,13 @@ def main() -> None:
     parser.add_argument(
         "--fifo", type=int, default=0, help="run this process in SCHED_FIFO at this priority"
     )
+    parser.add_argument(
+        "--writer-only", action="store_true", help="the writer's CPU per row (module docstring)"
+    )
     args = parser.parse_args()
+    if args.writer_only:
+        writer_only(_blocks(args.blocks, args.channels), args.rounds)
+        return
     if args.fifo:  # as RTHS_RT_PRIORITY does: threads inherit it, the writer process resets it
         os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(args.fifo))
     blocks = _blocks(args.blocks, args.channels)

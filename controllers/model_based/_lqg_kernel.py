@@ -7,7 +7,8 @@ small numpy
 arrays: a dozen array operations and attribute look-ups per step.  Here the same arithmetic runs
 as one compiled call on two flat arrays -- the constants ``P`` and the state ``S`` (layouts
 below) -- so a step costs one dispatch.  ``tests/test_lqg.py`` checks it against the Python path
-step for step.
+step for step.  :func:`ff_step` is the feedforward alone (the ``ff`` kind) for the loop's fused
+kernel (:mod:`rths.core.compiled`), checked row by row in ``tests/test_fastpath.py``.
 
 ``P``: ``dt, k_z, 1/G(0), has_ff, hold, n, n_c, n_diff``, then ``A`` (n*n, row-major), ``b``,
 ``c``, ``K_e``, ``M`` (n each) and the feedforward coefficients ``c_ff`` (n_c).
@@ -21,7 +22,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["LOG_NAMES", "lqg_step", "pack"]
+__all__ = ["LOG_NAMES", "ff_step", "lqg_step", "pack", "pack_ff"]
 
 #: The logged values at the end of ``S``, in order.
 LOG_NAMES = (
@@ -140,3 +141,61 @@ def lqg_step(
     s[ol + 4] = s[0]
     s[ol + 5] = innovation
     return u_ff + u_fb
+
+
+def pack_ff(
+    dt: float, coefficients: list[float], hold: bool, n_diff: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Constants and a zero state of :func:`ff_step` (the ``ff`` compensator alone).
+
+    ``P``: ``dt, hold, n_diff, n_c, dt**2, dt**3`` (Python's powers: the reference divides by
+    them), then the coefficients.  ``S``: the previous target ``r, v, a``, the acceleration
+    history (``n_diff + 1``, newest first) and the command (the logged value).
+
+    Parameters
+    ----------
+    dt
+        Loop step [s].
+    coefficients
+        The inverse's coefficients ``c_i``.
+    hold
+        Evaluate the inverse at mid-step.
+    n_diff
+        Derivatives beyond the acceleration, from differences of its history.
+    """
+    head = [dt, float(hold), float(n_diff), float(len(coefficients)), dt**2, dt**3]
+    p = np.array(head + list(coefficients), dtype=np.float64)
+    return p, np.zeros(3 + n_diff + 1 + 1)
+
+
+@njit(cache=True)
+def ff_step(
+    p: NDArray[np.float64], s: NDArray[np.float64], r: float, v: float, acc: float
+) -> float:  # pragma: no cover - compiled; covered through the loop's compiled-path cross-check
+    """``FeedforwardCompensator.command``: the inverse of the low-order model at the target
+    ``(r, v, acc)`` [m, m/s, m/s^2]; returns the command [m] and updates ``S`` (:func:`pack_ff`)
+    in place."""
+    dt, hold, nd, nc = p[0], p[1] > 0.5, int(p[2]), int(p[3])
+    oh = 3
+    terms = np.empty(6)
+    if hold:
+        terms[0] = 0.5 * (r + s[0])
+        terms[1] = 0.5 * (v + s[1])
+        terms[2] = 0.5 * (acc + s[2])
+    else:
+        terms[0], terms[1], terms[2] = r, v, acc
+    for i in range(nd, 0, -1):
+        s[oh + i] = s[oh + i - 1]
+    s[oh] = acc
+    if nd >= 1:
+        terms[3] = (s[oh] - s[oh + 1]) / dt
+    if nd >= 2:
+        terms[4] = (s[oh] - 2.0 * s[oh + 1] + s[oh + 2]) / p[4]
+    if nd >= 3:
+        terms[5] = (s[oh] - 3.0 * s[oh + 1] + 3.0 * s[oh + 2] - s[oh + 3]) / p[5]
+    s[0], s[1], s[2] = r, v, acc
+    u = 0.0
+    for i in range(min(nc, 3 + nd)):
+        u += p[6 + i] * terms[i]
+    s[s.size - 1] = u
+    return u

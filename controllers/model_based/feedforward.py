@@ -32,6 +32,8 @@ from scipy.optimize import least_squares
 
 from controllers._lti import FloatArray, dc_gain, inverse_taylor, siso_polynomials
 from controllers.base import Compensator
+from controllers.model_based._lqg_kernel import pack_ff
+from rths.core.compiled import CompiledStep
 from rths.core.errors import (
     ParameterError,
     check_finite,
@@ -364,6 +366,22 @@ class FeedforwardCompensator(Compensator):
 
     def _step_impl(self, target: Kinematics, measured: float) -> float:
         return self.command(target)
+
+    def compiled_step(self) -> CompiledStep:
+        """This compensator for the loop's fused kernel (family ``"ff"``: constants ``P``,
+        state ``S`` of :func:`controllers.model_based._lqg_kernel.ff_step` and the step
+        count)."""
+        p, s = pack_ff(self.dt, self._c, self.hold_correction, self._n_diff)
+        n = self._n_diff + 1
+        s[0:3], s[3 : 3 + n], s[-1] = self._prev, list(self._acc), self._u
+        counter = np.array([float(self._steps)])
+
+        def commit() -> None:
+            self._prev = (float(s[0]), float(s[1]), float(s[2]))
+            self._acc = deque(s[3 : 3 + n].tolist(), maxlen=n)
+            self._u, self._steps = float(s[-1]), int(counter[0])
+
+        return CompiledStep("ff", (p,), (s, counter), commit)
 
     def state(self) -> dict[str, float]:
         """``feedforward`` command [m] of the last step."""

@@ -48,6 +48,7 @@ from controllers.base import Compensator
 from controllers.model_based import _lqg_kernel
 from controllers.model_based.feedforward import FeedforwardCompensator
 from rths.core.channels import Channel
+from rths.core.compiled import CompiledStep
 from rths.core.errors import (
     ParameterError,
     check_nonnegative,
@@ -447,6 +448,19 @@ class LQGCompensator(Compensator):
         self._r_prev = target.displacement
         self._u_ff, self._u_fb = u_ff, u_fb
         return u_ff + u_fb
+
+    def compiled_step(self) -> CompiledStep | None:
+        """This compensator for the loop's fused kernel (family ``"lqg"``: constants ``P``,
+        state ``S`` of :func:`controllers.model_based._lqg_kernel.lqg_step` and the step
+        count); None on the reference path or with the ``filterpy`` estimator."""
+        if not self.use_jit:
+            return None
+        counter = np.array([float(self._steps)])
+
+        def commit() -> None:
+            self._steps = int(counter[0])
+
+        return CompiledStep("lqg", (self._p,), (self._s, counter), commit)
 
     def channels(self) -> tuple[Channel, ...]:
         """:data:`CHANNELS` (the keys of :meth:`state`, with units)."""

@@ -150,3 +150,51 @@ def servo_hydraulic_step(
     out[0], out[1], out[2], out[3] = x, v, a, force
     for i in range(4):
         out[4 + i] = stacked[n + i]
+
+
+#: State of :func:`transfer_function_step` (``s``): the delayed command [m], the displacement
+#: before the limiter [m], the drive sent to the specimen ``x`` [m], ``v`` [m/s], ``a`` [m/s^2],
+#: the specimen force [N] and the step count.  Constants ``cfg``: ``dt`` [s], relative degree.
+TF_STATE = ("command", "linear", "x", "v", "a", "force", "steps")
+
+
+@njit(cache=True)
+def transfer_function_drive(
+    a: NDArray[np.float64],
+    b: NDArray[np.float64],
+    c: NDArray[np.float64],
+    d: NDArray[np.float64],
+    cfg: NDArray[np.float64],
+    z: NDArray[np.float64],
+    y: NDArray[np.float64],
+    s: NDArray[np.float64],
+    command: float,
+) -> None:  # pragma: no cover - compiled; covered through the loop's compiled-path cross-check
+    """:class:`plants.actuator.transfer_function.TransferFunctionActuator` up to its specimen
+    (no delay line, no rate limiter): advance the model with ``command`` [m] and leave the
+    drive ``(x, v, a)`` in ``s[2:5]`` (the previous drive is read from there first).
+
+    Parameters
+    ----------
+    a, b, c, d
+        The discrete model (:func:`state_space_step`).
+    cfg
+        ``dt`` [s] and the relative degree.
+    z, y
+        The model's state (updated) and output scratch (3,).
+    s
+        :data:`TF_STATE`.
+    command
+        The command [m] held over the step.
+    """
+    dt, degree = cfg[0], cfg[1]
+    s[0] = command
+    state_space_step(a, b, c, d, z, command, y)
+    x, v, acc = y[0], y[1], y[2]
+    s[1] = x
+    x_old, v_old = s[2], s[3]
+    if degree <= 1.0:
+        v = (x - x_old) / dt
+    if degree <= 2.0:
+        acc = (v - v_old) / dt
+    s[2], s[3], s[4] = x, v, acc

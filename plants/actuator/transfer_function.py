@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from plants.actuator.base import Actuator
-from plants.actuator.kernel import state_space_step
+from plants.actuator.kernel import TF_STATE, state_space_step
 from plants.actuator.linear import (
     derivative_model,
     discretise,
@@ -19,6 +19,7 @@ from plants.actuator.options import TransferFunctionOptions
 from plants.base import Kinematics, Specimen
 from plants.device_model import DeviceModel
 from rths.core.channels import Channel
+from rths.core.compiled import CompiledStep
 from rths.core.registry import ACTUATORS
 
 __all__ = ["TransferFunctionActuator"]
@@ -133,6 +134,43 @@ class TransferFunctionActuator(Actuator):
         self._drive = (x, v, a)
         self._force = self.specimen.step(x, v, a, self.dt)
         return Kinematics(x, v, a), self._force
+
+    def compiled_step(self) -> CompiledStep | None:
+        """This actuator with its specimen for the loop's fused kernel
+        (:mod:`rths.core.compiled`; family ``"transfer_function_imd"``: constants ``A, B, C, D,
+        cfg`` then the specimen's, state ``z, y,`` :data:`plants.actuator.kernel.TF_STATE` then
+        the specimen's), or None with a delay line, a rate limiter, the reference path or a
+        specimen without a compiled step."""
+        offer = getattr(self.specimen, "compiled_step", None)
+        spec = offer() if offer is not None else None
+        if (
+            spec is None
+            or not spec.family.startswith("imd_")
+            or not self.use_jit
+            or self._delay_line is not None
+            or self.limiter is not None
+        ):
+            return None
+        cfg = np.array([self.dt, float(self.relative_degree)])
+        s = np.zeros(len(TF_STATE))
+        s[0], s[1], s[2:5], s[5], s[6] = (
+            self._command,
+            self._linear,
+            self._drive,
+            self._force,
+            self._steps,
+        )
+
+        def commit() -> None:
+            spec.commit()
+            self._command, self._linear = float(s[0]), float(s[1])
+            self._drive = (float(s[2]), float(s[3]), float(s[4]))
+            self._force, self._steps = float(s[5]), int(s[6])
+
+        constants = (self._A, self._B, self._C, self._D, cfg, *spec.constants)
+        return CompiledStep(
+            "transfer_function_imd", constants, (self._z, self._y, s, *spec.state), commit
+        )
 
     def transfer_function(self) -> control.TransferFunction:
         """The rational part ``num(s)/den(s)``; the :attr:`delay` [s] is separate."""

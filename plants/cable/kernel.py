@@ -21,13 +21,15 @@ Layouts
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
 from plants.cable.newmark import step_kernel
 
-__all__ = ["OUTPUTS", "PARAMS", "cable_step", "outputs_reference"]
+__all__ = ["OUTPUTS", "PARAMS", "cable_loop_step", "cable_step", "outputs_reference"]
 
 #: The constants of one cable (``params``), in order: step [s], series branch ``k_s`` [N/m],
 #: ``m_s`` [kg], ``c_s`` [N s/m], ``D`` [N/m] (:class:`plants.cable.device.SeriesCondensation`),
@@ -173,3 +175,37 @@ def outputs_reference(
         fly[0],
         fly[1],
     )
+
+
+@njit(cache=True)
+def cable_loop_step(
+    ops: NDArray[np.float64],
+    params: NDArray[np.float64],
+    cfg: NDArray[np.float64],
+    state: NDArray[np.float64],
+    out: NDArray[np.float64],
+    counters: NDArray[np.float64],
+    force: float,
+) -> None:  # pragma: no cover - compiled; covered through the loop's compiled-path cross-check
+    """``Cable.step(force)`` for the loop's fused kernel: the load factor of S0 Eq.22 at
+    ``t_{k+1}``, :func:`cable_step`, the buffer swap and the step count.
+
+    Parameters
+    ----------
+    ops, params, state, out
+        The arrays of the module docstring.
+    cfg
+        The interface node's index, the load's angular frequency [rad/s], when the load stops
+        [s] (inf: never) and the step ``dt`` [s].
+    counters
+        The step count and the parity of the current buffer (updated).
+    force
+        The correction force [N] on the interface (the cable receives minus it).
+    """
+    steps, parity, dt = counters[0], int(counters[1]), cfg[3]
+    load_scale = math.sin(cfg[1] * (steps + 1.0) * dt)
+    if (steps + 1.0) * dt > cfg[2]:
+        load_scale = 0.0
+    cable_step(ops, state, parity, params, int(cfg[0]), load_scale, -force, out)
+    counters[0] = steps + 1.0
+    counters[1] = 1.0 - counters[1]

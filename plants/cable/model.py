@@ -46,6 +46,7 @@ from plants.cable.properties import (
 )
 from plants.device_model import DeviceModel
 from rths.core.channels import Channel
+from rths.core.compiled import CompiledStep
 from rths.core.errors import (
     ParameterError,
     check_finite,
@@ -301,6 +302,22 @@ class Cable(Substructure):
     def write_channels(self, out: NDArray[np.float64]) -> None:
         """Write :meth:`outputs`' values into ``out`` (no dict)."""
         out[:] = self._out[3 : 3 + out.size]
+
+    def compiled_step(self) -> CompiledStep | None:
+        """This cable for the loop's fused kernel (family ``"cable"``: constants ``ops, params,
+        cfg``, state ``state, out, counters`` of :func:`plants.cable.kernel.cable_loop_step`);
+        None on the reference path."""
+        if not self.use_numba:
+            return None
+        cfg = np.array([self._index, self._load_frequency, self._load_end, self.dt])
+        counters = np.array([float(self._steps), float(self._parity)])
+
+        def commit() -> None:
+            self._steps, self._parity = int(counters[0]), int(counters[1])
+            self._u, self._v, self._a, self._fly = self._views[self._parity]
+
+        state = (self._state, self._out, counters)
+        return CompiledStep("cable", (self._ops, self._params, cfg), state, commit)
 
     def _advance(
         self, force: float, state: NDArray[np.float64], parity: int, out: NDArray[np.float64]

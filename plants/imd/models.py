@@ -47,6 +47,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from plants.base import Specimen
+from plants.imd import step_kernel
 from plants.imd.amplitude import AmplitudeTracker
 from plants.imd.kernels import advance_flywheel, advance_flywheel_jit, regularised_sign
 from plants.imd.parameters import (
@@ -58,6 +59,7 @@ from plants.imd.parameters import (
     screw_series_stiffness,
 )
 from rths.core.channels import Channel
+from rths.core.compiled import CompiledStep
 from rths.core.errors import ParameterError, check_positive, format_choices
 from rths.core.registry import SPECIMENS
 
@@ -193,6 +195,10 @@ class SimplifiedIMD(_DampingMixin, Specimen):
             force += self._friction * regularised_sign(v, self._v_eps)
         self._observe_drive(u)
         return force
+
+    def compiled_step(self) -> CompiledStep:
+        """This model for the loop's fused kernel (:mod:`plants.imd.step_kernel`)."""
+        return step_kernel.pack(self, series=False)
 
     def state(self) -> dict[str, float]:
         """``damping`` [N s/m] and ``amplitude`` [m] (the estimate behind S0 Eq.18)."""
@@ -332,6 +338,13 @@ class InternalStiffnessIMD(_DampingMixin, Specimen):
         self._observe_drive(u)
         self._force = force
         return force
+
+    def compiled_step(self) -> CompiledStep | None:
+        """This model for the loop's fused kernel (:mod:`plants.imd.step_kernel`); None on the
+        reference path."""
+        return (
+            step_kernel.pack(self, series=True) if self._advance is advance_flywheel_jit else None
+        )
 
     @property
     def gap_open(self) -> bool:

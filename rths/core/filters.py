@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal
 
+from rths.core.compiled import CompiledStep
 from rths.core.errors import ParameterError, check_positive, check_positive_int
 
 __all__ = ["LowPass"]
@@ -50,6 +51,18 @@ class LowPass:
         """Zero the filter state."""
         for z in self._z:
             z[0] = z[1] = 0.0
+
+    def compiled_step(self) -> CompiledStep:
+        """This filter for the loop's fused kernel (family ``"low_pass"``: constants the
+        sections ``(n, 6)``, state their ``(n, 2)`` delays)."""
+        c = np.array(self._coef, dtype=float)
+        z = np.array(self._z, dtype=float)
+
+        def commit() -> None:
+            for row, values in zip(self._z, z.tolist(), strict=True):
+                row[:] = values
+
+        return CompiledStep("low_pass", (c,), (z,), commit)
 
     def __call__(self, x: float) -> float:
         """Filter one sample."""

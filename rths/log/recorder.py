@@ -39,6 +39,7 @@ import operator
 import os
 import queue
 import threading
+import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, Literal
@@ -61,7 +62,7 @@ from rths.log.schemas import (
     object_schema,
 )
 from rths.log.writer.logfile import RESERVE
-from rths.log.writer.mcap_writer import STOP, WriterThread
+from rths.log.writer.mcap_writer import POLL, STOP, WriterThread
 from rths.log.writer.summary import RecordingFailed, RecordingSummary, TopicStats
 from rths.log.writer.writer_process import WriterProcess
 
@@ -384,6 +385,27 @@ class Recorder:
         """
         self._check_alive()
         self._queue.put(("r", topic, payload))
+
+    def throttle(self, max_queued: int) -> None:
+        """Wait while more than ``max_queued`` items wait for the writer thread.
+
+        For a producer that outruns the writer (the ``fast`` clock's compiled loop): what is
+        queued when a nearly full disk stops the run must still fit the log's disk reserve
+        (:data:`rths.log.writer.logfile.RESERVE`).  Polls every
+        :data:`rths.log.writer.mcap_writer.POLL` seconds, as the writer does; returns at once
+        with a writer process, a writer that has ended or once the log is in danger (the run is
+        being stopped then).
+
+        Parameters
+        ----------
+        max_queued
+            Items (a row block is one) the writer may have waiting.
+        """
+        writer = self._writer
+        if not isinstance(writer, WriterThread):
+            return
+        while self._queue.qsize() > max_queued and writer.is_alive() and writer.fault is None:
+            time.sleep(POLL)
 
     def wait_flushed(self, timeout: float | None = None) -> bool:
         """Block until everything queued so far is flushed to the file by the writer's own

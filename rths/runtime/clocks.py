@@ -295,6 +295,20 @@ class Pacer:
         self._busy[k] = end - self._step_start
         self._count = k + 1
 
+    def account(self, k: int, count: int, start_ns: int) -> None:
+        """Mark the end of steps ``k .. k + count - 1`` run together since ``start_ns`` (the
+        compiled path; each gets the mean work time).
+
+        Parameters
+        ----------
+        k, count
+            First step and number of steps.
+        start_ns
+            When the first began, on the pacer's clock [ns].
+        """
+        self._busy[k : k + count] = (self._now() - start_ns) // count
+        self._count = k + count
+
     def stats(self) -> TimingStats:
         """Timing figures for the steps run so far."""
         n = self._count

@@ -19,6 +19,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
+from rths.core.compiled import CompiledStep
 from rths.core.errors import ParameterError, check_positive
 
 __all__ = ["CommandGuard", "GuardLimits"]
@@ -142,6 +145,21 @@ class CommandGuard:
         else:
             self._run = 0
         return self._execute(command)
+
+    def compiled_step(self) -> CompiledStep | None:
+        """This guard for the loop's fused kernel (family ``"guard"``: constants and state of
+        :data:`rths.runtime.fused_kernel.GUARD_CONSTANTS` / ``GUARD_STATE``); None once
+        tripped (the ramp-down is the Python path's)."""
+        if self.tripped is not None:
+            return None
+        c = np.array([self.limits.stroke, self._max_step, self._trip_steps, self._ramp_step])
+        s = np.array([self.last, self.largest_step, self.limited, self._run, self.ignored], float)
+
+        def commit() -> None:
+            self.last, self.largest_step = float(s[0]), float(s[1])
+            self.limited, self._run, self.ignored = int(s[2]), int(s[3]), int(s[4])
+
+        return CompiledStep("guard", (c,), (s,), commit)
 
     def ramp(self) -> float:
         """The next command of the ramp to zero (zero once there)."""

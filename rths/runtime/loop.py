@@ -19,6 +19,13 @@ The same loop serves the three clocks; only the pacer and the link differ:
               and logged (``lag`` > 0); more than ``max_lag`` steps without a fresh measurement
               stop the run (the measurement watchdog).
 
+Compiled path.  On the ``fast`` clock, when every component offers a compiled step
+(:mod:`rths.core.compiled`), the loop runs blocks of steps inside one numba kernel
+(:mod:`rths.runtime.fastpath`, :mod:`rths.runtime.fused_kernel`) that writes the same rows bit for
+bit; any step that would stop the run is rolled back and taken by the Python path below, so stops
+and messages are the same.  A stop request is then honoured between blocks (at most 256 steps
+later).  ``Loop.compiled = False`` keeps the Python path throughout.
+
 Scale factors are explicit (:class:`Scaling`): the specimen sees ``displacement_scale`` times the
 prototype interface displacement, and the prototype receives ``force_scale`` times the specimen
 force; so a specimen inertance ``m`` acts on the prototype as ``force_scale*displacement_scale*m``.
@@ -55,7 +62,6 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import NamedTuple, Protocol
 
 from controllers.base import Compensator
 from plants.base import Substructure
@@ -68,7 +74,8 @@ from rths.core.errors import (
 )
 from rths.core.scaling import Scaling
 from rths.runtime.clocks import FreeRunning, Pacer, TimingStats
-from rths.runtime.guard import CommandGuard
+from rths.runtime.fastpath import FusedPlan
+from rths.runtime.links import InProcessLink, LinkSample, SpecimenLink
 
 __all__ = [
     "LOOP_CHANNELS",
@@ -101,87 +108,6 @@ BLOCK_ROWS = 256
 
 class InterlockTripped(RTHSError, RuntimeError):
     """The loop stopped a run because a signal left its safe range."""
-
-
-class LinkSample(NamedTuple):
-    """What the specimen answers: measured displacement [m], force [N] (specimen scale), the age
-    of the sample when the loop uses it [ns] (0 in lockstep/fast) and the specimen's step number
-    (the ``seq`` of the command it answers; older than the step after a missed deadline).
-    Immutable; a named tuple because one is built every step (cheaper than a frozen
-    dataclass).
-
-    Attributes
-    ----------
-    displacement : float
-        Measured displacement [m], specimen scale.
-    force : float
-        Measured force [N], specimen scale.
-    age_ns : int
-        Age of the sample when the loop uses it [ns] (default 0: lockstep and fast).
-    specimen_seq : int
-        The specimen's step number, the ``seq`` of the command it answers (default -1: unknown).
-    """
-
-    displacement: float
-    force: float
-    age_ns: int = 0
-    specimen_seq: int = -1
-
-
-class SpecimenLink(Protocol):
-    """How the loop reaches the specimen (in process, or over zenoh in lockstep or real time).
-
-    A link may also offer ``safe_stop(reason)``: the controlled ramp-down the loop asks for
-    after every stop."""
-
-    def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
-        """Send command ``seq`` (to be held until ``t_ns``, simulated ns); return the measurement
-        the loop should use for the end of the step."""
-        ...
-
-
-class _Lab(Protocol):
-    def step(self, command: float) -> tuple[float, float]: ...
-
-
-class InProcessLink:
-    """The ``fast`` clock's link: calls an emulated lab directly in this process, through the
-    same :class:`CommandGuard` the specimen process applies (so fast and lockstep agree).
-
-    Parameters
-    ----------
-    lab
-        The emulated lab (anything with ``step(command) -> (displacement, force)``).
-    guard
-        The specimen side's command guard; None: commands go to the lab unchecked.
-    """
-
-    def __init__(self, lab: _Lab, guard: CommandGuard | None = None) -> None:
-        self.lab = lab
-        self.guard = guard
-
-    def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
-        if self.guard is not None:
-            command = self.guard.apply(command)
-        displacement, force = self.lab.step(command)
-        return LinkSample(displacement, force, 0, seq)
-
-    def safe_stop(self, reason: str) -> int:
-        """Ramp the lab's actuator to zero through the guard; returns the steps it took.
-
-        Parameters
-        ----------
-        reason
-            Why the run stopped (latched in the guard).
-        """
-        if self.guard is None:
-            return 0
-        self.guard.trip(reason)
-        steps = 0
-        while not self.guard.at_rest:
-            self.lab.step(self.guard.ramp())
-            steps += 1
-        return steps
 
 
 @dataclass(frozen=True)
@@ -307,6 +233,10 @@ class Loop:
         self._sub_cols = (self._comp_cols[1], len(self.channels))
         RowBlock(self.channels, 1)  # names unique
         self.safe_stop_steps = 0  #: steps the ramp-down after the run took (in-process links)
+        #: Run blocks of steps compiled when every part offers it (:mod:`rths.runtime.fastpath`);
+        #: False keeps the Python path (the reference the compiled one is tested against).
+        self.compiled = True
+        self.compiled_steps = 0  #: steps the last run took on the compiled path
         self._stop = threading.Event()
         self._stop_reason = "stopped by request"
 
@@ -317,6 +247,69 @@ class Loop:
 
     def run(self, progress: Callable[[int], None] | None = None) -> LoopResult:
         """Run the steps; ``progress(k)`` is called every 256 steps from the loop thread."""
+        pacer, link = self.pacer, self.link
+        block = RowBlock(self.channels, self.block_rows)
+        tally = _Tally()
+        cpu_start = time.thread_time_ns()
+        pacer.start()
+        k, i, carried, stopped = 0, 0, (0.0, 0.0, 0.0), None
+        plan = FusedPlan.of(self) if self.compiled else None
+        if plan is not None:
+            k, block, i, carried, stopped = plan.run(self, block, progress, pacer.account)
+        self.compiled_steps = k
+        if stopped is None and k < self.n_steps:
+            k, block, i, stopped = self._run_python(k, block, i, carried, tally, progress)
+        ended = pacer.now_ns()
+        cpu = time.thread_time_ns() - cpu_start
+        if i:
+            block.count = i
+            self.sink(block)
+        if progress is not None:
+            progress(k)
+        safe_stop = getattr(link, "safe_stop", None)
+        if safe_stop is not None:
+            self.safe_stop_steps = safe_stop(stopped or "run complete") or 0
+        return LoopResult(
+            steps=k,
+            timing=pacer.stats(),
+            stopped=stopped,
+            misses=tally.misses,
+            longest_lag=tally.longest,
+            ended_ns=ended,
+            link_mean=tally.in_link * 1e-9 / max(k, 1),
+            cpu_mean=cpu * 1e-9 / max(k, 1),
+        )
+
+    def _run_python(
+        self,
+        k0: int,
+        block: RowBlock,
+        i: int,
+        carried: tuple[float, float, float],
+        tally: _Tally,
+        progress: Callable[[int], None] | None,
+    ) -> tuple[int, RowBlock, int, str | None]:
+        """The steps from ``k0`` on, one Python call per component (the reference path).
+
+        Parameters
+        ----------
+        k0
+            First step.
+        block, i
+            The row block being filled and its next row (the loop's own columns of the rows
+            before ``i`` are already in it).
+        carried
+            The measurement [m], force [N] and correction [N] step ``k0`` uses.
+        tally
+            Deadline misses and time in the link (updated).
+        progress
+            As for :meth:`run`.
+
+        Returns
+        -------
+        tuple
+            The next step, the row block being filled, its next row and the stop reason.
+        """
         sub, comp, link, pacer = self.substructure, self.compensator, self.link, self.pacer
         lam_u, lam_f = self.scaling.displacement, self.scaling.force
         channels, rows = self.channels, self.block_rows
@@ -325,22 +318,18 @@ class Loop:
         n0 = len(LOOP_CHANNELS)
         record_comp, record_sub = comp.write_channels, sub.write_channels
         dt_s = self.dt
-        block = RowBlock(channels, rows)
         values, seqs, times = block.values, block.seq, block.t_ns
         # the loop's own columns of the block's rows, as tuples: one numpy conversion per block
         # instead of one per step (comp_/sub_ columns are written into the rows directly)
-        own: list[tuple[float, ...]] = []
-        i = 0
-        measured, force, fed = 0.0, 0.0, 0.0
-        misses = run_of_misses = longest = 0
+        own: list[tuple[float, ...]] = [tuple(r) for r in values[:i, :n0].tolist()]
+        measured, force, fed = carried
+        misses, run_of_misses, longest = tally.misses, 0, tally.longest
         # until the first fresh measurement (start-up of the specimen's thread), allow 0.1 s
-        fresh, start_lag = False, max(self.max_lag, round(0.1 / dt_s))
+        fresh, start_lag = k0 > 0, max(self.max_lag, round(0.1 / dt_s))
         now, in_link = pacer.now_ns, 0
         stopped: str | None = None
-        cpu_start = time.thread_time_ns()
-        pacer.start()
-        k = 0
-        for k in range(self.n_steps):
+        k = k0
+        for k in range(k0, self.n_steps):
             if self._stop.is_set():
                 stopped = self._stop_reason
                 break
@@ -420,24 +409,17 @@ class Loop:
                 progress(k + 1)
         else:
             k = self.n_steps
-        ended = pacer.now_ns()
-        cpu = time.thread_time_ns() - cpu_start
+        tally.misses, tally.longest, tally.in_link = misses, longest, in_link
         if i:
             values[:i, :n0] = own
-            block.count = i
-            self.sink(block)
-        if progress is not None:
-            progress(k)
-        safe_stop = getattr(link, "safe_stop", None)
-        if safe_stop is not None:
-            self.safe_stop_steps = safe_stop(stopped or "run complete") or 0
-        return LoopResult(
-            steps=k,
-            timing=pacer.stats(),
-            stopped=stopped,
-            misses=misses,
-            longest_lag=longest,
-            ended_ns=ended,
-            link_mean=in_link * 1e-9 / max(k, 1),
-            cpu_mean=cpu * 1e-9 / max(k, 1),
-        )
+        return k, block, i, stopped
+
+
+@dataclass
+class _Tally:
+    """What the Python path counts across a run: deadline misses, the longest lag [steps] and
+    the time spent in the link [ns]."""
+
+    misses: int = 0
+    longest: int = 0
+    in_link: int = 0

@@ -150,6 +150,12 @@ class _Progress(threading.Thread):
         self.report(self.done, self.total)
 
 
+#: Items (row blocks) the fast clock lets wait for the recorder's writer thread: the compiled
+#: loop runs about twice as fast as the writer, and what is queued when a nearly full disk stops
+#: the run must fit the log's 8 MiB disk reserve (32 blocks of 256 rows: ~2 MB at 2048 Hz).
+FAST_BACKLOG = 32
+
+
 class _TruthLink(InProcessLink):
     """The fast clock's link, also recording the lab's rows on ``rths/specimen`` (in blocks)."""
 
@@ -173,6 +179,15 @@ class _TruthLink(InProcessLink):
         if b.count == self._rows:
             self.flush()
         return sample
+
+    def fused(self) -> tuple[Any, CommandGuard | None, Any]:
+        """The lab, the guard and this link as the sink of the lab's rows (the compiled path
+        fills :meth:`current` and calls :meth:`flush` when it is full)."""
+        return self.lab, self.guard, self
+
+    def current(self) -> RowBlock:
+        """The block of the lab's rows being filled."""
+        return self._block
 
     def flush(self) -> None:
         """Hand the filled rows to the recorder."""
@@ -290,6 +305,8 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
         def make_loop(link: Any, extra_sink: Callable[[RowBlock], None] | None = None) -> Loop:
             def sink(block: RowBlock) -> None:
                 collector(block)
+                if clock == "fast":  # the compiled loop outruns the writer thread
+                    rec.throttle(FAST_BACKLOG)
                 rec.put_block(LOOP_TOPIC, block)
                 if live is not None:
                     live.put_block(LOOP_TOPIC, block)
@@ -322,8 +339,9 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
         if progress is not None:
             progress.start()
         switch = sys.getswitchinterval()
-        if clock != "fast":  # see rths.runtime.clocks.SWITCH_INTERVAL
-            sys.setswitchinterval(SWITCH_INTERVAL)
+        # see rths.runtime.clocks.SWITCH_INTERVAL; on the fast clock the compiled path releases
+        # the GIL to the writer thread during each block and takes it back right after
+        sys.setswitchinterval(SWITCH_INTERVAL)
         error: BaseException | None = None
         try:
             if clock == "fast":

@@ -36,13 +36,22 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
-from mcap.writer import CompressionType, Writer
+import numpy as np
+from mcap.writer import CompressionType
 
 from rths import __version__
 from rths.core.errors import DataError
 from rths.log.schemas import EVENTS_TOPIC
+from rths.log.writer.block_writer import BlockWriter
 from rths.log.writer.logfile import LogFile
-from rths.log.writer.rowjson import LENIENT, STRICT, block_messages, finite, open_schema
+from rths.log.writer.rowjson import (
+    LENIENT,
+    STRICT,
+    block_json,
+    block_messages,
+    finite,
+    open_schema,
+)
 from rths.log.writer.summary import COUNTS, TopicStats
 from rths.wire.codec import LogRecord
 
@@ -132,8 +141,8 @@ class WriterThread(threading.Thread):
         self._stream = stream
         self._inbox = inbox
         self._metadata = metadata
-        self._writer = Writer(
-            stream,  # type: ignore[arg-type]  # a binary stream: write, tell, flush
+        self._writer = BlockWriter(
+            stream,  # a binary stream: write, tell, flush
             chunk_size=chunk_size,
             compression=_COMPRESSION[compression],
         )
@@ -377,7 +386,32 @@ class WriterThread(threading.Thread):
         entry.last_seq = max(last, seq)
 
     def _block(self, topic: str, block: Any) -> None:
-        """Write the rows of a :class:`rths.core.channels.RowBlock` (:func:`block_messages`)."""
+        """Write the rows of a :class:`rths.core.channels.RowBlock` (:func:`block_messages`).
+
+        A block that continues its topic's sequence without a gap goes to the file in one
+        :meth:`BlockWriter.add_messages` call; any other takes the per-row path, which writes a
+        gap or reordering event among the rows.  Both write the same file.
+        """
+        entry = self._topics[topic]
+        self._rows_done = 0
+        n = block.count
+        seq = block.seq[:n]
+        if n and seq[0] == entry.last_seq + 1 and (n == 1 or bool((np.diff(seq) == 1).all())):
+            data, nonfinite = block_json(block, self._templates)
+            times = block.t_ns[:n]
+            self._writer.add_messages(entry.channel_id, seq & 0xFFFFFFFF, times, times, data)
+            self._rows_done = n
+            self._dirty = True
+            if entry.last_seq < 0:
+                entry.first_seq = int(seq[0])
+            entry.last_seq = int(seq[-1])
+            entry.written += n
+            entry.nonfinite += nonfinite
+            return
+        self._block_rows(topic, block)
+
+    def _block_rows(self, topic: str, block: Any) -> None:
+        """Write the rows of a block one message at a time (the reference path)."""
         entry = self._topics[topic]
         self._rows_done = 0
         for k, t, data, ok in block_messages(block, self._templates):
