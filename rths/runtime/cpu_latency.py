@@ -1,4 +1,4 @@
-"""Keep the CPUs out of deep idle states while a real-time run lasts (Linux PM QoS).
+"""Keep the CPUs out of deep idle states while a real-time or lockstep run lasts (Linux PM QoS).
 
 An idle CPU halts; waking it for the next message costs tens of microseconds on bare metal and
 more in a virtual machine, where a halted vCPU is descheduled by the hypervisor.  A synchronous
@@ -14,6 +14,12 @@ Measured on the 2-core development VM (``haltpoll`` cpuidle driver), quiet, with
 the request held (``python tools/bench_wakeup.py``): a pipe round trip between two processes
 p50 55 → 8 µs, p99 152 → 31 µs; a zenoh peer-to-peer round trip between two Python processes
 p50 246 → 94 µs, p99 444 → 190 µs.
+
+Lockstep runs hold it too: each lockstep step is a round trip between the two processes, so
+the same wake-ups bound its speed.  Seed scenario, quiet VM, ``python tools/bench_loop.py
+--rates 2048 4096 --clocks lockstep --duration 10 --repeats 2``, with → without
+(``RTHS_CPU_LATENCY_US=off``): round trip 230 → 403 µs at 2048 Hz and 271 → 427 µs at 4096 Hz;
+whole run 1.24× → 0.86× and 0.66× → 0.46× real time; the results are bit-identical either way.
 
 The request needs write access to the device (root, or a udev rule granting it to a lab group);
 without it nothing changes and :attr:`CpuLatency.held` says so, in the run's summary.

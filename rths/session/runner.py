@@ -275,7 +275,7 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
     quiet = QuietGC() if clock == "realtime" else None
     priority = realtime_priority() if clock == "realtime" else 0  # opt-in: RTHS_RT_PRIORITY
     # real time: idle CPUs poll instead of halting while the run lasts (RTHS_CPU_LATENCY_US)
-    latency = CpuLatency() if clock == "realtime" else None
+    latency = CpuLatency() if clock in ("realtime", "lockstep") else None
     pacer: Pacer = WallClock(dt, n) if clock == "realtime" else FreeRunning(dt, n)
     if quiet is not None:
         pacer.idle = quiet.idle

@@ -194,7 +194,7 @@ class _Server:
         self.ramp_steps = 0
         self.stop_reason = ""
         self.quiet = QuietGC()
-        self.latency = CpuLatency() if clock == "realtime" else None
+        self.latency = CpuLatency() if clock in ("realtime", "lockstep") else None
         self.opener: Any = None
         self.refused = 0
         self.late_commands = 0
