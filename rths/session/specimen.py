@@ -26,7 +26,6 @@ of the serving loop (:class:`rths.runtime.clocks.QuietGC`).
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
 import sys
@@ -194,7 +193,7 @@ class _Server:
         self.ramp_steps = 0
         self.stop_reason = ""
         self.quiet = QuietGC()
-        self.latency = CpuLatency() if clock in ("realtime", "lockstep") else None
+        self.latency = CpuLatency()  # both clocks the specimen serves are round trips
         self.opener: Any = None
         self.refused = 0
         self.late_commands = 0
@@ -218,7 +217,7 @@ class _Server:
             realtime_thread()
             with (
                 self.quiet,  # before announcing: the full collection it starts with is slow
-                self.latency if self.latency is not None else contextlib.nullcontext(),
+                self.latency,
             ):
                 presence.wait_for_peer(ready_timeout, [link.publisher])
                 self._serve(link, presence)
@@ -308,7 +307,7 @@ class _Server:
             "late_commands": self.late_commands,
             "gc_collections_in_loop": self.quiet.collections,
             "gc_longest_s": self.quiet.longest,
-            "cpu_latency": "" if self.latency is None else self.latency.describe(),
+            "cpu_latency": self.latency.describe(),
             "stopped_at_ns": self.tripped_ns,
             "at_rest_ns": self.safe_ns,
             **self.guard.summary(),
