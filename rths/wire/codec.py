@@ -46,6 +46,7 @@ __all__ = [
     "LogRecord",
     "Measurement",
     "pack_block",
+    "pack_frames",
     "unpack_block",
 ]
 
@@ -293,6 +294,36 @@ def pack_block(block: RowBlock) -> bytes:
             np.ascontiguousarray(block.values[:n], dtype="<f8").tobytes(),
         )
     )
+
+
+def pack_frames(block: RowBlock, max_bytes: int) -> list[bytes]:
+    """The filled rows of ``block`` as :func:`pack_block` frames of at most ``max_bytes`` each
+    (consecutive rows; one row per frame if a row alone is larger).  Each frame is a block of
+    its own, with its rows' ``seq`` and ``t_ns``, so a receiver needs no reassembly.
+
+    Parameters
+    ----------
+    block
+        The rows.
+    max_bytes
+        Largest frame [bytes], > 0 (e.g. what one batch of zenoh's low-latency transport holds).
+    """
+    n = block.count
+    whole = pack_block(block)
+    if len(whole) <= max_bytes or n <= 1:
+        return [whole]
+    row_bytes = 16 + 8 * len(block.channels)
+    rows = max(1, (max_bytes - (len(whole) - n * row_bytes)) // row_bytes)
+    frames = []
+    for start in range(0, n, rows):
+        stop = min(start + rows, n)
+        part = RowBlock(block.channels, stop - start)
+        part.seq[:] = block.seq[start:stop]
+        part.t_ns[:] = block.t_ns[start:stop]
+        part.values[:] = block.values[start:stop]
+        part.count = stop - start
+        frames.append(pack_block(part))
+    return frames
 
 
 def unpack_block(data: bytes | bytearray | memoryview) -> RowBlock:
