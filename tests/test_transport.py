@@ -149,19 +149,6 @@ def test_session_config_is_peer_without_scouting() -> None:
     assert cfg.get_json("connect/endpoints") == "[]"
 
 
-@pytest.mark.parametrize("value, low", [(None, True), ("1", True), ("0", False), (" 0 ", False)])
-def test_the_low_latency_transport_is_the_default_and_0_selects_the_standard_one(
-    monkeypatch, value, low
-) -> None:
-    if value is None:
-        monkeypatch.delenv("RTHS_ZENOH_LOWLATENCY", raising=False)
-    else:
-        monkeypatch.setenv("RTHS_ZENOH_LOWLATENCY", value)
-    cfg = session_config(ZenohEndpoints.loopback(7447))
-    assert cfg.get_json("transport/unicast/lowlatency") == ("true" if low else "false")
-    assert cfg.get_json("transport/unicast/qos/enabled") == ("false" if low else "true")
-
-
 def test_open_session_reports_a_taken_port_and_closes_on_error() -> None:
     ep = ZenohEndpoints.loopback()
     with open_session(ep) as first:

@@ -114,10 +114,9 @@ def config(endpoints: ZenohEndpoints, mechanism: str) -> zenoh.Config:
     if mechanism == "sync-shm":
         cfg.insert_json5("transport/shared_memory/enabled", "true")
         cfg.insert_json5("transport/shared_memory/transport_optimization/enabled", "true")
-    # the standard transport unless the mechanism says otherwise (runs default to low latency)
-    low = mechanism in ("lowlatency", "sync-lowlatency", "sync-cb-lowlatency")
-    cfg.insert_json5("transport/unicast/lowlatency", "true" if low else "false")
-    cfg.insert_json5("transport/unicast/qos/enabled", "false" if low else "true")
+    if mechanism in ("lowlatency", "sync-lowlatency", "sync-cb-lowlatency"):
+        cfg.insert_json5("transport/unicast/lowlatency", "true")
+        cfg.insert_json5("transport/unicast/qos/enabled", "false")
     return cfg
 
 

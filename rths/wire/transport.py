@@ -102,15 +102,12 @@ __all__ = [
 
 _ENDPOINT = re.compile(r"^[a-z][a-z0-9+-]*/\S+$")
 
-#: Both processes run zenoh's low-latency unicast transport by default: no QoS queues and no tx
-#: thread, each ``put`` written to the socket by the caller.  Measured interleaved on the 2-core VM
-#: (``python tools/bench_loop.py --rates 4096 --clocks lockstep --duration 10 --repeats 1``, two
-#: pairs, load 5.6-5.9): mean round trip 327 / 320 µs against 384 / 386 µs on the standard
-#: transport, loop speed 0.67 / 0.68× against 0.58×.  Every message must fit one batch (48 000
-#: bytes did, 56 000 did not, and zenoh drops a larger one silently), so side streams go out in
-#: frames of at most 32 kB (:data:`rths.wire.sidestreams.MAX_FRAME_BYTES`) and the link warm-up
-#: frame is 48 000 bytes.  ``RTHS_ZENOH_LOWLATENCY=0`` selects the standard transport (both sides
-#: must agree: the specimen inherits the variable, a specimen on another host must set it too).
+#: ``RTHS_ZENOH_LOWLATENCY=1`` selects zenoh's low-latency unicast transport (no QoS queues, no
+#: fragmentation: every message must fit one batch -- 48 000 bytes did, 56 000 did not, and
+#: zenoh drops a larger one silently, e.g. the 92 kB live copy of a 256-row block of the loop's
+#: rows; the log frames are 4.5 kB) on both processes (the specimen inherits the variable; a
+#: specimen on another host must set it too).  Measured with
+#: ``tools/bench_zenoh.py`` (``sync-lowlatency``); off by default.
 LOWLATENCY_ENV = "RTHS_ZENOH_LOWLATENCY"
 
 
@@ -225,16 +222,10 @@ def session_config(endpoints: ZenohEndpoints) -> zenoh.Config:
     config.insert_json5("connect/retry", "{period_init_ms: 100, period_max_ms: 500}")
     # open() need not wait (up to 0.5 s) for the peer's initial declarations: Presence does.
     config.insert_json5("open/return_conditions/declares", "false")
-    low = lowlatency()  # both sides must agree (see LOWLATENCY_ENV)
-    config.insert_json5("transport/unicast/lowlatency", "true" if low else "false")
-    config.insert_json5("transport/unicast/qos/enabled", "false" if low else "true")
+    if os.environ.get(LOWLATENCY_ENV, "") == "1":  # both sides must agree (see LOWLATENCY_ENV)
+        config.insert_json5("transport/unicast/lowlatency", "true")
+        config.insert_json5("transport/unicast/qos/enabled", "false")
     return config
-
-
-def lowlatency() -> bool:
-    """Whether sessions use zenoh's low-latency unicast transport (:data:`LOWLATENCY_ENV`: on
-    unless ``RTHS_ZENOH_LOWLATENCY=0``)."""
-    return os.environ.get(LOWLATENCY_ENV, "1").strip() != "0"
 
 
 @contextmanager
