@@ -100,12 +100,16 @@ class _SyncLink:
         deadline_ns: Callable[[int], int],
         presence: Presence,
         dt: float,
+        riders: SpecimenRows | None = None,
     ):
         self.client, self.deadline_ns, self.presence = client, deadline_ns, presence
         self.half_step = round(dt * 5e8)
+        self.riders = riders
 
     def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
         client = self.client
+        if self.riders is not None:
+            self.riders.handover()  # blocks of the specimen's rows, while this step waits
         # on schedule: until the next step is due; behind it (already an overrun, counted):
         # half a step for the answer, so a late loop still uses fresh measurements and
         # catches up instead of missing every one
@@ -299,7 +303,7 @@ def run_over_zenoh(
                     warmed = warm_up(client, scn.run.dt)
                     rec.event(0, "warm-up", warmed.describe(), **warmed.as_dict())
                     link = _SyncLink(
-                        client, lambda k: loop.pacer.deadline_ns(k), presence, scn.run.dt
+                        client, lambda k: loop.pacer.deadline_ns(k), presence, scn.run.dt, riders
                     )
                 else:
                     link = _LockstepLink(client, opts.step_timeout, presence)
