@@ -320,15 +320,8 @@ class Loop:
         dt_s = self.dt
         values, seqs, times = block.values, block.seq, block.t_ns
         # the loop's own columns go into the row as one tuple per step (0.4 µs): converting a
-        # block's 256 tuples at once cost 67 µs median inside the block's last step, and in real
-        # time the step after it missed its deadline in every block (80 of 80 at load 5)
+        # block's 256 tuples at once cost 67 µs median (8 ms once) inside the block's last step
         measured, force, fed = carried
-        # against a wall clock a full block goes to the sink at the next step's exchange, not at
-        # once: the sink wakes the recorder's thread, whose share of the interpreter lock then
-        # overlaps the round trip instead of the end of this step (the step after every block
-        # boundary missed its deadline: 79 of 80 at load 5, the step ending ~120 µs later)
-        pending: RowBlock | None = None
-        defer = pacer.paced
         misses, run_of_misses, longest = tally.misses, 0, tally.longest
         # until the first fresh measurement (start-up of the specimen's thread), allow 0.1 s
         fresh, start_lag = k0 > 0, max(self.max_lag, round(0.1 / dt_s))
@@ -353,9 +346,6 @@ class Loop:
                 )
                 break
             t_ns = round((k + 1) * dt_s * 1e9)  # exact to 1 ns, no accumulated rounding
-            if pending is not None:  # handed over while this step waits for the specimen
-                self.sink(pending)
-                pending = None
             sent = now()
             sample = link.exchange(k, t_ns, command)
             in_link += now() - sent
@@ -405,10 +395,7 @@ class Loop:
             i += 1
             if i == rows:
                 block.count = i
-                if defer:
-                    pending = block
-                else:
-                    self.sink(block)
+                self.sink(block)
                 block = RowBlock(channels, rows)
                 values, seqs, times = block.values, block.seq, block.t_ns
                 i = 0
@@ -417,8 +404,6 @@ class Loop:
                 progress(k + 1)
         else:
             k = self.n_steps
-        if pending is not None:
-            self.sink(pending)
         tally.misses, tally.longest, tally.in_link = misses, longest, in_link
         return k, block, i, stopped
 

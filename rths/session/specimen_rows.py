@@ -6,8 +6,8 @@ In real time the specimen process sends its lab's row for each step with the ste
 process wakes while the loop runs (see :mod:`rths.session.specimen`).  The link's client hands
 the rows of every reply it reads -- on time or late -- to :meth:`SpecimenRows.add` on the loop
 thread; a full block of :data:`BLOCK_ROWS` goes to the sink (the recorder's ``put_block``, which
-only enqueues) as MCAP topic ``rths/specimen`` when the link begins its next exchange
-(:meth:`SpecimenRows.handover`), the rest at :meth:`SpecimenRows.flush`.
+only enqueues) as MCAP topic ``rths/specimen`` when the link's wait for the step's measurement
+is over (:meth:`SpecimenRows.handover`), the rest at :meth:`SpecimenRows.flush`.
 """
 
 from __future__ import annotations
@@ -74,8 +74,9 @@ class SpecimenRows:
                 self.block = RowBlock(self.channels, BLOCK_ROWS)
 
     def handover(self) -> None:
-        """Hand the full blocks to the sink (the link calls it as a step's exchange begins, so
-        the recorder's thread works while the loop waits, not at the end of a step)."""
+        """Hand the full blocks to the sink (the link calls it when a step's wait for its
+        measurement is over, not in the middle of it: the sink wakes the recorder's thread,
+        which then takes its share of the interpreter lock in the step's idle time)."""
         for b in self._ready:
             self.sink(self.topic, b)
         self._ready.clear()

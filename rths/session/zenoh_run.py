@@ -108,13 +108,13 @@ class _SyncLink:
 
     def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
         client = self.client
-        if self.riders is not None:
-            self.riders.handover()  # blocks of the specimen's rows, while this step waits
         # on schedule: until the next step is due; behind it (already an overrun, counted):
         # half a step for the answer, so a late loop still uses fresh measurements and
         # catches up instead of missing every one
         deadline = max(self.deadline_ns(seq + 1) - RESERVE_NS, time.monotonic_ns() + self.half_step)
         m = client.exchange(Command(seq, t_ns, command), deadline)
+        if self.riders is not None:
+            self.riders.handover()  # a full block of the specimen's rows, once the wait is over
         if m is None:  # deadline missed: the newest sample we have (or rest before the first)
             m = client.newest
             if m is None:
