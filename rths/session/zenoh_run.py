@@ -315,7 +315,11 @@ def run_over_zenoh(
                     result = loop.run(on_progress)
                 finally:
                     watcher.finish()
-                    if riders is not None:  # the rows of replies still on their way, then all
+                    if riders is not None:
+                        # the rows gathered first (the specimen's last rows, stepped without a
+                        # reply, come on its side stream as it stops), then the rows of replies
+                        # still on their way
+                        riders.flush()
                         client.drain(time.monotonic_ns() + DRAIN_NS)  # type: ignore[union-attr]
                         riders.flush()
                 if watcher.lost and result.stopped == watcher.reason:
