@@ -8,11 +8,11 @@ observed clusters: every worker samples its own stack 100 times a second for the
 profile, every process ticks its event loop 50 times a second to detect blocking, samples its
 CPU and memory twice a second and the scheduler looks for work to steal 10 times a second.  A
 campaign's run is CPU-bound Python on one thread per worker, so each of those wake-ups takes the
-run's GIL or a core from it.  Measured on the 2-core VM (a 2-worker cluster, both workers
-spinning a pure-Python loop for 8 s, ``tools/bench_campaign.py``'s process-CPU accounting): the
-defaults cost 0.036-0.046 core in the client process (scheduler, nannies, client) and 0.030-0.036
-core in each worker beside its run, 0.10-0.12 of the 2 cores in all; quiet, 0.008-0.010 and
-0.002-0.005 per worker, 0.02 in all.  A run's results do not depend on any of these settings.
+run's GIL or a core from it.  Measured on the 2-core VM (``tools/bench_campaign.py``, step 0:
+a 2-worker cluster whose workers both spin a pure-Python loop for 8 s; CPU beyond the spinning
+threads): with the defaults 0.033-0.046 core in the client process (scheduler, nannies, client)
+and 0.028-0.036 core in each worker, 0.09-0.12 of the 2 cores in all; quiet, 0.008-0.010 core
+and 0.002-0.005 core per worker, 0.02 in all.  A run's results do not depend on any of these settings.
 An external scheduler (``scheduler=``) keeps its own configuration.
 """
 
