@@ -12,8 +12,8 @@ run's GIL or a core from it.  Measured on the 2-core VM (``tools/bench_campaign.
 a 2-worker cluster whose workers both spin a pure-Python loop for 8 s; CPU beyond the spinning
 threads): with the defaults 0.033-0.046 core in the client process (scheduler, nannies, client)
 and 0.028-0.036 core in each worker, 0.09-0.12 of the 2 cores in all; quiet, 0.008-0.010 core
-and 0.002-0.005 core per worker, 0.02 in all.  A run's results do not depend on any of these settings.
-An external scheduler (``scheduler=``) keeps its own configuration.
+and 0.002-0.005 core per worker, 0.02 in all.  A run's results do not depend on any of these
+settings.  An external scheduler (``scheduler=``) keeps its own configuration.
 """
 
 from __future__ import annotations
