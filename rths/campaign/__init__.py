@@ -5,8 +5,9 @@ with overrides and a seed (:mod:`~rths.campaign.scenario`), or any picklable pay
 top-level task function -- executed by :func:`~rths.campaign.executor.execute` on an embedded,
 quiet ``dask.distributed`` ``LocalCluster`` sized to the machine, or on a cluster given by its
 scheduler address (``tcp://HOST:8786``) unchanged (:mod:`~rths.campaign.cluster`); short runs
-share a task (:func:`~rths.campaign.executor.batch_size`), each still its own row.  Every finished run becomes one row of a
-:class:`~rths.campaign.table.ResultTable` (Parquet or CSV) as it arrives; rows already in the
+share a task (:func:`~rths.campaign.executor.batch_size`), each still its own row.  Every
+finished run becomes one row of a :class:`~rths.campaign.table.ResultTable` (Parquet or CSV) as
+it arrives; rows already in the
 table are skipped on the next invocation (resume), and a run that raises becomes a row with
 ``status = "error"``, never a crash.  Results depend only on each run's inputs and seed, so the
 table is the same on 1 worker, 2 workers or a cluster (:func:`~rths.campaign.table.digest`).
