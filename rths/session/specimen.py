@@ -323,6 +323,7 @@ class _Server:
             rows.sent()
         if not rows.ride:
             rows.add(command.seq, command.t_ns)
+        self.lab.prepare()  # e.g. the next block of noise, now rather than in the next step
         self.served += 1
 
     def _ramp_down(self, link: LockstepServer) -> None:

@@ -6,7 +6,8 @@ In real time the specimen process sends its lab's row for each step with the ste
 process wakes while the loop runs (see :mod:`rths.session.specimen`).  The link's client hands
 the rows of every reply it reads -- on time or late -- to :meth:`SpecimenRows.add` on the loop
 thread; a full block of :data:`BLOCK_ROWS` goes to the sink (the recorder's ``put_block``, which
-only enqueues) as MCAP topic ``rths/specimen``, the rest at :meth:`SpecimenRows.flush`.
+only enqueues) as MCAP topic ``rths/specimen`` when the link's wait for the step's measurement
+is over (:meth:`SpecimenRows.handover`), the rest at :meth:`SpecimenRows.flush`.
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ class SpecimenRows:
         self.topic, self.sink = topic, sink
         self.block = RowBlock(self.channels, BLOCK_ROWS)
         self.rows = 0  #: rows gathered so far
+        self._ready: list[RowBlock] = []  # full blocks not handed over yet
 
     def add(self, rows: Rows) -> None:
         """Take the rows of one reply (their ``seq``, ``t_ns`` and values).
@@ -68,10 +70,20 @@ class SpecimenRows:
             b.count = i + 1
             self.rows += 1
             if b.count == BLOCK_ROWS:
-                self.flush()
+                self._ready.append(b)
+                self.block = RowBlock(self.channels, BLOCK_ROWS)
+
+    def handover(self) -> None:
+        """Hand the full blocks to the sink (the link calls it when a step's wait for its
+        measurement is over, not in the middle of it: the sink wakes the recorder's thread,
+        which then takes its share of the interpreter lock in the step's idle time)."""
+        for b in self._ready:
+            self.sink(self.topic, b)
+        self._ready.clear()
 
     def flush(self) -> None:
-        """Hand over the rows gathered since the last full block."""
+        """Hand over every row gathered (full blocks, then the rest)."""
+        self.handover()
         if self.block.count:
             self.sink(self.topic, self.block)
             self.block = RowBlock(self.channels, BLOCK_ROWS)

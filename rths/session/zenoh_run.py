@@ -100,9 +100,11 @@ class _SyncLink:
         deadline_ns: Callable[[int], int],
         presence: Presence,
         dt: float,
+        riders: SpecimenRows | None = None,
     ):
         self.client, self.deadline_ns, self.presence = client, deadline_ns, presence
         self.half_step = round(dt * 5e8)
+        self.riders = riders
 
     def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
         client = self.client
@@ -111,6 +113,8 @@ class _SyncLink:
         # catches up instead of missing every one
         deadline = max(self.deadline_ns(seq + 1) - RESERVE_NS, time.monotonic_ns() + self.half_step)
         m = client.exchange(Command(seq, t_ns, command), deadline)
+        if self.riders is not None:
+            self.riders.handover()  # a full block of the specimen's rows, once the wait is over
         if m is None:  # deadline missed: the newest sample we have (or rest before the first)
             m = client.newest
             if m is None:
@@ -299,7 +303,7 @@ def run_over_zenoh(
                     warmed = warm_up(client, scn.run.dt)
                     rec.event(0, "warm-up", warmed.describe(), **warmed.as_dict())
                     link = _SyncLink(
-                        client, lambda k: loop.pacer.deadline_ns(k), presence, scn.run.dt
+                        client, lambda k: loop.pacer.deadline_ns(k), presence, scn.run.dt, riders
                     )
                 else:
                     link = _LockstepLink(client, opts.step_timeout, presence)
@@ -311,7 +315,11 @@ def run_over_zenoh(
                     result = loop.run(on_progress)
                 finally:
                     watcher.finish()
-                    if riders is not None:  # the rows of replies still on their way, then all
+                    if riders is not None:
+                        # the rows gathered first (the specimen's last rows, stepped without a
+                        # reply, come on its side stream as it stops), then the rows of replies
+                        # still on their way
+                        riders.flush()
                         client.drain(time.monotonic_ns() + DRAIN_NS)  # type: ignore[union-attr]
                         riders.flush()
                 if watcher.lost and result.stopped == watcher.reason:
