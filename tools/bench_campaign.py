@@ -4,25 +4,34 @@ would do with a 10,000-run campaign.
 
 Usage::
 
-    python tools/bench_campaign.py [--draws 20] [--workers 1 2] [--tasks 2000]
+    python tools/bench_campaign.py [--draws 20] [--workers 1 2] [--tasks 2000] [--batch N]
                                    [--out runs/bench_campaign] [--json OUT.json]
 
 Steps (each timing is printed with the machine's load average, ``os.getloadavg()``, taken just
 before it: the machine is shared, and a loaded machine slows every figure):
 
-1. **Scheduler overhead per task**: ``--tasks`` no-op tasks through an embedded LocalCluster of
-   each worker count (processes, one thread each), submitted at once; wall time / tasks.
+0. **Background CPU** of an embedded 2-worker cluster with Dask's default settings and with the
+   campaigns' quiet ones (:data:`rths.campaign.cluster.QUIET_CONFIG`): both workers spin a
+   pure-Python loop for a few seconds; the CPU time of this process (scheduler, nannies, client)
+   and of each worker process beyond its spinning thread, per second -- what the cluster's own
+   wake-ups take from the runs.
+1. **Scheduler overhead per task**: ``--tasks`` no-op tasks through an embedded (quiet)
+   LocalCluster of each worker count (processes, one thread each), submitted at once; wall
+   time / tasks.
 2. **Monte Carlo** ``rths run scenarios/benchmark_mc.toml --monte-carlo N --compensator all``
    as a campaign (:func:`rths.analysis.montecarlo.run_draws`) on each worker count, fresh
-   tables: wall time (cluster start-up included), per-run cost (median and mean of the rows'
-   ``wall_s``), the digest of each table (equal digests: bit-identical results), speed-up.
+   tables: wall time (cluster start-up and shut-down included; each printed too), tasks the
+   runs were grouped in (``--batch``: runs per task, default automatic), per-run cost (median
+   and mean of the rows' ``wall_s`` and ``cpu_s``), the digest of each table (equal digests:
+   bit-identical results), speed-up.
 3. **Scale on paper**: a campaign of ``R`` runs on ``W`` workers takes about
-   ``startup + max(R c / W, R o)`` -- ``c`` the per-run cost measured in 2 (the mean CPU time
-   of a run on its worker thread, ``cpu_s``: what a run costs on a core nobody else uses; the
-   wall time on a shared machine is longer), ``o`` the scheduler's
-   overhead per task measured in 1 (the scheduler hands out tasks one at a time, so ``R o``
-   bounds a campaign however many workers it has).  Printed for 10,000 runs on a 100-node
-   cluster of 2-core nodes like this one (200 workers).
+   ``startup + max(R c / W, (R / k) o)`` -- ``c`` the per-run cost measured in 2 (the mean CPU
+   time of a run on its worker thread, ``cpu_s``: what a run costs on a core nobody else uses;
+   the wall time on a shared machine is longer), ``o`` the scheduler's overhead per task
+   measured in 1 (the scheduler hands out tasks one at a time, so ``(R / k) o`` bounds a
+   campaign however many workers it has), ``k`` the runs per task
+   (:func:`rths.campaign.executor.batch_size` for runs of cost ``c``).  Printed for 10,000 runs
+   on a 100-node cluster of 2-core nodes like this one (200 workers).
 """
 
 from __future__ import annotations
@@ -39,6 +48,8 @@ from typing import Any
 from controllers.factory import kinds
 from rths.analysis.montecarlo import run_draws
 from rths.campaign import Cluster, ResultTable
+from rths.campaign.cluster import QUIET_CONFIG, client_for
+from rths.campaign.executor import batch_size
 from rths.config.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -53,21 +64,54 @@ def _noop(x: int) -> int:
     return x
 
 
-def overhead(workers: int, tasks: int) -> dict[str, Any]:
-    """Per-task time of ``tasks`` no-op tasks on an embedded cluster of ``workers`` processes."""
-    from distributed import Client, LocalCluster, wait
+def _spin(seconds: float) -> tuple[str, float]:
+    """Spin a pure-Python loop for ``seconds`` of wall time: the worker and this thread's CPU
+    time [s]."""
+    from distributed import get_worker
+
+    start, end = time.thread_time(), time.perf_counter() + seconds
+    x = 0
+    while time.perf_counter() < end:
+        for i in range(1000):
+            x += i
+    return get_worker().address, time.thread_time() - start
+
+
+def _process_cpu() -> float:
+    return time.process_time()
+
+
+def background(quiet: bool, seconds: float = 8.0) -> dict[str, Any]:
+    """CPU per second of an embedded 2-worker cluster's own wake-ups, both workers spinning."""
+    import dask
+    from distributed import Client, LocalCluster
 
     load = _load()
-    start = time.perf_counter()
     with (
+        dask.config.set(QUIET_CONFIG if quiet else {}),
         LocalCluster(
-            n_workers=workers,
+            n_workers=2,
             threads_per_worker=1,
             dashboard_address=":0",
             silence_logs=logging.CRITICAL,
         ) as cluster,
         Client(cluster) as client,
     ):
+        client.submit(_noop, -1).result()
+        before, own = client.run(_process_cpu), time.process_time()
+        spun = dict(client.gather(client.map(_spin, [seconds, seconds], pure=False)))
+        after, own = client.run(_process_cpu), time.process_time() - own
+    extra = [(after[w] - before[w] - spun.get(w, 0.0)) / seconds for w in before]
+    return {"quiet": quiet, "client_core": own / seconds, "worker_core": extra, "load": load}
+
+
+def overhead(workers: int, tasks: int) -> dict[str, Any]:
+    """Per-task time of ``tasks`` no-op tasks on an embedded cluster of ``workers`` processes."""
+    from distributed import wait
+
+    load = _load()
+    start = time.perf_counter()
+    with client_for(Cluster(workers=workers)) as client:
         startup = time.perf_counter() - start
         client.submit(_noop, -1).result()  # the workers have imported this module
         t0 = time.perf_counter()
@@ -83,7 +127,7 @@ def overhead(workers: int, tasks: int) -> dict[str, Any]:
     }
 
 
-def monte_carlo(draws: int, workers: int, out: Path) -> dict[str, Any]:
+def monte_carlo(draws: int, workers: int, out: Path, batch: int | None) -> dict[str, Any]:
     """The 20-draw Monte Carlo of every compensator on ``workers`` worker processes."""
     scn = load_scenario(ROOT / "scenarios" / "benchmark_mc.toml")
     path = out / f"mc{draws}_w{workers}.parquet"
@@ -99,6 +143,7 @@ def monte_carlo(draws: int, workers: int, out: Path) -> dict[str, Any]:
         progress=False,
         cluster=Cluster(workers=workers),
         table=table,
+        batch=batch,
     )
     wall = time.perf_counter() - start
     costs = [float(r["wall_s"]) for r in result.rows if isinstance(r.get("wall_s"), float)]
@@ -110,6 +155,8 @@ def monte_carlo(draws: int, workers: int, out: Path) -> dict[str, Any]:
         "wall_s": wall,
         "startup_s": result.stats.startup,
         "campaign_wall_s": result.stats.wall,
+        "shutdown_s": result.stats.shutdown,
+        "tasks": result.stats.tasks,
         "per_run_median_s": statistics.median(costs),
         "per_run_mean_s": statistics.fmean(costs),
         "cpu_per_run_median_s": statistics.median(cpus),
@@ -123,7 +170,8 @@ def monte_carlo(draws: int, workers: int, out: Path) -> dict[str, Any]:
 
 def on_paper(runs: int, workers: int, cost: float, per_task: float, startup: float) -> float:
     """Estimated wall time [s] of ``runs`` runs on ``workers`` workers (module docstring)."""
-    return startup + max(runs * cost / workers, runs * per_task)
+    k = batch_size(cost, runs, workers)
+    return startup + max(runs * cost / workers, runs / k * per_task)
 
 
 def main() -> None:
@@ -134,9 +182,20 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=ROOT / "runs" / "bench_campaign")
     parser.add_argument("--json", type=Path, help="write the figures as JSON")
     parser.add_argument("--skip-mc", action="store_true", help="only the scheduler overhead")
+    parser.add_argument("--batch", type=int, help="runs per task (default: automatic)")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
-    doc: dict[str, Any] = {"overhead": [], "monte_carlo": []}
+    doc: dict[str, Any] = {"background": [], "overhead": [], "monte_carlo": []}
+    for quiet in (False, True):
+        b = background(quiet)
+        doc["background"].append(b)
+        print(
+            f"background CPU of a 2-worker cluster, {'quiet' if quiet else 'Dask default'} "
+            f"settings: {b['client_core']:.3f} core in the client process, "
+            + " + ".join(f"{c:.3f}" for c in b["worker_core"])
+            + f" in the workers beside their runs [{b['load']}]",
+            flush=True,
+        )
     for w in args.workers:
         o = overhead(w, args.tasks)
         doc["overhead"].append(o)
@@ -148,12 +207,14 @@ def main() -> None:
         )
     if not args.skip_mc:
         for w in args.workers:
-            m = monte_carlo(args.draws, w, args.out)
+            m = monte_carlo(args.draws, w, args.out, args.batch)
             doc["monte_carlo"].append(m)
             print(
                 f"Monte Carlo {args.draws} draws x {len(kinds())} compensators = {m['runs']} "
-                f"runs, {w} worker(s): {m['wall_s']:.1f} s (cluster start {m['startup_s']:.1f} "
-                f"s); per run {m['per_run_median_s']:.2f} s median, {m['per_run_mean_s']:.2f} s "
+                f"runs in {m['tasks']} tasks, {w} worker(s): {m['wall_s']:.1f} s (cluster start "
+                f"{m['startup_s']:.1f} s, runs {m['campaign_wall_s']:.1f} s, shut-down "
+                f"{m['shutdown_s']:.1f} s); per run {m['per_run_median_s']:.2f} s median, "
+                f"{m['per_run_mean_s']:.2f} s "
                 f"mean wall, {m['cpu_per_run_mean_s']:.2f} s mean CPU; "
                 f"digest {m['digest'][:16]} [{m['load']}]",
                 flush=True,
@@ -173,18 +234,21 @@ def main() -> None:
         startup = max(o["startup_s"] for o in doc["overhead"])
         runs, workers = 10_000, 200
         t = on_paper(runs, workers, cost, per_task, startup)
+        k = batch_size(cost, runs, workers)
         doc["on_paper"] = {
             "runs": runs,
             "workers": workers,
             "per_run_s": cost,
             "per_task_s": per_task,
+            "runs_per_task": k,
             "estimate_s": t,
             "serial_s": runs * cost,
         }
         print(
             f"on paper: {runs} runs x {cost:.2f} s on {workers} workers (100 nodes x 2 cores): "
             f"{t / 60:.1f} min (compute {runs * cost / workers / 60:.1f} min, scheduler "
-            f"{runs * per_task:.0f} s); serially {runs * cost / 3600:.1f} h"
+            f"{runs / k * per_task:.0f} s for {runs // k} tasks of {k} runs); serially "
+            f"{runs * cost / 3600:.1f} h"
         )
     if args.json:
         args.json.write_text(json.dumps(doc, indent=2))

@@ -118,6 +118,7 @@ def run_draws(
     cluster: Cluster | None = None,
     table: str | Path | ResultTable | None = None,
     retry_failed: bool = False,
+    batch: int | None = None,
 ) -> MonteCarloResult:
     """Run ``draws`` perturbed labs for every compensator in ``kinds``.
 
@@ -140,10 +141,12 @@ def run_draws(
         already holds are not run again.  None: in memory only.
     retry_failed
         Run again the runs whose rows say ``status = "error"``.
+    batch
+        Runs per task (None: automatic, :func:`rths.campaign.executor.batch_size`).
     """
     c = campaign(scn, kinds, draws, seed)
     t = table if isinstance(table, ResultTable) else ResultTable(table)
-    stats = execute(c, t, cluster, progress=progress, retry_failed=retry_failed)
+    stats = execute(c, t, cluster, progress=progress, retry_failed=retry_failed, batch=batch)
     rows = t.rows(r.key for r in c.runs)
     j2 = {k: np.full(draws, np.nan) for k in kinds}
     stopped: dict[str, list[str]] = {k: [] for k in kinds}

@@ -1,22 +1,26 @@
 """Execute a campaign as a ``dask.distributed`` task graph and stream its rows into a table.
 
-Every run not yet in the table becomes one task (:func:`attempt` of the campaign's task on the
-run's payload).  Runs are independent, so the graph is flat; results arrive in completion order
-(``as_completed``) and each is added to the :class:`~rths.campaign.table.ResultTable` at once,
-which writes itself every couple of seconds: an interrupted campaign keeps what it finished, and
-the next invocation skips those runs.
+Every run not yet in the table is executed by :func:`attempt` of the campaign's task on the
+run's payload, in a task of one run or -- for short runs -- a few (:func:`attempt_batch`,
+:func:`batch_size`), each run still its own row.  Runs are independent, so the graph is flat;
+tasks are submitted two per worker ahead of the workers, results arrive in completion order
+(``as_completed``) and each row is added to the :class:`~rths.campaign.table.ResultTable` at
+once, which writes itself every couple of seconds: an interrupted campaign keeps what it
+finished, and the next invocation skips those runs.
 
-Where (:class:`Cluster`):
+Where (:class:`~rths.campaign.cluster.Cluster`):
 
 * default -- an embedded ``LocalCluster`` with one single-threaded worker process per core (runs
-  are CPU-bound Python: processes, not threads, use the cores), started and closed here;
+  are CPU-bound Python: processes, not threads, use the cores), quiet
+  (:data:`~rths.campaign.cluster.QUIET_CONFIG`), started and closed here;
 * ``scheduler="tcp://HOST:8786"`` -- an existing cluster (``dask scheduler`` on one host,
   ``dask worker tcp://HOST:8786`` on each node, every node with this package installed).  The
   campaign is the same: payloads carry everything a run needs (the scenario text, not its path),
   so workers need no shared file system.
 
 A run that raises becomes a row with ``status = "error"`` and the exception in ``error``; a
-worker that dies (e.g. killed for memory) fails only the runs it held, also as rows.
+worker that dies (e.g. killed for memory) fails only the run it held, also as a row (the runs of
+a task of several that fails so are run again one task each).
 
 Every run computes with one BLAS/OpenMP thread (:func:`attempt`, threadpoolctl), wherever it
 runs: a multi-threaded BLAS sums a dot product in a thread-count-dependent order (different last
@@ -28,28 +32,27 @@ the same limit here.
 
 from __future__ import annotations
 
-import logging
-import os
-import re
 import sys
 import time
 import uuid
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from collections import deque
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import Any, TypeVar
 
-from rths.campaign.runs import Campaign, Task
+from rths.campaign.cluster import Cluster, client_for, default_workers
+from rths.campaign.runs import Campaign, Run, Task
 from rths.campaign.table import ResultTable, Row
-from rths.core.errors import ConfigError, check_positive_int
-
-if TYPE_CHECKING:
-    from distributed import Client
+from rths.core.errors import check_positive_int
 
 __all__ = [
+    "MAX_BATCH",
+    "TASK_TARGET",
     "CampaignStats",
     "Cluster",
     "attempt",
+    "attempt_batch",
+    "batch_size",
     "client_for",
     "default_workers",
     "execute",
@@ -60,56 +63,13 @@ __all__ = [
 T = TypeVar("T")
 R = TypeVar("R")
 
-_ADDRESS = re.compile(r"^(tcp|tls|ucx|inproc)://[^\s/]+$")
-
-
-def default_workers() -> int:
-    """Cores this process may use (the embedded cluster's default size)."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not Linux
-        return os.cpu_count() or 1
-
-
-@dataclass(frozen=True)
-class Cluster:
-    """Where a campaign runs.
-
-    Parameters
-    ----------
-    scheduler
-        Address of an existing Dask scheduler (``tcp://HOST:8786``); None: an embedded
-        ``LocalCluster``.
-    workers
-        Worker count of the embedded cluster (default: :func:`default_workers`); ignored with a
-        scheduler.
-    processes
-        Embedded workers are processes (True, the default) or threads of this process (False:
-        quick to start, for tests; the GIL then serialises pure-Python runs).
-    connect_timeout
-        How long to wait for a scheduler [s].
-    """
-
-    scheduler: str | None = None
-    workers: int | None = None
-    processes: bool = True
-    connect_timeout: float = 10.0
-
-    def __post_init__(self) -> None:
-        if self.scheduler is not None and not _ADDRESS.match(self.scheduler):
-            raise ConfigError(
-                f"scheduler address must look like tcp://HOST:8786; got {self.scheduler!r}"
-            )
-        if self.workers is not None:
-            check_positive_int(self.workers, "number of workers")
-
-    def describe(self) -> str:
-        """One phrase for messages: ``2 local worker processes`` or the scheduler address."""
-        if self.scheduler:
-            return f"scheduler {self.scheduler}"
-        n = self.workers or default_workers()
-        kind = "processes" if self.processes else "threads"
-        return f"{n} local worker {kind}"
+#: Wall time a task of several runs aims at [s] (:func:`batch_size`): long enough that the
+#: scheduler's cost per task (1.9-3.1 ms measured on an embedded cluster) is a fraction of a
+#: percent, short enough that rows still stream every couple of seconds per worker and an
+#: interruption loses little.
+TASK_TARGET = 2.0
+#: Most runs in one task.
+MAX_BATCH = 16
 
 
 @dataclass
@@ -136,6 +96,10 @@ class CampaignStats:
         Sum of the runs' own wall times [s] (``wall_s``).
     cpu
         Sum of the runs' CPU times [s] (``cpu_s``).
+    tasks
+        Tasks the runs were grouped in (:func:`batch_size`).
+    shutdown
+        Time to close the embedded cluster (or the client) after the last row [s].
     """
 
     total: int = 0
@@ -147,6 +111,8 @@ class CampaignStats:
     wall: float = 0.0
     busy: float = 0.0
     cpu: float = 0.0
+    tasks: int = 0
+    shutdown: float = 0.0
 
     @property
     def overhead_per_run(self) -> float:
@@ -207,36 +173,37 @@ def _worker() -> str:
         return "local"
 
 
-@contextmanager
-def client_for(cluster: Cluster) -> Iterator[Client]:
-    """A Dask client (an embedded cluster is started and closed with it).
+def batch_size(mean_run: float | None, remaining: int, workers: int) -> int:
+    """Runs per task: as many as fill :data:`TASK_TARGET` seconds at the mean run time so far
+    (at most :data:`MAX_BATCH`), but at most ``remaining / (2 workers)`` so that the campaign
+    ends on single runs (no worker waits on another's long batch); 1 until a run has finished.
 
     Parameters
     ----------
-    cluster
-        Where: a scheduler address or the embedded cluster's size and kind.
+    mean_run
+        Mean wall time of the runs finished so far [s]; None: none yet.
+    remaining
+        Runs not yet submitted.
+    workers
+        Worker threads of the cluster.
     """
-    from distributed import Client, LocalCluster
+    if mean_run is None or remaining <= 0:
+        return 1
+    by_cost = int(TASK_TARGET / mean_run) if mean_run > 0 else MAX_BATCH
+    return max(1, min(MAX_BATCH, by_cost, remaining // (2 * max(workers, 1))))
 
-    if cluster.scheduler is not None:
-        try:
-            client = Client(cluster.scheduler, timeout=cluster.connect_timeout)
-        except (OSError, TimeoutError) as exc:
-            raise ConfigError(
-                f"cannot reach the Dask scheduler at {cluster.scheduler}: {exc}"
-            ) from None
-        with client:
-            yield client
-        return
-    local = LocalCluster(
-        n_workers=cluster.workers or default_workers(),
-        threads_per_worker=1,
-        processes=cluster.processes,
-        dashboard_address=":0",  # any free port: never collides with another cluster's 8787
-        silence_logs=logging.CRITICAL,
-    )
-    with local, Client(local) as client:
-        yield client
+
+def attempt_batch(task: Task, payloads: Sequence[Any]) -> list[Row]:
+    """:func:`attempt` of each payload in turn, on one worker (one task of the graph).
+
+    Parameters
+    ----------
+    task
+        The campaign's task.
+    payloads
+        The batch's payloads.
+    """
+    return [attempt(task, payload) for payload in payloads]
 
 
 def execute(
@@ -247,8 +214,13 @@ def execute(
     progress: bool = True,
     retry_failed: bool = False,
     on_row: Callable[[Row], None] | None = None,
+    batch: int | None = None,
 ) -> CampaignStats:
     """Run every run of ``campaign`` whose key ``table`` does not hold; rows go into ``table``.
+
+    Runs are submitted a few tasks ahead of the workers (two per worker thread), so the
+    scheduler always has the next one at hand; a task holds :func:`batch_size` runs (short runs
+    share a task, which pays the scheduler's per-task cost once), each with its own row.
 
     Parameters
     ----------
@@ -264,18 +236,22 @@ def execute(
         Run again the runs whose rows say ``status = "error"``.
     on_row
         Called with each new row, in completion order.
+    batch
+        Runs per task, fixed (1: one task per run); None: :func:`batch_size`.
     """
     where = cluster or Cluster()
     stats = CampaignStats(total=len(campaign))
     if retry_failed:
         rows = table.rows([run.key for run in campaign.runs])
         table.discard(str(row["run"]) for row in rows if row.get("status") == "error")
-    pending = [(i, r) for i, r in enumerate(campaign.runs) if r.key not in table]
+    pending = deque((i, r) for i, r in enumerate(campaign.runs) if r.key not in table)
     stats.skipped = stats.total - len(pending)
     table.reindex({r.key: i for i, r in enumerate(campaign.runs) if r.key in table})
     if not pending:
         table.flush()
         return stats
+    if batch is not None:
+        check_positive_int(batch, "runs per task")
     from distributed import as_completed
     from tqdm import tqdm
 
@@ -294,39 +270,73 @@ def execute(
             stats.workers = sum(client.nthreads().values())
             stats.startup = time.perf_counter() - start
             token = uuid.uuid4().hex[:8]
-            futures = {
-                client.submit(
-                    attempt, campaign.task, run.payload, key=f"run-{run.key}-{token}", pure=False
-                ): (i, run)
-                for i, run in pending
-            }
+            held: dict[Any, list[tuple[int, Run]]] = {}  # future -> its runs
+            alone: deque[tuple[int, Run]] = deque()
+            done = as_completed()
+
+            def submit() -> None:
+                if alone:  # runs of a task whose worker died: one task each, to find the culprit
+                    runs = [alone.popleft()]
+                else:
+                    mean = stats.busy / stats.ran if stats.ran else None
+                    n = batch or batch_size(mean, len(pending), stats.workers)
+                    runs = [pending.popleft() for _ in range(min(n, len(pending)))]
+                payloads = [run.payload for _, run in runs]
+                key = f"runs-{runs[0][1].key}-{len(runs)}-{token}"
+                future = client.submit(attempt_batch, campaign.task, payloads, key=key, pure=False)
+                held[future] = runs
+                done.add(future)
+
+            ahead, counted = 2 * max(stats.workers, 1), time.perf_counter()
+            while (pending or alone) and len(held) < ahead:
+                submit()
             t0 = time.perf_counter()
             try:
-                for future in as_completed(futures):
-                    i, run = futures[future]
+                for future in done:
+                    runs = held.pop(future)
                     try:
-                        part: Row = future.result()
-                    except Exception as exc:  # e.g. KilledWorker: a row
-                        part = {"status": "error", "error": f"{type(exc).__name__}: {exc}"}
-                    row: Row = {"run": run.key, "index": i, **run.inputs, **part}
-                    table.add(row)
-                    stats.ran += 1
-                    stats.failed += row.get("status") == "error"
-                    wall = part.get("wall_s")
-                    stats.busy += wall if isinstance(wall, float) else 0.0
-                    cpu = part.get("cpu_s")
-                    stats.cpu += cpu if isinstance(cpu, float) else 0.0
-                    bar.update()
-                    if stats.failed:
-                        bar.set_postfix_str(f"{stats.failed} failed")
-                    if on_row is not None:
-                        on_row(row)
+                        parts: list[Row] = future.result()
+                    except Exception as exc:  # e.g. KilledWorker: a row per run it held
+                        if len(runs) > 1:  # which run killed it? each again on its own
+                            alone.extend(runs)
+                            parts, runs = [], []
+                        else:
+                            parts = [{"status": "error", "error": f"{type(exc).__name__}: {exc}"}]
+                    for (i, run), part in zip(runs, parts, strict=True):
+                        row: Row = {"run": run.key, "index": i, **run.inputs, **part}
+                        _record(stats, table, row)
+                        bar.update()
+                        if stats.failed:
+                            bar.set_postfix_str(f"{stats.failed} failed")
+                        if on_row is not None:
+                            on_row(row)
+                    if time.perf_counter() - counted > 2.0:  # workers may join or leave
+                        ahead, counted = (
+                            2 * max(sum(client.nthreads().values()), 1),
+                            time.perf_counter(),
+                        )
+                    while (pending or alone) and len(held) < ahead:
+                        submit()
+                    stats.tasks += 1
             finally:  # closing the client releases what is still queued (e.g. on Ctrl-C)
                 stats.wall = time.perf_counter() - t0
+            closing = time.perf_counter()
+        stats.shutdown = time.perf_counter() - closing
     finally:
         bar.close()
         table.flush()
     return stats
+
+
+def _record(stats: CampaignStats, table: ResultTable, row: Row) -> None:
+    """Add ``row`` to ``table`` and count it in ``stats``."""
+    table.add(row)
+    stats.ran += 1
+    stats.failed += row.get("status") == "error"
+    wall = row.get("wall_s")
+    stats.busy += wall if isinstance(wall, float) else 0.0
+    cpu = row.get("cpu_s")
+    stats.cpu += cpu if isinstance(cpu, float) else 0.0
 
 
 def map_tasks(
