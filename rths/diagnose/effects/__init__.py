@@ -146,7 +146,7 @@ def baseline_for(channel: str) -> Model:
     return ComplianceModel() if channel == "displacement" else RigidSpecimen()
 
 
-def calibration_for(channel: str) -> RootwiseActuator | None:
+def calibration_for(channel: str, effects: tuple[str, ...] = ()) -> RootwiseActuator | None:
     """The channel's finer re-calibration of NOMINAL.toml's own parameters that tells model form
     from an unexplained gap (:mod:`rths.diagnose.effects.calibration`), or None.
 
@@ -154,8 +154,10 @@ def calibration_for(channel: str) -> RootwiseActuator | None:
     ----------
     channel
         ``"measured"``, ``"force"`` or ``"displacement"``.
+    effects
+        Effects the calibrated model holds besides (default none).
     """
-    return RootwiseActuator() if channel == "measured" else None
+    return RootwiseActuator(effects) if channel == "measured" else None
 
 
 def models_for(channel: str, effects: tuple[str, ...]) -> list[Model]:

@@ -87,12 +87,21 @@ def rootwise_tf(
 
 
 class RootwiseActuator(ActuatorModel):
-    """The baseline with every root calibrated on its own (module docstring); no effect."""
+    """The baseline with every root calibrated on its own (module docstring), optionally with
+    the actuator's effects (:class:`rths.diagnose.effects.actuator.ActuatorModel`): a delay
+    or a rate limit is then judged against the nominal's own parameters calibrated as
+    finely as the contract allows, not only against their common factors.
+
+    Parameters
+    ----------
+    effects
+        Actuator effects the model holds besides the root-by-root calibration (default none).
+    """
 
     structure = "rootwise"
 
-    def __init__(self) -> None:
-        super().__init__(())
+    def __init__(self, effects: tuple[str, ...] = ()) -> None:
+        super().__init__(effects)
 
     def space(self, channel: Channel) -> list[Param]:
         a = channel.nominal.actuator
@@ -105,6 +114,9 @@ class RootwiseActuator(ActuatorModel):
             out.append(Param(f"pole_{i}", _LO, _HI, log=False, start=f0))
             if q.imag > 0.0:
                 out.append(Param(f"damping_{i}", _LO, _HI, log=False, start=d0))
+        if self.delay or self.limit:  # the effects' own parameters (and a delay's shift range)
+            scales = ("frequency_scale", "damping_scale")
+            return out + [p for p in super().space(channel) if p.name not in scales]
         start = float(np.clip(self._base.get("alignment", 0.0) / channel.dt, -1.0, 1.0))
         out.append(Param("shift", -1.0, 1.0, log=False, start=start))
         return out

@@ -347,6 +347,107 @@ def _best(fits: list[Fit], channel: Channel | None = None) -> Fit:
     return min(fits, key=lambda f: f.ident_mse)
 
 
+#: Effects a finer calibration of the nominal's own parameters can mimic in part (a pole's
+#: lag: up to the tolerance's share of its group delay), so that the common re-calibration
+#: can hide them (:func:`_finer`).
+HIDDEN_BY_CALIBRATION: tuple[str, ...] = ("actuator_delay",)
+
+
+def _finer(
+    channel: Channel,
+    fitter,
+    base: Fit,
+    current: Fit,
+    chosen: tuple[str, ...],
+    gap: tuple[float, float],
+    effects: tuple[str, ...],
+    seed: int,
+    price: float,
+) -> tuple[Candidate | None, bool] | None:
+    """The channel's effects judged against its finer calibration of the nominal's own
+    parameters (:func:`rths.diagnose.effects.calibration_for`: the actuator's TF calibrated
+    root by root within the tolerance) instead of the common re-calibration's factors.
+
+    A nominal mis-calibrated differently at every root leaves a gap the common factors cannot
+    follow, which is no effect; and the common factors at their bound absorb part of a
+    delay's lag (a slower pole), leaving a gap under one sample of the motion or an effect
+    that closes less than :data:`MIN_CLOSED`.  A delay is a phase lag growing with frequency
+    at unit magnitude, a pole's lag saturates and costs magnitude: with every root free within
+    the tolerance the two separate.  The set (the selected effects; when none was selected,
+    each of :data:`HIDDEN_BY_CALIBRATION` among ``effects``) is identified again together
+    with the finer calibration, warm-started from the common fit (every root at the common
+    factors: the finer model holds it) and from the finer calibration alone.
+
+    Returns None when the channel has no finer calibration; else ``(candidate, model_form)``:
+    the candidate (accepted) when the set with the finer calibration is physical, closes
+    :data:`MIN_CLOSED` of the gap and buys its parameters against the finer calibration alone
+    (``price`` per parameter of the gap it leaves; an effect the common factors did not
+    select must close :data:`MIN_CLOSED` of it), else None; ``model_form`` when the finer
+    calibration alone closes :data:`MIN_CLOSED` of the gap without leaning on the tolerance
+    in the lagging direction (a pole at -10 %: a hidden delay).
+
+    Parameters
+    ----------
+    channel, fitter, base
+        The channel, its fitter and the common re-calibration's fit.
+    current, chosen
+        The selected set's fit and its effects.
+    gap
+        ``(J_0 - N_0, N_0)``: the reducible gap and the baseline's floor.
+    effects
+        The candidate effects of the diagnosis.
+    seed, price
+        As for :func:`select`.
+    """
+    alone = calibration_for(channel.name)
+    if alone is None:
+        return None
+    excess0, n0 = gap
+    cal0 = fitter(alone, channel, base.baseline)
+    model_form = excess0 - (cal0.held_mse - n0) >= MIN_CLOSED * excess0 and not alone.lagging(
+        channel, cal0.theta
+    )
+    left0 = max(cal0.held_mse - noise_floor(cal0, channel, seed), 1e-300)
+    sets = [chosen] if chosen else [(e,) for e in HIDDEN_BY_CALIBRATION if e in effects]
+    best: Candidate | None = None
+    for effect_set in sets:
+        check = calibration_for(channel.name, effect_set)
+        assert check is not None
+        check.prepare(channel, base.baseline)
+        roots = [p.name for p in check.space(channel) if p.name.split("_")[0] in _ROOTS]
+        common = {
+            r: current.theta.get(
+                "damping_scale" if r.startswith("damping") else "frequency_scale", 1.0
+            )
+            for r in roots
+        }
+        own = {
+            k: v for k, v in current.theta.items() if k not in ("frequency_scale", "damping_scale")
+        }
+        starts = [
+            {**common, **own},
+            {**cal0.theta, **{k: v for k, v in own.items() if k != "shift"}},
+        ]
+        if chosen and "actuator_delay" in chosen:
+            starts.append({**cal0.theta, **own})
+        fit = fitter(check, channel, base.baseline, starts)
+        if not fit.model.physical(channel, fit.params):
+            continue
+        floor = noise_floor(fit, channel, seed)
+        closed = (excess0 - (fit.held_mse - floor)) / excess0
+        gain = (left0 - (fit.held_mse - floor)) / left0
+        need = price * sum(EFFECTS[e].n_params for e in effect_set)
+        if not chosen:
+            need = max(need, MIN_CLOSED)
+        if closed >= MIN_CLOSED and gain >= need and (best is None or closed > best.closed):
+            best = Candidate(fit, floor, closed, gain, True, True)
+    return best, model_form
+
+
+#: Name prefixes of the finer calibration's root factors.
+_ROOTS: tuple[str, ...] = ("zero", "pole", "damping")
+
+
 def select(
     channel: Channel,
     effects: tuple[str, ...],
@@ -463,15 +564,25 @@ def select(
     closed = (excess0 - (current.held_mse - current_floor)) / excess0
     verdict = chosen[0] if chosen and closed >= MIN_CLOSED else "unexplained"
     resolution = base.model.resolution(channel, base.prediction)
-    if not chosen and excess0 <= resolution:
+    finer = _finer(channel, fitter, base, current, chosen, (excess0, n0), effects, seed, price)
+    if finer is not None:  # the nominal's own parameters, calibrated root by root
+        cand, model_form = finer
+        if cand is not None or (chosen and model_form):  # the common set is replaced
+            for i, c in enumerate(candidates):
+                if c.accepted:
+                    candidates[i] = Candidate(c.fit, c.floor, c.closed, c.gain, False, True)
+        if cand is not None:  # the effects hold on the finer calibration: named
+            candidates.append(cand)
+            current, current_floor, closed = cand.fit, cand.floor, cand.closed
+            chosen = cand.fit.effects
+            verdict = chosen[0]
+        elif chosen and model_form:  # the finer calibration alone closes it: no effect
+            chosen, current, current_floor, closed = (), base, n0, 0.0
+            verdict = "none"
+        elif not chosen and (excess0 <= resolution or model_form):
+            verdict = "none"  # the model-form allowance (module docstring)
+    elif not chosen and excess0 <= resolution:
         verdict = "none"  # the model-form allowance (module docstring)
-    elif not chosen and verdict == "unexplained":
-        check = calibration_for(channel.name)
-        if check is not None:  # the nominal's own parameters, calibrated root by root
-            cal = fitter(check, channel, base.baseline)
-            closes = excess0 - (cal.held_mse - n0) >= MIN_CLOSED * excess0
-            if closes and not check.lagging(channel, cal.theta):
-                verdict = "none"
     candidates.sort(key=lambda c: (not c.accepted, -c.closed))
     return ChannelResult(
         channel, base, n0, dec, candidates, chosen, current, closed, verdict, resolution
