@@ -261,9 +261,7 @@ def _two_mode_channel(delay_samples: int, seed: int) -> Channel:
         y = np.concatenate([np.zeros(delay_samples), y[: n - delay_samples]])
         obs.append(y + 1e-6 * rng.standard_normal(n))
     ch = _channel(obs, cmds)
-    ch.nominal = NominalModel(
-        ActuatorNominal(tuple(num0), tuple(den0), 0.0), SpecimenNominal(0.0)
-    )
+    ch.nominal = NominalModel(ActuatorNominal(tuple(num0), tuple(den0), 0.0), SpecimenNominal(0.0))
     ch.noise["measured"] = 1e-6
     for s in ch.segments:  # second half of every record held out
         s.held[n // 2 : n - 50] = True
@@ -294,3 +292,19 @@ def test_root_by_root_miscalibration_alone_is_no_delay():
     r = select(ch, ("actuator_delay", "rate_limit"))
     assert r.verdict == "none"
     assert "actuator_delay" not in r.effects
+
+
+def test_absorbed_lag_is_the_group_delay_the_calibration_adds():
+    # closed form: w/(s + w) has the low-frequency group delay 1/w; its pole 10 % slower has
+    # 1/(0.9 w); the alignment adds itself.  A pair w^2/(s^2 + 2 z w s + w^2): 2 z/w, and
+    # with the factors f (frequency) and d (damping): 2 d z/(f w)
+    from rths.diagnose.effects.calibration import absorbed_lag
+
+    assert absorbed_lag((W,), (1.0, W), {"frequency_scale": 0.9}) == pytest.approx(
+        1.0 / (0.9 * W) - 1.0 / W, rel=1e-9
+    )
+    assert absorbed_lag((W,), (1.0, W), {"alignment": 1e-3}) == pytest.approx(1e-3, rel=1e-9)
+    w, z = 2 * math.pi * 30.0, 0.6
+    pair = ((w * w,), (1.0, 2 * z * w, w * w))
+    lag = absorbed_lag(*pair, {"frequency_scale": 1.05, "damping_scale": 0.95})
+    assert lag == pytest.approx(2 * 0.95 * z / (1.05 * w) - 2 * z / w, rel=1e-9)

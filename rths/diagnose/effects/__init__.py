@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 from rths.core.errors import ParameterError
 from rths.diagnose.effects.actuator import ActuatorModel
-from rths.diagnose.effects.calibration import RootwiseActuator
+from rths.diagnose.effects.calibration import RootwiseActuator, absorbed_lag
 from rths.diagnose.effects.chain import SeriesChain
 from rths.diagnose.effects.compliance import ComplianceModel
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
@@ -61,6 +61,7 @@ __all__ = [
     "RootwiseActuator",
     "SeriesChain",
     "Theta",
+    "absorbed_lag",
     "baseline_for",
     "calibration_for",
     "compatible",
