@@ -14,7 +14,7 @@ from mcap.reader import make_reader
 from rths.core.channels import Channel, RowBlock, json_schema
 from rths.core.errors import DataError, ParameterError
 from rths.log.recorder import Recorder
-from rths.wire.codec import pack_block, unpack_block
+from rths.wire.codec import pack_block, pack_frames, unpack_block
 
 CHANNELS = (
     Channel("t", "s", "time"),
@@ -43,6 +43,26 @@ def test_block_frame_round_trips_bit_for_bit():
     for bad in (b"", b"RTHSBLK1" + b"\xff" * 8, pack_block(b)[:-1]):
         with pytest.raises(DataError, match="row block frame is malformed"):
             unpack_block(bad)
+
+
+@pytest.mark.parametrize("limit", [10**6, 1500, 400, 1])
+def test_a_block_split_into_frames_keeps_every_row_in_order_and_each_under_the_limit(limit):
+    """The frames of a block that does not fit one batch of zenoh's low-latency transport (which
+    drops a larger message silently): each within the limit (a single row may exceed a limit
+    smaller than itself), together the block's rows, bit for bit and in order."""
+    b = _block(100)
+    frames = pack_frames(b, limit)
+    parts = [unpack_block(f) for f in frames]
+    if limit >= len(pack_block(b)):
+        assert frames == [pack_block(b)]  # fits: sent as it was
+    elif limit == 1:
+        assert [p.count for p in parts] == [1] * 100  # no row fits: one per frame
+    else:
+        assert len(frames) > 1 and all(len(f) <= limit for f in frames)
+    np.testing.assert_array_equal(np.concatenate([p.values for p in parts]), b.values[:100])
+    np.testing.assert_array_equal(np.concatenate([p.seq for p in parts]), b.seq[:100])
+    np.testing.assert_array_equal(np.concatenate([p.t_ns for p in parts]), b.t_ns[:100])
+    assert all(p.channels == CHANNELS for p in parts)
 
 
 def test_recorder_writes_one_exact_json_message_per_row(tmp_path):

@@ -61,9 +61,16 @@ def test_fast_run_log_is_readable_without_project_code(fast_log):
     assert float(meta["rths.summary"]["j2"]) == pytest.approx(j2, rel=1e-12)
 
 
-def test_lockstep_over_zenoh_reproduces_the_fast_clock_exactly(fast_log, tmp_path):
+@pytest.mark.parametrize("lowlatency", [False, True], ids=["default", "lowlatency"])
+def test_lockstep_over_zenoh_reproduces_the_fast_clock_exactly(
+    fast_log, tmp_path, monkeypatch, lowlatency
+):
     """Lockstep is deterministic: the specimen process runs the same lab, seeded the same, one
-    step per command; the loop records must equal the in-process run's bit for bit."""
+    step per command; the loop records must equal the in-process run's bit for bit -- also on
+    zenoh's low-latency transport (``RTHS_ZENOH_LOWLATENCY=1``, inherited by the specimen),
+    where every message must fit one batch (the link warm-up frame did not, once)."""
+    if lowlatency:
+        monkeypatch.setenv("RTHS_ZENOH_LOWLATENCY", "1")
     scn_path = tmp_path / "s.toml"
     scn_path.write_text(short(1.5))
     out = tmp_path / "lock.mcap"

@@ -87,6 +87,10 @@ def test_a_stop_signal_stops_a_realtime_run_with_a_ramp_down(sig, tmp_path):
     assert int(summary["steps"]) == facts.counts["rths/loop"] >= 256
     spec = facts.specimen_summary
     assert spec["ramp_down_steps"] >= 1 and spec["stop_reason"], spec
+    # the round trip was warmed with probes before step 0; they moved nothing
+    warm = [e for e in facts.events if e.get("kind") == "warm-up"]
+    assert len(warm) == 1 and warm[0]["probes"] >= 1, facts.events
+    assert spec["probes_answered"] >= 1 and spec["steps"] == facts.counts["rths/specimen"], spec
     limit = 0.5 / RT_RATE  # [loop] max_velocity (default 0.5 m/s) * dt
     assert spec["largest_command_step"] <= limit * (1 + 1e-9), spec
     assert processes_of(run.run_id) == []

@@ -4,7 +4,9 @@ It builds the lab from the scenario file (the same file the coordinator reads), 
 secret (from its standard input when ``rths run`` starts it), connects to the coordinator,
 announces readiness and then answers every command with one lab step, at once -- in ``lockstep``
 (deterministic) and in ``realtime`` alike, where the coordinator waits for the answer until the
-step's deadline.  Messages that do not carry the run's check are dropped and counted.
+step's deadline.  A probe (:meth:`rths.wire.codec.Command.probe`, the ``realtime`` clock's
+warm-up before step 0) is answered at once without stepping the lab.  Messages that do not carry
+the run's check are dropped and counted.
 Commands are read from a FIFO channel on the serving thread, not answered inside zenoh's
 callback (:class:`rths.wire.transport.CallbackServer`): that saved ~25 µs p50 per round trip
 but publishes while holding the interpreter lock on zenoh's thread, and one lockstep run at load
@@ -197,6 +199,7 @@ class _Server:
         self.opener: Any = None
         self.refused = 0
         self.late_commands = 0
+        self.probes = 0  # warm-up probes answered (rths.wire.codec.Command.probe)
         self.tripped_ns = 0  # monotonic clock when the serving loop ended (trip or stop)
         self.safe_ns = 0  # monotonic clock when the actuator was back at rest
 
@@ -252,13 +255,18 @@ class _Server:
                     return
                 continue
             # a backlog (this process was held up): step through every queued command, answer
-            # only the newest (the coordinator has dropped the older ones)
+            # only the newest (the coordinator has dropped the older ones); probes move nothing
             while (newer := link.pending()) is not None:
-                self._step(command, reply=None)
-                self.late_commands += 1
+                if not command.is_probe:
+                    self._step(command, reply=None)
+                    self.late_commands += 1
                 command = newer
             if presence.stop.is_set():
                 break  # its reason is recorded below
+            if command.is_probe:  # the coordinator warming the round trip: answer, move nothing
+                link.reply(Measurement(command.seq, command.t_ns, 0.0, 0.0, time.monotonic_ns()))
+                self.probes += 1
+                continue
             self._step(command, reply=link)
             last_seq = command.seq
             if guard.tripped:
@@ -305,6 +313,7 @@ class _Server:
             "stop_reason": self.stop_reason,
             "ramp_down_steps": self.ramp_steps,
             "late_commands": self.late_commands,
+            "probes_answered": self.probes,
             "gc_collections_in_loop": self.quiet.collections,
             "gc_longest_s": self.quiet.longest,
             "cpu_latency": self.latency.describe(),

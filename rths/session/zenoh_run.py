@@ -10,6 +10,8 @@ zero (its :class:`rths.runtime.guard.CommandGuard`).
 
 ``realtime`` is synchronous: command ``k`` goes out, the specimen steps once and answers at once,
 and the loop waits for that answer until the step's deadline (:class:`rths.wire.links.SyncClient`).
+Before step 0 the round trip is warmed with probes that move nothing
+(:mod:`rths.session.warm_up`; a ``warm-up`` event in the log says what it saw).
 
 The spawned specimen reads the secret and then the scenario text from its stdin (no file is left
 behind on any path) and runs in its own session, so a Ctrl-C in the terminal reaches the
@@ -37,6 +39,7 @@ from rths.config.scenario import Scenario
 from rths.core.errors import ConfigError, RTHSError, TransportError
 from rths.log.recorder import Recorder
 from rths.runtime.loop import LinkSample, Loop, LoopResult
+from rths.session.warm_up import warm_up
 from rths.wire.auth import RunSecret, read_secret, write_secret_file
 from rths.wire.codec import Command
 from rths.wire.transport import (
@@ -279,6 +282,8 @@ def run_over_zenoh(
                 _wait_for_specimen(presence, [client.publisher], opts.ready_timeout, process)
                 link: Any
                 if isinstance(client, SyncClient):
+                    warmed = warm_up(client, scn.run.dt)
+                    rec.event(0, "warm-up", warmed.describe(), **warmed.as_dict())
                     link = _SyncLink(
                         client, lambda k: loop.pacer.deadline_ns(k), presence, scn.run.dt
                     )

@@ -13,6 +13,12 @@ alone.  Layouts (byte offsets)::
 dt``); ``sample_ns`` is the specimen's monotonic clock [ns] when it sampled the measurement, so the
 realtime clock can tell how old the newest sample is.
 
+A command whose ``t_ns`` is :data:`PROBE_T_NS` (negative: no step ends before time zero) is a
+*probe*: the specimen answers it at once with a measurement carrying the same ``seq`` and
+``t_ns`` and zero values, and does not step the lab -- the actuator never sees it.  The
+``realtime`` clock warms the round trip with probes before step 0
+(:mod:`rths.session.warm_up`).
+
 :class:`LogRecord` is the (slower, self-describing) JSON record another process publishes on
 ``rths/<run>/log/<name>`` for the coordinator's recorder, e.g. the specimen's summary.  A block of
 per-step rows (:class:`rths.core.channels.RowBlock`, e.g. the emulated lab's truth) travels as one
@@ -33,7 +39,19 @@ import numpy as np
 from rths.core.channels import Channel, RowBlock
 from rths.core.errors import DataError, ParameterError
 
-__all__ = ["BLOCK_MAGIC", "Command", "LogRecord", "Measurement", "pack_block", "unpack_block"]
+__all__ = [
+    "BLOCK_MAGIC",
+    "PROBE_T_NS",
+    "Command",
+    "LogRecord",
+    "Measurement",
+    "pack_block",
+    "pack_frames",
+    "unpack_block",
+]
+
+#: ``t_ns`` of a probe (see the module docstring): a round trip that moves nothing.
+PROBE_T_NS = -1
 
 _COMMAND = struct.Struct("<Qqd")
 _MEASUREMENT = struct.Struct("<Qqddq")
@@ -69,6 +87,22 @@ class Command:
     seq: int
     t_ns: int
     command: float
+
+    @classmethod
+    def probe(cls, seq: int) -> Command:
+        """A probe with step number ``seq`` (see the module docstring).
+
+        Parameters
+        ----------
+        seq
+            Its number (>= 0), echoed in the answer.
+        """
+        return cls(seq, PROBE_T_NS, 0.0)
+
+    @property
+    def is_probe(self) -> bool:
+        """Whether this is a probe (negative ``t_ns``), not a step's command."""
+        return self.t_ns < 0
 
     def pack(self) -> bytes:
         """Encode as the 24-byte little-endian record described in the module docstring.
@@ -123,6 +157,11 @@ class Measurement:
     displacement: float
     force: float
     sample_ns: int
+
+    @property
+    def is_probe(self) -> bool:
+        """Whether this answers a probe (negative ``t_ns``): it carries no measurement."""
+        return self.t_ns < 0
 
     def pack(self) -> bytes:
         """Encode as the 40-byte little-endian record described in the module docstring.
@@ -255,6 +294,36 @@ def pack_block(block: RowBlock) -> bytes:
             np.ascontiguousarray(block.values[:n], dtype="<f8").tobytes(),
         )
     )
+
+
+def pack_frames(block: RowBlock, max_bytes: int) -> list[bytes]:
+    """The filled rows of ``block`` as :func:`pack_block` frames of at most ``max_bytes`` each
+    (consecutive rows; one row per frame if a row alone is larger).  Each frame is a block of
+    its own, with its rows' ``seq`` and ``t_ns``, so a receiver needs no reassembly.
+
+    Parameters
+    ----------
+    block
+        The rows.
+    max_bytes
+        Largest frame [bytes], > 0 (e.g. what one batch of zenoh's low-latency transport holds).
+    """
+    n = block.count
+    whole = pack_block(block)
+    if len(whole) <= max_bytes or n <= 1:
+        return [whole]
+    row_bytes = 16 + 8 * len(block.channels)
+    rows = max(1, (max_bytes - (len(whole) - n * row_bytes)) // row_bytes)
+    frames = []
+    for start in range(0, n, rows):
+        stop = min(start + rows, n)
+        part = RowBlock(block.channels, stop - start)
+        part.seq[:] = block.seq[start:stop]
+        part.t_ns[:] = block.t_ns[start:stop]
+        part.values[:] = block.values[start:stop]
+        part.count = stop - start
+        frames.append(pack_block(part))
+    return frames
 
 
 def unpack_block(data: bytes | bytearray | memoryview) -> RowBlock:

@@ -452,6 +452,9 @@ class SyncClient:
             if m is None:
                 self.dropped += 1
                 continue
+            if m.is_probe:  # a warm-up probe answered after its deadline: no measurement
+                self.late += 1
+                continue
             if self.newest is None or m.seq > self.newest.seq:
                 self.newest = m
             if m.seq == seq:
@@ -463,6 +466,35 @@ class SyncClient:
                     f"measurement seq={m.seq} is ahead of the command seq={seq}: specimen out "
                     "of step"
                 )
+
+    def probe(self, seq: int, deadline_ns: int) -> bool:
+        """Send probe ``seq`` (:meth:`rths.wire.codec.Command.probe`: the specimen answers at
+        once and moves nothing); wait until ``deadline_ns`` for its answer.
+
+        Parameters
+        ----------
+        seq
+            The probe's number (>= 0); answers to earlier probes are counted late and skipped.
+        deadline_ns
+            Until when to wait, on the client's clock [ns].
+
+        Returns
+        -------
+        bool
+            Whether the answer came in time.
+        """
+        self.send(Command.probe(seq))
+        while True:
+            raw = self._get(deadline_ns)
+            if raw is None:
+                return False
+            m = self._decode(raw)
+            if m is None:
+                self.dropped += 1
+            elif m.is_probe and m.seq == seq:
+                return True
+            else:  # an earlier probe's answer (no step has been sent yet)
+                self.late += 1
 
     def _get(self, deadline_ns: int) -> bytes | None:
         clock = self._clock

@@ -19,9 +19,11 @@ from rths.wire.keys import ROLES, Role
 
 __all__ = ["ROLES", "WARMUP_BYTES", "Presence", "Role", "wait_matched"]
 
-#: Size [bytes] of the warm-up frame each side sends once the handshake is done (just under
-#: zenoh's 64 KiB batch, so it also fits the low-latency transport).
-WARMUP_BYTES = 60_000
+#: Size [bytes] of the warm-up frame each side sends once the handshake is done.  It must fit
+#: one batch of the low-latency transport (``RTHS_ZENOH_LOWLATENCY=1``): 48 000 bytes do, 56 000
+#: and the 60 000 used before did not (the frame never arrived and every such run failed its
+#: handshake); still far above the 13 kB frame that stalled a session the first time.
+WARMUP_BYTES = 48_000
 
 
 def wait_matched(publisher: zenoh.Publisher, timeout: float | None) -> bool:

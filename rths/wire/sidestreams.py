@@ -13,8 +13,14 @@ import zenoh
 from rths.core.channels import RowBlock
 from rths.core.errors import DataError
 from rths.wire.auth import Opener, RunSecret
-from rths.wire.codec import BLOCK_MAGIC, LogRecord, pack_block, unpack_block
+from rths.wire.codec import BLOCK_MAGIC, LogRecord, pack_frames, unpack_block
 from rths.wire.keys import RunKeys
+
+#: Largest frame of rows [bytes] a side stream sends: a larger block goes out in several frames
+#: (:func:`rths.wire.codec.pack_frames`).  Zenoh's low-latency transport drops a message larger
+#: than one batch without a word (48 000 bytes passed, 56 000 did not); the loop's 256-row live
+#: copy is 92 kB.
+MAX_FRAME_BYTES = 32_000
 
 __all__ = ["BackgroundPublisher", "BlockPublisher", "LogBridge", "LogPublisher", "RecordSink"]
 
@@ -143,15 +149,21 @@ class BackgroundPublisher:
                     return
                 if not self._reliable and not self._watched():
                     continue  # a live copy nobody watches: neither encoded nor sent
-                put(self._encode(item))
+                for payload in self._encode(item):
+                    put(payload)
 
     def _watched(self) -> bool:
         """Whether a subscriber matches the publisher now."""
         return bool(self._publisher.matching_status.matching)  # type: ignore[attr-defined]
 
-    def _encode(self, item: Any) -> bytes:
-        payload = pack_block(item) if isinstance(item, RowBlock) else LogRecord(*item).encode()
-        return payload if self._sealer is None else self._sealer.seal(payload)
+    def _encode(self, item: Any) -> list[bytes]:
+        if isinstance(item, RowBlock):  # frames that fit one batch of any zenoh transport
+            payloads = pack_frames(item, MAX_FRAME_BYTES)
+        else:
+            payloads = [LogRecord(*item).encode()]
+        if self._sealer is None:
+            return payloads
+        return [self._sealer.seal(p) for p in payloads]
 
     def close(self) -> None:
         """Publish what is queued, then undeclare the publisher."""
