@@ -150,10 +150,18 @@ def test_block_noise_equals_per_step_draws():
         out.reset()
         return out
 
-    blocked, single = lab(EmulatedLab.NOISE_BLOCK), lab(1)
-    n = EmulatedLab.NOISE_BLOCK + 10
+    blocked, single, prepared = lab(EmulatedLab.NOISE_BLOCK), lab(1), lab(EmulatedLab.NOISE_BLOCK)
+    n = 2 * EmulatedLab.NOISE_BLOCK + 10
     cmd = 0.001 * np.sin(np.arange(n) * 0.01)
-    assert [blocked.step(u) for u in cmd] == [single.step(u) for u in cmd]
+
+    def step_then_prepare(u: float) -> tuple[float, float]:
+        out = prepared.step(u)
+        prepared.prepare()  # the next block drawn between steps (the real-time specimen)
+        return out
+
+    expected = [single.step(u) for u in cmd]
+    assert [blocked.step(u) for u in cmd] == expected
+    assert [step_then_prepare(u) for u in cmd] == expected
 
 
 def test_compiled_converters_are_the_python_path_bit_for_bit() -> None:

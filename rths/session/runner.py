@@ -359,6 +359,7 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
             else:
                 from rths.session.zenoh_run import run_over_zenoh  # zenoh is imported only here
 
+                specimen_channels = lab.channels()
                 del lab  # the specimen process builds its own
                 realtime_thread()
                 with (
@@ -378,6 +379,7 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
                         lambda: round(collector.count * dt * 1e9),
                         seed,
                         live,
+                        specimen_channels,
                     )
                 if quiet is not None:
                     outcome.gc = (quiet.collections, quiet.longest)

@@ -31,14 +31,16 @@ import sys
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 from rths.config.scenario import Scenario
+from rths.core.channels import Channel
 from rths.core.errors import ConfigError, RTHSError, TransportError
 from rths.log.recorder import Recorder
 from rths.runtime.loop import LinkSample, Loop, LoopResult
+from rths.session.specimen_rows import SpecimenRows
 from rths.session.warm_up import warm_up
 from rths.wire.auth import RunSecret, read_secret, write_secret_file
 from rths.wire.codec import Command
@@ -79,6 +81,10 @@ class _LockstepLink:
         return 0
 
 
+#: How long [ns] the coordinator waits, after a real-time loop, for replies still on their way
+#: (their rows belong in the log).
+DRAIN_NS = 20_000_000
+
 #: Time [ns] kept free at the end of a step after a missed measurement: the rest of the step's
 #: work (its row, the pacer) must still end before the next step is due.
 RESERVE_NS = 20_000
@@ -94,9 +100,11 @@ class _SyncLink:
         deadline_ns: Callable[[int], int],
         presence: Presence,
         dt: float,
+        riders: SpecimenRows | None = None,
     ):
         self.client, self.deadline_ns, self.presence = client, deadline_ns, presence
         self.half_step = round(dt * 5e8)
+        self.riders = riders
 
     def exchange(self, seq: int, t_ns: int, command: float) -> LinkSample:
         client = self.client
@@ -105,6 +113,8 @@ class _SyncLink:
         # catches up instead of missing every one
         deadline = max(self.deadline_ns(seq + 1) - RESERVE_NS, time.monotonic_ns() + self.half_step)
         m = client.exchange(Command(seq, t_ns, command), deadline)
+        if self.riders is not None:
+            self.riders.handover()  # a full block of the specimen's rows, once the wait is over
         if m is None:  # deadline missed: the newest sample we have (or rest before the first)
             m = client.newest
             if m is None:
@@ -213,6 +223,7 @@ def run_over_zenoh(
     now_ns: Callable[[], int],
     seed: int,
     live: Any = None,
+    specimen_channels: Sequence[Channel] = (),
 ) -> tuple[LoopResult, dict[str, int]]:
     """Run the loop against a specimen process over zenoh; see the module docstring.
 
@@ -238,6 +249,9 @@ def run_over_zenoh(
         Seed of the lab's noise, >= 0.
     live : object or None
         A Foxglove live server that also receives the specimen's rows; None (default): none.
+    specimen_channels : sequence of rths.core.channels.Channel
+        The lab's channels: in ``realtime`` its rows ride on the measurements
+        (:mod:`rths.session.specimen_rows`).
 
     Returns
     -------
@@ -281,11 +295,15 @@ def run_over_zenoh(
                 process = specimen.process if specimen else None
                 _wait_for_specimen(presence, [client.publisher], opts.ready_timeout, process)
                 link: Any
+                riders: SpecimenRows | None = None
                 if isinstance(client, SyncClient):
+                    topic = keys.topic_of(keys.specimen_state)
+                    riders = SpecimenRows(specimen_channels, topic, tee.put_block)
+                    client.on_rows = riders.add
                     warmed = warm_up(client, scn.run.dt)
                     rec.event(0, "warm-up", warmed.describe(), **warmed.as_dict())
                     link = _SyncLink(
-                        client, lambda k: loop.pacer.deadline_ns(k), presence, scn.run.dt
+                        client, lambda k: loop.pacer.deadline_ns(k), presence, scn.run.dt, riders
                     )
                 else:
                     link = _LockstepLink(client, opts.step_timeout, presence)
@@ -297,6 +315,13 @@ def run_over_zenoh(
                     result = loop.run(on_progress)
                 finally:
                     watcher.finish()
+                    if riders is not None:
+                        # the rows gathered first (the specimen's last rows, stepped without a
+                        # reply, come on its side stream as it stops), then the rows of replies
+                        # still on their way
+                        riders.flush()
+                        client.drain(time.monotonic_ns() + DRAIN_NS)  # type: ignore[union-attr]
+                        riders.flush()
                 if watcher.lost and result.stopped == watcher.reason:
                     # the loop saw the stop between two steps rather than in its wait for a
                     # measurement: a dead specimen is an error whichever way it was noticed

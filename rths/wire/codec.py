@@ -13,6 +13,11 @@ alone.  Layouts (byte offsets)::
 dt``); ``sample_ns`` is the specimen's monotonic clock [ns] when it sampled the measurement, so the
 realtime clock can tell how old the newest sample is.
 
+In the ``realtime`` clock a measurement carries the specimen's log rows with it (a *reply*,
+:func:`pack_reply`): the 40-byte measurement, then ``rows u16 | channels u16``, the rows' ``seq``
+and ``t_ns`` (int64) and their values (float64, row-major) -- one message per step each way, no
+side stream while the loop runs.  A plain 40-byte measurement is a reply without rows.
+
 A command whose ``t_ns`` is :data:`PROBE_T_NS` (negative: no step ends before time zero) is a
 *probe*: the specimen answers it at once with a measurement carrying the same ``seq`` and
 ``t_ns`` and zero values, and does not step the lab -- the actuator never sees it.  The
@@ -47,7 +52,9 @@ __all__ = [
     "Measurement",
     "pack_block",
     "pack_frames",
+    "pack_reply",
     "unpack_block",
+    "unpack_reply",
 ]
 
 #: ``t_ns`` of a probe (see the module docstring): a round trip that moves nothing.
@@ -190,6 +197,66 @@ class Measurement:
         if len(data) != _MEASUREMENT.size:
             raise _decode_error("Measurement", data, _MEASUREMENT.size)
         return cls(*_MEASUREMENT.unpack(data))
+
+
+_ROWS_HEAD = struct.Struct("<HH")  # rows, channels
+
+
+def pack_reply(measurement: Measurement, rows: RowBlock | None = None) -> bytes:
+    """A measurement with the specimen's log rows riding on it (module docstring).
+
+    Parameters
+    ----------
+    measurement
+        The step's measurement.
+    rows
+        Rows to carry (``rows.count`` of them, at most 65 535); None or empty: none.
+    """
+    head = measurement.pack()
+    if rows is None or not rows.count:
+        return head
+    n = rows.count
+    return b"".join(
+        (
+            head,
+            _ROWS_HEAD.pack(n, rows.values.shape[1]),
+            rows.seq[:n].astype("<i8").tobytes(),
+            rows.t_ns[:n].astype("<i8").tobytes(),
+            np.ascontiguousarray(rows.values[:n], dtype="<f8").tobytes(),
+        )
+    )
+
+
+Rows = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
+def unpack_reply(data: bytes | bytearray | memoryview) -> tuple[Measurement, Rows | None]:
+    """Decode a :func:`pack_reply` message: the measurement, and the rows' ``seq``, ``t_ns`` and
+    values (shape ``(rows, channels)``; read-only views of ``data``) or None.
+
+    Parameters
+    ----------
+    data
+        The message.
+
+    Raises
+    ------
+    DataError
+        If ``data`` is neither a measurement nor a measurement with whole rows.
+    """
+    size = _MEASUREMENT.size
+    if len(data) == size:
+        return Measurement.unpack(data), None
+    head = size + _ROWS_HEAD.size
+    if len(data) < head:
+        raise _decode_error("Measurement", data, size)
+    n, m = _ROWS_HEAD.unpack_from(data, size)
+    if len(data) != head + 16 * n + 8 * n * m:
+        raise DataError(f"reply of {len(data)} bytes does not hold {n} rows of {m} channels")
+    seq = np.frombuffer(data, "<i8", n, head)
+    t_ns = np.frombuffer(data, "<i8", n, head + 8 * n)
+    values = np.frombuffer(data, "<f8", n * m, head + 16 * n).reshape(n, m)
+    return Measurement.unpack(bytes(data[:size])), (seq, t_ns, values)
 
 
 _LOG_HEADER = struct.Struct("<QQ")

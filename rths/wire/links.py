@@ -13,9 +13,10 @@ from typing import Any, Protocol
 
 import zenoh
 
+from rths.core.channels import RowBlock
 from rths.core.errors import TransportError, check_nonnegative, check_positive
 from rths.wire.auth import Opener, RunSecret, Sealer
-from rths.wire.codec import Command, Measurement
+from rths.wire.codec import Command, Measurement, Rows, pack_reply, unpack_reply
 from rths.wire.inbox import Inbox, Latest, Mailbox, declare_hot_publisher
 
 __all__ = [
@@ -45,6 +46,11 @@ def _opened(
         return None, decode
     opener = secret.opener(domain)
     return opener, opener.decoder(decode)
+
+
+def _measurement_of(data: bytes) -> Measurement:
+    """The measurement of a reply (:func:`rths.wire.codec.unpack_reply`), its rows dropped."""
+    return unpack_reply(data)[0]
 
 
 class _HotKeys(Protocol):
@@ -101,7 +107,8 @@ class LockstepClient(_Link):
         self.timeout = check_positive(timeout, "lockstep timeout")
         self.stale = 0  #: measurements for older steps that were discarded
         self.sealer, _ = _sealed(secret, COMMAND_DOMAIN)
-        self.opener, decode = _opened(secret, MEASUREMENT_DOMAIN, Measurement.unpack)
+        # a reply may carry rows of the specimen's log (a realtime specimen): not kept here
+        self.opener, decode = _opened(secret, MEASUREMENT_DOMAIN, _measurement_of)
         self._receiver: Inbox[Measurement] = Inbox(session, keys.measurement, decode)
         self.publisher = declare_hot_publisher(session, keys.command)
 
@@ -186,9 +193,10 @@ class LockstepServer(_Link):
         except queue.Empty:
             return None
 
-    def reply(self, measurement: Measurement) -> None:
-        """Publish the measurement for the command just taken."""
-        payload = measurement.pack()
+    def reply(self, measurement: Measurement, rows: RowBlock | None = None) -> None:
+        """Publish the measurement for the command just taken, with ``rows`` of the specimen's
+        log riding on it (:func:`rths.wire.codec.pack_reply`; the ``realtime`` clock) or not."""
+        payload = pack_reply(measurement, rows)
         self.publisher.put(payload if self.sealer is None else self.sealer.seal(payload))
 
     def serve(
@@ -399,7 +407,18 @@ class SyncClient:
         poll: float | None = None,
     ) -> None:
         self.sealer, _ = _sealed(secret, COMMAND_DOMAIN)
-        self.opener, self._decode = _opened(secret, MEASUREMENT_DOMAIN, Measurement.unpack)
+        #: Called with the rows (``seq``, ``t_ns``, values) each reply carries
+        #: (:func:`rths.wire.codec.unpack_reply`), on the thread that reads the reply; None:
+        #: rows are dropped.
+        self.on_rows: Callable[[Rows], None] | None = None
+
+        def decode(data: bytes) -> Measurement:
+            measurement, rows = unpack_reply(data)
+            if rows is not None and self.on_rows is not None:
+                self.on_rows(rows)
+            return measurement
+
+        self.opener, self._decode = _opened(secret, MEASUREMENT_DOMAIN, decode)
         self._clock = clock
         self._queue: queue.SimpleQueue[bytes] = queue.SimpleQueue()
         self._poll = None if poll is None else check_nonnegative(poll, "poll period")
@@ -495,6 +514,24 @@ class SyncClient:
                 return True
             else:  # an earlier probe's answer (no step has been sent yet)
                 self.late += 1
+
+    def drain(self, deadline_ns: int) -> int:
+        """Read the replies still on their way until none arrives by ``deadline_ns`` (their
+        rows reach :attr:`on_rows`); return how many were read.
+
+        Parameters
+        ----------
+        deadline_ns
+            Until when to wait for each, on the client's clock [ns].
+        """
+        read = 0
+        while (raw := self._get(deadline_ns)) is not None:
+            if self._decode(raw) is None:
+                self.dropped += 1
+            else:
+                self.late += 1
+            read += 1
+        return read
 
     def _get(self, deadline_ns: int) -> bytes | None:
         clock = self._clock

@@ -102,12 +102,16 @@ __all__ = [
 
 _ENDPOINT = re.compile(r"^[a-z][a-z0-9+-]*/\S+$")
 
-#: ``RTHS_ZENOH_LOWLATENCY=1`` selects zenoh's low-latency unicast transport (no QoS queues, no
-#: fragmentation: every message must fit one batch -- 48 000 bytes did, 56 000 did not, and
-#: zenoh drops a larger one silently, e.g. the 92 kB live copy of a 256-row block of the loop's
-#: rows; the log frames are 4.5 kB) on both processes (the specimen inherits the variable; a
-#: specimen on another host must set it too).  Measured with
-#: ``tools/bench_zenoh.py`` (``sync-lowlatency``); off by default.
+#: ``RTHS_ZENOH_LOWLATENCY=1`` selects zenoh's low-latency unicast transport (no QoS queues, no tx
+#: thread: the caller writes each message to the socket) on both processes (the specimen inherits
+#: the variable; a specimen on another host must set it too).  Every message must fit one batch
+#: (48 000 bytes did, 56 000 did not, and zenoh drops a larger one silently), so side streams go
+#: out in frames of at most 32 kB and the link warm-up frame is 48 000 bytes.  Lockstep gains on
+#: it (``python tools/bench_loop.py --rates 4096 --clocks lockstep --duration 10 --repeats 1``,
+#: two interleaved pairs, load 5.6-5.9: mean round trip 327 / 320 µs against 384 / 386 µs, loop
+#: speed 0.67 / 0.68× against 0.58×), but every ``realtime`` run on it stopped on the measurement
+#: watchdog at step 24-27 (5 of 5 at 2048 Hz, ``RTHS_RT_PRIORITY=50``; the standard transport
+#: finished 3 of 3 beside them), so it stays off by default.
 LOWLATENCY_ENV = "RTHS_ZENOH_LOWLATENCY"
 
 
