@@ -237,3 +237,19 @@ def test_free_response_of_a_linear_chain_is_the_damped_oscillator():
         e = -(w2 * ode.y[0] + ce * ode.y[1])
         # exact recursion vs an adaptive integrator at 1e-10: 1e-7 of the peak
         assert np.max(np.abs(free_response(n, dt, w2, ce, c, k)[i] - e)) < 1e-7 * np.max(np.abs(e))
+
+
+def test_an_effect_after_the_set_closed_all_but_a_few_per_cent_must_close_a_share_of_5():
+    from rths.diagnose.search.selection import NESTED_RESOLUTION, PRICE, _buys
+
+    # the first step: remaining = the whole reducible gap, the plain price per parameter
+    assert _buys(2 * PRICE + 1e-9, 1.0, 1.0, 2, PRICE)
+    assert not _buys(2 * PRICE - 1e-9, 1.0, 1.0, 2, PRICE)
+    # 20 % left (above the resolution): the price of that remainder
+    assert _buys(3 * PRICE + 1e-9, 0.2, 1.0, 3, PRICE)
+    # 1.4 % left, a 3-parameter clearance closing 40 % of it (0.56 % of the gap): a share
+    # of a remainder inside the floor's resolution buys nothing; it must close
+    # PRICE * 3 * 5 % = 1.5 % of the gap, more than is left
+    assert not _buys(0.4, 0.014, 1.0, 3, PRICE)
+    assert not _buys(1.0, 0.014, 1.0, 3, PRICE)
+    assert _buys(1.0, 0.014, 1.0, 1, PRICE) == (0.014 >= PRICE * NESTED_RESOLUTION)

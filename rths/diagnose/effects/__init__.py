@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 from rths.core.errors import ParameterError
 from rths.diagnose.effects.actuator import ActuatorModel
-from rths.diagnose.effects.calibration import RootwiseActuator
+from rths.diagnose.effects.calibration import RootwiseActuator, absorbed_lag
 from rths.diagnose.effects.chain import SeriesChain
 from rths.diagnose.effects.compliance import ComplianceModel
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
@@ -61,6 +61,7 @@ __all__ = [
     "RootwiseActuator",
     "SeriesChain",
     "Theta",
+    "absorbed_lag",
     "baseline_for",
     "calibration_for",
     "compatible",
@@ -146,7 +147,7 @@ def baseline_for(channel: str) -> Model:
     return ComplianceModel() if channel == "displacement" else RigidSpecimen()
 
 
-def calibration_for(channel: str) -> RootwiseActuator | None:
+def calibration_for(channel: str, effects: tuple[str, ...] = ()) -> RootwiseActuator | None:
     """The channel's finer re-calibration of NOMINAL.toml's own parameters that tells model form
     from an unexplained gap (:mod:`rths.diagnose.effects.calibration`), or None.
 
@@ -154,8 +155,10 @@ def calibration_for(channel: str) -> RootwiseActuator | None:
     ----------
     channel
         ``"measured"``, ``"force"`` or ``"displacement"``.
+    effects
+        Effects the calibrated model holds besides (default none).
     """
-    return RootwiseActuator() if channel == "measured" else None
+    return RootwiseActuator(effects) if channel == "measured" else None
 
 
 def models_for(channel: str, effects: tuple[str, ...]) -> list[Model]:

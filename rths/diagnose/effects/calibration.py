@@ -27,10 +27,10 @@ from scipy import signal
 
 from rths.diagnose.channels.channel import Channel, Segment
 from rths.diagnose.channels.signals import discrete_tf, shifted
-from rths.diagnose.effects.actuator import CALIBRATION_TOLERANCE, ActuatorModel, _move
+from rths.diagnose.effects.actuator import CALIBRATION_TOLERANCE, ActuatorModel, _move, scaled_tf
 from rths.diagnose.effects.model import Param, Theta
 
-__all__ = ["RootwiseActuator", "root_modes", "rootwise_tf"]
+__all__ = ["RootwiseActuator", "absorbed_lag", "root_modes", "rootwise_tf"]
 
 _LO, _HI = 1.0 - CALIBRATION_TOLERANCE, 1.0 + CALIBRATION_TOLERANCE
 
@@ -86,13 +86,53 @@ def rootwise_tf(
     return k * b, a
 
 
+def absorbed_lag(
+    num: tuple[float, ...], den: tuple[float, ...], baseline: dict[str, float]
+) -> float:
+    """The lag [s] the common re-calibration adds to the nominal TF at low frequency: the
+    change of its group delay ``a_1/a_0 - b_1/b_0`` under the fitted frequency and damping
+    factors, plus the alignment.  A re-calibration that took on more than one sample of lag
+    may hide a delay beyond the nominal (a slower pole mimics up to the tolerance's share of
+    its own group delay).
+
+    Parameters
+    ----------
+    num, den
+        The nominal actuator TF (descending powers of ``s``).
+    baseline
+        The common re-calibration (``frequency_scale``, ``damping_scale``, ``alignment`` [s]).
+    """
+
+    def group_delay(b: NDArray[np.float64], a: NDArray[np.float64]) -> float:
+        if a[-1] == 0.0 or b[-1] == 0.0:
+            return 0.0
+        ga = a[-2] / a[-1] if a.size > 1 else 0.0
+        gb = b[-2] / b[-1] if b.size > 1 else 0.0
+        return float(ga - gb)
+
+    f = float(baseline.get("frequency_scale", 1.0))
+    z = float(baseline.get("damping_scale", 1.0))
+    b, a = scaled_tf(num, den, f, z)
+    b0, a0 = np.asarray(num, float), np.asarray(den, float)
+    return group_delay(b, a) - group_delay(b0, a0) + float(baseline.get("alignment", 0.0))
+
+
 class RootwiseActuator(ActuatorModel):
-    """The baseline with every root calibrated on its own (module docstring); no effect."""
+    """The baseline with every root calibrated on its own (module docstring), optionally with
+    the actuator's effects (:class:`rths.diagnose.effects.actuator.ActuatorModel`): a delay
+    or a rate limit is then judged against the nominal's own parameters calibrated as
+    finely as the contract allows, not only against their common factors.
+
+    Parameters
+    ----------
+    effects
+        Actuator effects the model holds besides the root-by-root calibration (default none).
+    """
 
     structure = "rootwise"
 
-    def __init__(self) -> None:
-        super().__init__(())
+    def __init__(self, effects: tuple[str, ...] = ()) -> None:
+        super().__init__(effects)
 
     def space(self, channel: Channel) -> list[Param]:
         a = channel.nominal.actuator
@@ -105,6 +145,9 @@ class RootwiseActuator(ActuatorModel):
             out.append(Param(f"pole_{i}", _LO, _HI, log=False, start=f0))
             if q.imag > 0.0:
                 out.append(Param(f"damping_{i}", _LO, _HI, log=False, start=d0))
+        if self.delay or self.limit:  # the effects' own parameters (and a delay's shift range)
+            scales = ("frequency_scale", "damping_scale")
+            return out + [p for p in super().space(channel) if p.name not in scales]
         start = float(np.clip(self._base.get("alignment", 0.0) / channel.dt, -1.0, 1.0))
         out.append(Param("shift", -1.0, 1.0, log=False, start=start))
         return out

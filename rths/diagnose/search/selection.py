@@ -8,8 +8,9 @@ Otherwise effects are added one at a time:
 1. every candidate effect is identified jointly with the baseline (each of its model
    structures, the best on the identification data);
 2. the candidate that closes most of the remaining held-out gap ``J_S - N_S`` is added if it
-   closes at least :data:`PRICE` per identified parameter (it "buys its parameters") and its
-   parameters are physical;
+   closes at least :data:`PRICE` per identified parameter (it "buys its parameters") of that
+   gap, or of :data:`NESTED_RESOLUTION` of the channel's reducible gap when less remains
+   (:func:`_buys`), and its parameters are physical;
 3. while the residual of the set is still significant, each remaining compatible candidate is
    identified *together* with the set (warm-started from the set's and its own single fit)
    and step 2 repeats.
@@ -42,6 +43,12 @@ the gap without leaning on the tolerance in the lagging direction (a pole at -10
 hidden delay): a nominal mis-calibrated differently at every pole, which the baseline's
 common factors cannot follow.
 
+The actuator's effects are also judged against the nominal calibrated root by root
+(:mod:`rths.diagnose.search.calibrated`) when they close less than :data:`MIN_CLOSED` of
+the gap, or when the common factors beside a delay or beside no effect took on more than
+one sample of lag: a delay the common factors absorbed is named from that fit, and an effect
+that buys nothing against it is calibration.
+
 Models of channels listed in :data:`CROSS_FIT` are scored by two-fold cross-validation over
 time blocks of every record (:func:`rths.diagnose.search.identify.cross_fit`).
 """
@@ -66,6 +73,7 @@ from rths.diagnose.effects import (
 )
 from rths.diagnose.effects.model import Theta
 from rths.diagnose.residuals import Decomposition, decompose
+from rths.diagnose.search.calibrated import finer_calibration, needs_finer
 from rths.diagnose.search.floors import noise_floor
 from rths.diagnose.search.identify import Fit, cross_fit, fit_model
 
@@ -83,9 +91,11 @@ __all__ = [
 
 #: Fraction of the remaining reducible gap an added effect must close per identified parameter.
 PRICE: float = 0.1
-#: Share of the reducible gap below which what a special case of a nested pair leaves (a
-#: series spring for a backlash) is at its floor: the general one must then still close
-#: :data:`PRICE` per extra parameter of this share (not of a remainder that is noise).
+#: Share of the reducible gap below which what a set leaves is at the resolution of the
+#: floor (what a special case of a nested pair leaves -- a series spring for a backlash --
+#: or what the effects already chosen leave): an effect added then must still close
+#: :data:`PRICE` per (extra) parameter of this share, not of a remainder that is noise and
+#: model form (:func:`_buys`).
 NESTED_RESOLUTION: float = 0.05
 #: Smallest share of a significant reducible gap the selected effects must close together.
 MIN_CLOSED: float = 0.5
@@ -253,6 +263,17 @@ def _decompose(channel: Channel, fit: Fit, floor_scale: float = 1.0) -> Decompos
     )
 
 
+def _buys(gain: float, remaining: float, excess0: float, n_params: int, price: float) -> bool:
+    """Whether an effect closing the share ``gain`` of the ``remaining`` gap buys its
+    ``n_params`` parameters: it closes ``price`` per parameter of the remaining gap, or of
+    :data:`NESTED_RESOLUTION` of the channel's reducible gap ``excess0`` when less remains.
+    Once a set has closed all but a few per cent of the gap, what is left is within the noise
+    floor's uncertainty and the model form of the effects already chosen (a friction law's
+    shape at reversals, say); a further effect that reshapes it by a share of that remainder
+    has shown no structure of its own."""
+    return gain * remaining >= price * n_params * max(remaining, NESTED_RESOLUTION * excess0)
+
+
 def _nested_preferred(
     trials: list[tuple[float, Candidate]], price: float
 ) -> list[tuple[float, Candidate]]:
@@ -323,7 +344,7 @@ def _prune(
             left = max(sub.held_mse - floor, 1e-300)
             gain = (left - (current.held_mse - current_floor)) / left
             at_floor = not _decompose(channel, sub, floor / max(n0, 1e-300)).significant
-            if at_floor or gain < price * EFFECTS[e].n_params:
+            if at_floor or not _buys(gain, left, excess0, EFFECTS[e].n_params, price):
                 for i, c in enumerate(candidates):
                     if c.accepted and set(c.fit.effects) == set(chosen):
                         candidates[i] = Candidate(c.fit, c.floor, c.closed, c.gain, False, True)
@@ -418,7 +439,8 @@ def select(
         cand = Candidate(fit, floor, closed, gain, False, ok)
         candidates.append(cand)
         n_params = sum(EFFECTS[e].n_params for e in add)
-        return (gain, cand) if ok and gain >= price * n_params else None
+        buys = _buys(gain, remaining, excess0, n_params, price)
+        return (gain, cand) if ok and buys else None
 
     while True:
         trials = [
@@ -463,7 +485,29 @@ def select(
     closed = (excess0 - (current.held_mse - current_floor)) / excess0
     verdict = chosen[0] if chosen and closed >= MIN_CLOSED else "unexplained"
     resolution = base.model.resolution(channel, base.prediction)
-    if not chosen and excess0 <= resolution:
+    finer = None
+    if needs_finer(channel, current, chosen, closed, MIN_CLOSED):
+        finer = finer_calibration(
+            channel, fitter, (base, current), (excess0, n0), effects, seed, price, MIN_CLOSED
+        )
+    if finer is not None:  # the nominal's own parameters, calibrated root by root
+        refit, model_form = finer
+        if refit is not None or (chosen and model_form):  # the common set is replaced
+            for i, c in enumerate(candidates):
+                if c.accepted:
+                    candidates[i] = Candidate(c.fit, c.floor, c.closed, c.gain, False, True)
+        if refit is not None:  # the effects hold on the finer calibration: named
+            fit, floor, share, gain = refit
+            candidates.append(Candidate(fit, floor, share, gain, True, True))
+            current, current_floor, closed = fit, floor, share
+            chosen = fit.effects
+            verdict = chosen[0]
+        elif chosen and model_form:  # the finer calibration alone closes it: no effect
+            chosen, current, current_floor, closed = (), base, n0, 0.0
+            verdict = "none"
+        elif not chosen and (excess0 <= resolution or model_form):
+            verdict = "none"  # the model-form allowance (module docstring)
+    elif not chosen and excess0 <= resolution:
         verdict = "none"  # the model-form allowance (module docstring)
     elif not chosen and verdict == "unexplained":
         check = calibration_for(channel.name)

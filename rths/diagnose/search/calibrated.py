@@ -1,0 +1,158 @@
+"""A channel's effects judged against the finest calibration of the nominal's own parameters.
+
+The actuator's baseline re-calibrates NOMINAL.toml's transfer function by *common* factors
+(one on every root frequency, one on every complex pole's damping ratio; design.md section
+7).  Two things follow that the selection (:mod:`rths.diagnose.search.selection`) must not
+take for structure or for its absence:
+
+* a nominal mis-calibrated differently at every root within the +/-10 % tolerance leaves a
+  gap the common factors cannot follow, which is no effect;
+* the common factors absorb part of a delay's lag (a slower pole), and leave a gap under one
+  sample of the motion (put down to model form) or an effect that closes less than half of
+  the gap (``unexplained``).
+
+A delay is a phase lag growing with frequency at unit magnitude; a pole's lag saturates and
+costs magnitude.  With every root free within the tolerance
+(:class:`rths.diagnose.effects.calibration.RootwiseActuator`) the two separate under broadband
+excitation, so the selected set -- or, when none was selected, each effect of
+:data:`HIDDEN_BY_CALIBRATION` -- is identified again together with the root-by-root
+calibration and judged against that calibration alone (:func:`finer_calibration`).
+:func:`needs_finer` says when this can change the answer (its fits cost a few seconds).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from rths.diagnose.channels.channel import Channel
+from rths.diagnose.effects import EFFECTS, absorbed_lag, calibration_for
+from rths.diagnose.search.floors import noise_floor
+from rths.diagnose.search.identify import Fit
+
+__all__ = ["HIDDEN_BY_CALIBRATION", "finer_calibration", "needs_finer"]
+
+#: Effects a calibration of the nominal's own parameters can mimic in part (a pole's lag: up
+#: to the tolerance's share of its group delay), so that the common re-calibration can hide
+#: them.
+HIDDEN_BY_CALIBRATION: tuple[str, ...] = ("actuator_delay",)
+
+#: Name prefixes of the root-by-root calibration's factors.
+_ROOTS: tuple[str, ...] = ("zero", "pole", "damping")
+
+
+def needs_finer(
+    channel: Channel, current: Fit, chosen: tuple[str, ...], closed: float, min_closed: float
+) -> bool:
+    """Whether the root-by-root calibration can change a channel's answer: the channel has one,
+    and either its selected effects close less than ``min_closed`` of the gap, or the common
+    factors beside a delay or beside no effect took on more than one sample of lag
+    (:func:`rths.diagnose.effects.calibration.absorbed_lag`: a delay, or part of one, may
+    hide in them).
+
+    Parameters
+    ----------
+    channel
+        The channel.
+    current, chosen
+        The selected set's fit (the baseline's when none) and its effects.
+    closed
+        The set's share of the reducible gap [-].
+    min_closed
+        :data:`rths.diagnose.search.selection.MIN_CLOSED`.
+    """
+    if calibration_for(channel.name) is None:
+        return False
+    if chosen and closed < min_closed:
+        return True
+    if chosen and not any(e in HIDDEN_BY_CALIBRATION for e in chosen):
+        return False
+    act = channel.nominal.actuator
+    return absorbed_lag(act.num, act.den, current.baseline) > channel.dt
+
+
+def finer_calibration(
+    channel: Channel,
+    fitter: Callable[..., Fit],
+    fits: tuple[Fit, Fit],
+    gap: tuple[float, float],
+    effects: tuple[str, ...],
+    seed: int,
+    price: float,
+    min_closed: float,
+) -> tuple[tuple[Fit, float, float, float] | None, bool] | None:
+    """The channel's effects judged against the root-by-root calibration (module docstring).
+
+    The set is identified together with the root-by-root calibration, warm-started from the
+    common fit (every root at the common factors: the finer model holds it) and from the
+    root-by-root calibration alone.
+
+    Parameters
+    ----------
+    channel, fitter
+        The channel and its fitter (:func:`rths.diagnose.search.identify.cross_fit` for the
+        actuator).
+    fits
+        ``(base, current)``: the common re-calibration's fit and the selected set's fit (the
+        set: ``current.effects``; none selected: ``current`` is ``base``).
+    gap
+        ``(J_0 - N_0, N_0)``: the channel's reducible held-out gap and the baseline's floor.
+    effects
+        The candidate effects of the diagnosis.
+    seed, price
+        As for :func:`rths.diagnose.search.selection.select`.
+    min_closed
+        :data:`rths.diagnose.search.selection.MIN_CLOSED`.
+
+    Returns
+    -------
+    tuple or None
+        None when the channel has no finer calibration; else ``(refit, model_form)``.
+        ``refit = (fit, floor, closed, gain)`` when the set with the root-by-root calibration
+        is physical, closes ``min_closed`` of the gap and buys its parameters against that
+        calibration alone (``price`` per parameter of the gap it leaves; an effect the
+        common factors did not select must close ``min_closed`` of it), else None.
+        ``model_form``: the root-by-root calibration alone closes ``min_closed`` of the gap
+        without leaning on the tolerance in the lagging direction (a pole at -10 %: a hidden
+        delay).
+    """
+    alone = calibration_for(channel.name)
+    if alone is None:
+        return None
+    base, current = fits
+    chosen = current.effects
+    excess0, n0 = gap
+    cal0 = fitter(alone, channel, base.baseline)
+    closes = excess0 - (cal0.held_mse - n0) >= min_closed * excess0
+    model_form = closes and not alone.lagging(channel, cal0.theta)
+    left0 = max(cal0.held_mse - noise_floor(cal0, channel, seed), 1e-300)
+    sets = [chosen] if chosen else [(e,) for e in HIDDEN_BY_CALIBRATION if e in effects]
+    best: tuple[Fit, float, float, float] | None = None
+    for effect_set in sets:
+        check = calibration_for(channel.name, effect_set)
+        assert check is not None
+        check.prepare(channel, base.baseline)
+        roots = [p.name for p in check.space(channel) if p.name.split("_")[0] in _ROOTS]
+        scales = ("frequency_scale", "damping_scale")
+        common = {
+            r: current.theta.get(scales[1] if r.startswith("damping") else scales[0], 1.0)
+            for r in roots
+        }
+        own = {k: v for k, v in current.theta.items() if k not in scales}
+        starts = [
+            {**common, **own},
+            {**cal0.theta, **{k: v for k, v in own.items() if k != "shift"}},
+        ]
+        if "actuator_delay" in chosen:
+            starts.append({**cal0.theta, **own})
+        fit = fitter(check, channel, base.baseline, starts)
+        if not fit.model.physical(channel, fit.params):
+            continue
+        floor = noise_floor(fit, channel, seed)
+        closed = (excess0 - (fit.held_mse - floor)) / excess0
+        gain = (left0 - (fit.held_mse - floor)) / left0
+        need = price * sum(EFFECTS[e].n_params for e in effect_set)
+        if not chosen:
+            need = max(need, min_closed)
+        if closed >= min_closed and gain >= need and (best is None or closed > best[2]):
+            best = (fit, floor, closed, gain)
+    return best, model_form
