@@ -125,6 +125,15 @@ class _SyncLink:
         self.presence.request_stop(reason)
         return 0
 
+    def finish(self) -> None:
+        """After the loop: the specimen's rows gathered so far to the log first (its last rows,
+        stepped without a reply, come on its side stream as it stops), then those of the
+        replies still on their way."""
+        if self.riders is not None:
+            self.riders.flush()
+            self.client.drain(time.monotonic_ns() + DRAIN_NS)
+            self.riders.flush()
+
 
 def _wait_for_specimen(
     presence: Presence,
@@ -315,13 +324,8 @@ def run_over_zenoh(
                     result = loop.run(on_progress)
                 finally:
                     watcher.finish()
-                    if riders is not None:
-                        # the rows gathered first (the specimen's last rows, stepped without a
-                        # reply, come on its side stream as it stops), then the rows of replies
-                        # still on their way
-                        riders.flush()
-                        client.drain(time.monotonic_ns() + DRAIN_NS)  # type: ignore[union-attr]
-                        riders.flush()
+                    if isinstance(link, _SyncLink):
+                        link.finish()
                 if watcher.lost and result.stopped == watcher.reason:
                     # the loop saw the stop between two steps rather than in its wait for a
                     # measurement: a dead specimen is an error whichever way it was noticed
