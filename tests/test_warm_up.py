@@ -18,7 +18,8 @@ from rths.config import build
 from rths.config.scenario import load_scenario
 from rths.runtime.guard import CommandGuard
 from rths.session.specimen import serve
-from rths.session.warm_up import RESERVE_NS, warm_up
+from rths.session.warm_up import warm_up
+from rths.session.zenoh_run import RESERVE_NS
 from rths.wire.auth import RunSecret
 from rths.wire.codec import PROBE_T_NS, Command, Measurement
 from rths.wire.links import SyncClient
@@ -62,7 +63,15 @@ DT = 1 / 2048
 def test_warm_up_settles_on_a_run_of_answers_and_waits_until_the_next_step() -> None:
     clock = FakeClock()
     prober = Prober(lambda k: k >= 10)  # cold: the first ten answers come too late
-    seen = warm_up(prober, DT, on_time_run=8, longest=0.05, now_ns=clock.now, sleep=clock.sleep)
+    seen = warm_up(
+        prober,
+        DT,
+        on_time_run=8,
+        longest=0.05,
+        now_ns=clock.now,
+        sleep=clock.sleep,
+        reserve_ns=RESERVE_NS,
+    )
     assert seen.settled and seen.probes == 18 and seen.on_time == 8
     assert prober.seqs == list(range(18))  # numbered like steps, one per step
     dt_ns = round(DT * 1e9)

@@ -29,8 +29,6 @@ __all__ = ["LONGEST", "ON_TIME_RUN", "WarmUp", "warm_up"]
 ON_TIME_RUN = 128
 #: Longest warm-up [s] (then the loop starts anyway).
 LONGEST = 0.5
-#: Time [ns] kept free before each deadline, as the loop keeps (:mod:`rths.session.zenoh_run`).
-RESERVE_NS = 20_000
 
 
 class _Prober(Protocol):
@@ -83,6 +81,7 @@ def warm_up(
     longest: float = LONGEST,
     now_ns: Callable[[], int] = time.monotonic_ns,
     sleep: Callable[[float], None] = time.sleep,
+    reserve_ns: int = 0,
 ) -> WarmUp:
     """Send probes on the step schedule until ``on_time_run`` answers in a row came within
     their step, or for ``longest`` seconds.
@@ -101,6 +100,9 @@ def warm_up(
         The monotonic clock the deadlines refer to [ns].
     sleep
         ``sleep(seconds)`` of the pacer (injectable for tests, with ``now_ns``).
+    reserve_ns
+        Time [ns] kept free before each deadline, as the loop keeps it (the wait for an answer
+        ends that much before the next step is due).
 
     Returns
     -------
@@ -116,7 +118,7 @@ def warm_up(
     for k in range(n):
         pacer.wait(k)
         sent = now_ns()
-        if client.probe(k, pacer.deadline_ns(k + 1) - RESERVE_NS):
+        if client.probe(k, pacer.deadline_ns(k + 1) - reserve_ns):
             trips[on_time] = now_ns() - sent
             on_time += 1
             run += 1

@@ -309,7 +309,7 @@ def run_over_zenoh(
                     topic = keys.topic_of(keys.specimen_state)
                     riders = SpecimenRows(specimen_channels, topic, tee.put_block)
                     client.on_rows = riders.add
-                    warmed = warm_up(client, scn.run.dt)
+                    warmed = warm_up(client, scn.run.dt, reserve_ns=RESERVE_NS)
                     rec.event(0, "warm-up", warmed.describe(), **warmed.as_dict())
                     link = _SyncLink(
                         client, lambda k: loop.pacer.deadline_ns(k), presence, scn.run.dt, riders
