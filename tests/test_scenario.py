@@ -139,3 +139,20 @@ def test_auto_mesh_resolves_the_internal_stiffness():
     cable = build.substructure(scn)
     h = cable.positions[cable.damper_index] - cable.positions[cable.damper_index - 1]
     assert h < 4 * scn.substructure.options.tension / (scn.scaling.impedance * 1.2e7)
+
+
+@pytest.mark.parametrize(
+    ("rate", "steps"), [(256.0, 5), (1000.0, 10), (1024.0, 11), (2048.0, 21), (4096.0, 41)]
+)
+def test_the_default_watchdogs_are_ten_and_twenty_milliseconds(rate, steps):
+    """Without ``[loop] max_lag`` the measurement watchdog allows 10 ms of steps rounded up
+    (``ceil(0.010 * rate)``), never fewer than 5; the specimen's command watchdog defaults to
+    20 ms.  A given ``max_lag`` is taken as is."""
+    scn = parse_scenario(seed_text(**{r"^rate = 2048.0.*$": f"rate = {rate!r}"}), "s.toml")
+    assert scn.loop.max_lag == steps
+    if steps > 5:  # the fewest steps that span 10 ms
+        assert steps * scn.run.dt >= 0.010 > (steps - 1) * scn.run.dt
+    assert scn.loop.command_timeout == 0.020
+    given = seed_text(**{r"^\[loop\]": "[loop]\nmax_lag = 3\ncommand_timeout = 0.05"})
+    loop = parse_scenario(given, "s.toml").loop
+    assert (loop.max_lag, loop.command_timeout) == (3, 0.05)

@@ -13,7 +13,8 @@ examples users copy)::
                    substructure carries, the compensator's plant, the fully numerical mock run
     [compensator]  kind + options
     [loop]         correction_filter [Hz], stroke [m] (interlock), max_velocity and
-                   ramp_velocity [m/s] (the specimen side's guard), max_lag [steps] (watchdog)
+                   ramp_velocity [m/s] (the specimen side's guard), max_lag [steps]
+                   (measurement watchdog), command_timeout [s] (the specimen's command watchdog)
     [monte_carlo]  draws (perturbed benchmark plants)
     [study]        a parameter study over this scenario's keys (``rths study``; read and
                    checked by :mod:`rths.analysis.study`, kept here as given)
@@ -122,6 +123,18 @@ class Component:
 MAX_VELOCITY = 10.0
 #: Longest measurement age the watchdog may allow, ``max_lag * dt`` [s].
 MAX_LAG_TIME = 1.0
+#: The measurement watchdog's default age [s]: ``max_lag`` defaults to this many seconds of
+#: steps, at least ``MIN_DEFAULT_LAG``.  A 2-core VM's scheduler alone delays a real-time C
+#: loop's wake-up by more than 2.4 ms (5 steps at 2048 Hz) 11 times a minute, by up to 7.2 ms
+#: (README, "Real time"): a watchdog below that floor stops runs for the machine, not the test.
+DEFAULT_MAX_AGE = 0.010
+#: Fewest steps of the default watchdog (at rates below 500 Hz it is 5 steps, not 10 ms).
+MIN_DEFAULT_LAG = 5
+#: The specimen's command watchdog's default [s] (``[loop] command_timeout``): while no command
+#: comes the actuator holds its last one -- the servo-controller's own safe state -- and after
+#: this long it ramps down.  Twice the measurement watchdog's default: the loop's watchdog, which
+#: judges the measurement the compensator uses, is the first line.
+DEFAULT_COMMAND_TIMEOUT = 0.020
 
 
 @dataclass(frozen=True)
@@ -145,7 +158,12 @@ class LoopSpec:
         (default 0.05).
     max_lag : int
         Measurement watchdog [steps], >= 1, with ``max_lag * dt`` at most ``MAX_LAG_TIME`` =
-        1 s (default 5).
+        1 s (default: ``DEFAULT_MAX_AGE`` = 10 ms of steps, at least 5 -- 20 steps at
+        2048 Hz, 41 at 4096 Hz).
+    command_timeout : float
+        The specimen's command watchdog [s] in real time: no command for this long ramps the
+        actuator down, > 0 and at most ``MAX_LAG_TIME`` (default ``DEFAULT_COMMAND_TIMEOUT`` =
+        20 ms, and never below ``max_lag * dt``).
     """
 
     correction_filter: float = 60.0
@@ -153,6 +171,13 @@ class LoopSpec:
     max_velocity: float = 0.5
     ramp_velocity: float = 0.05
     max_lag: int = 5
+    command_timeout: float = DEFAULT_COMMAND_TIMEOUT
+
+
+def default_max_lag(rate: float) -> int:
+    """The measurement watchdog's default [steps] at ``rate`` [Hz]: ``DEFAULT_MAX_AGE`` of
+    steps, rounded up, at least ``MIN_DEFAULT_LAG``."""
+    return max(MIN_DEFAULT_LAG, math.ceil(DEFAULT_MAX_AGE * rate - 1e-9))
 
 
 @dataclass(frozen=True)
@@ -300,7 +325,8 @@ def _parse(doc: Table, text: str) -> Scenario:
         t.number("stroke", math.inf, positive=True),
         t.number("max_velocity", 0.5, positive=True),
         t.number("ramp_velocity", 0.05, positive=True),
-        t.integer("max_lag", 5, minimum=1),
+        t.integer("max_lag", default_max_lag(run.rate), minimum=1),
+        t.number("command_timeout", DEFAULT_COMMAND_TIMEOUT, positive=True),
     )
     if loop.ramp_velocity > loop.max_velocity:
         raise t.error("ramp_velocity", f"must not exceed max_velocity {loop.max_velocity!r} m/s")
@@ -315,6 +341,12 @@ def _parse(doc: Table, text: str) -> Scenario:
             "max_lag",
             f"{loop.max_lag} steps is {loop.max_lag * run.dt:.3g} s at {run.rate:g} Hz; the "
             f"watchdog must trip within {MAX_LAG_TIME:g} s",
+        )
+    if loop.command_timeout > MAX_LAG_TIME:
+        raise t.error(
+            "command_timeout",
+            f"must be <= {MAX_LAG_TIME:g} s (the command watchdog must trip within it); got "
+            f"{loop.command_timeout!r}",
         )
     t.finish()
     t = doc.table("monte_carlo", {})

@@ -15,7 +15,8 @@ but publishes while holding the interpreter lock on zenoh's thread, and one lock
 Every command passes the specimen side's own interlock first (:class:`CommandGuard`: stroke,
 velocity, per-step change); the actuator never sees anything else.  When the guard trips, when
 the coordinator asks to stop or goes away, or -- in real time -- when commands stop coming for
-``max_lag`` steps (the command watchdog), the process drives the actuator back to zero with a
+``[loop] command_timeout`` (the command watchdog; 20 ms by default, never less than the
+measurement watchdog's ``max_lag`` steps), the process drives the actuator back to zero with a
 controlled ramp on its own clock, asks the coordinator to stop (naming why) and ends.
 
 Every step it also records the lab's row (true kinematics and force, the actuator's and the
@@ -81,7 +82,7 @@ RIDE_ROWS = 64
 #: Resolution [s] of the command watchdog (the inbox's wake-up tick).
 WATCHDOG_TICK = 0.002
 #: Longest wait [s] for a command before a stop request is looked at: a long command watchdog
-#: (``max_lag * dt``) must not delay the ramp-down after a stop.
+#: (``command_timeout``) must not delay the ramp-down after a stop.
 STOP_SLICE = 0.005
 #: Longest wait [s], after a stop this side asked for and its ramp-down, for the coordinator's
 #: stop in return before this process leaves: leaving at once withdrew its liveliness token
@@ -273,7 +274,8 @@ class _Server:
         guard, rows = self.guard, self.rows
         realtime = self.clock == "realtime"
         # the command watchdog: real time only (in lockstep the lab does not move on its own)
-        timeout = max(self.scn.loop.max_lag * self.dt, WATCHDOG_TICK) if realtime else 0.05
+        loop = self.scn.loop
+        timeout = max(loop.command_timeout, loop.max_lag * self.dt, WATCHDOG_TICK)
         idle = self.quiet.idle
         last_seq = -1
         while not presence.stop.is_set():
