@@ -75,10 +75,13 @@ FAULTS = (
 DISK = "64m"
 
 
-def scenario(rate: float, duration: float, max_lag: int) -> str:
+def scenario(rate: float, duration: float, max_lag: int | None) -> str:
+    """The seed scenario at ``rate`` for ``duration``; ``max_lag`` None keeps the default
+    watchdog (10 ms of steps)."""
     text = SEED.read_text()
     text = re.sub(r"^rate = .*$", f"rate = {rate}", text, flags=re.M)
-    text = text.replace("[loop]\n", f"[loop]\nmax_lag = {max_lag}\n")
+    if max_lag is not None:
+        text = text.replace("[loop]\n", f"[loop]\nmax_lag = {max_lag}\n")
     return re.sub(r"^duration = .*$", f"duration = {duration}", text, flags=re.M)
 
 
@@ -214,7 +217,7 @@ def _inject(fault: str, coord: subprocess.Popen, spec: subprocess.Popen, tmp: Pa
 
 
 def run_fault(
-    fault: str, clock: str, rate: float, duration: float, max_lag: int, tmp: Path
+    fault: str, clock: str, rate: float, duration: float, max_lag: int | None, tmp: Path
 ) -> dict:
     """Inject ``fault`` into one run (module docstring); its row of the table."""
     from rths.wire.auth import RunSecret, write_secret_file
@@ -334,7 +337,7 @@ def run_fault(
     return row
 
 
-def full_disk(clock: str, rate: float, duration: float, max_lag: int) -> dict | None:
+def full_disk(clock: str, rate: float, duration: float, max_lag: int | None) -> dict | None:
     """The full-disk fault in a private mount namespace (a tmpfs of :data:`DISK` mounted over a
     fresh folder); None where that is not allowed."""
     import shutil
@@ -348,7 +351,7 @@ def full_disk(clock: str, rate: float, duration: float, max_lag: int) -> dict | 
         done = subprocess.run(
             ["unshare", "-rm", sys.executable, __file__, "--inner-full-disk", tmp,
              "--clock", clock, "--rate", str(rate), "--duration", str(duration),
-             "--max-lag", str(max_lag)],
+             *([] if max_lag is None else ["--max-lag", str(max_lag)])],
             capture_output=True, text=True, check=False,
         )  # fmt: skip
     if done.returncode:
@@ -377,7 +380,10 @@ def main() -> None:
     ap.add_argument("--rate", type=float, default=2048.0)
     ap.add_argument("--duration", type=float, default=4.0)
     ap.add_argument(
-        "--max-lag", type=int, default=5, help="[loop] max_lag of the runs (the watchdog) [steps]"
+        "--max-lag",
+        type=int,
+        default=None,
+        help="[loop] max_lag of the runs (the watchdog) [steps]; default: the scenario's (10 ms)",
     )
     ap.add_argument("--only", nargs="*", choices=FAULTS, default=list(FAULTS))
     ap.add_argument("--json", type=Path)
@@ -404,7 +410,8 @@ def main() -> None:
             print(json.dumps(row), file=sys.stderr)
     after = os.getloadavg()
     print(
-        f"{args.clock}, {args.rate:g} Hz, {args.duration:g} s runs, max_lag {args.max_lag}; "
+        f"{args.clock}, {args.rate:g} Hz, {args.duration:g} s runs, max_lag "
+        f"{'default' if args.max_lag is None else args.max_lag}; "
         f"load (1/5/15 min) before {load[0]:.2f}/{load[1]:.2f}/{load[2]:.2f}, after "
         f"{after[0]:.2f}/{after[1]:.2f}/{after[2]:.2f} on {os.cpu_count()} cores"
     )
