@@ -11,6 +11,7 @@ from __future__ import annotations
 import io
 import json
 import queue
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +42,19 @@ def _batches(seed: int) -> list[tuple[int, list[int], list[int], list[int], list
     return out
 
 
-def _write(batched: bool, chunk_size: int, compression: CompressionType, seed: int) -> bytes:
+def _records(ch: int, seqs: list[int], logs: list[int], pubs: list[int], data: list[bytes]):
+    """The messages as serialised Message records (as ``rowpack`` hands them over) and ends."""
+    heads = [
+        struct.pack("<BQHIQQ", 5, 22 + len(d), ch, k, t, p)
+        for k, t, p, d in zip(seqs, logs, pubs, data)
+    ]
+    records = [h + d for h, d in zip(heads, data)]
+    return b"".join(records), np.cumsum([len(r) for r in records], dtype=np.int64)
+
+
+def _write(
+    batched: bool, chunk_size: int, compression: CompressionType, seed: int, records: bool = False
+) -> bytes:
     out = io.BytesIO()
     writer = (BlockWriter if batched else Writer)(
         out, chunk_size=chunk_size, compression=compression
@@ -53,7 +66,11 @@ def _write(batched: bool, chunk_size: int, compression: CompressionType, seed: i
     for i, (ch, seqs, logs, pubs, data) in enumerate(_batches(seed)):
         if batched:
             assert isinstance(writer, BlockWriter) and writer.batched
-            writer.add_messages(ch, seqs, logs, pubs, data)
+            if records:
+                packed, ends = _records(ch, seqs, logs, pubs, data)
+                writer.add_records(ch, np.array(logs, dtype=np.int64), memoryview(packed), ends)
+            else:
+                writer.add_messages(ch, seqs, logs, pubs, data)
         else:
             for k, t, p, d in zip(seqs, logs, pubs, data):
                 writer.add_message(ch, t, d, p, k)
@@ -81,6 +98,7 @@ def test_block_writer_writes_the_bytes_of_add_message(chunk_size, compression):
     for seed in (1, 2):
         reference = _write(False, chunk_size, compression, seed)
         assert _write(True, chunk_size, compression, seed) == reference
+        assert _write(True, chunk_size, compression, seed, records=True) == reference
 
 
 def test_block_writer_file_reads_back_with_mcap():
@@ -147,8 +165,11 @@ def test_block_json_parses_to_the_rows():
     assert block_json(_block(["x"], 0, 0, rng)) == ([], 0)
 
 
-def _log(path: Path, items: list[tuple], reference: bool) -> tuple[bytes, int]:
-    """Write ``items`` with the writer thread; ``reference``: mcap's Writer, one row at a time.
+def _log(
+    path: Path, items: list[tuple], reference: bool, compiled: bool = False
+) -> tuple[bytes, int]:
+    """Write ``items`` with the writer thread; ``reference``: mcap's Writer, one row at a time;
+    ``compiled``: rows packed by :mod:`rths.log.writer.rowpack`.
 
     Returns the file and how many blocks took the batched path.
     """
@@ -159,6 +180,7 @@ def _log(path: Path, items: list[tuple], reference: bool) -> tuple[bytes, int]:
         "compression": "zstd",
         "chunk_size": 5000,
         "flush_interval": 1e9,  # chunks end by size only: both files cut them at the same rows
+        "compiled": compiled,
     }
     thread = WriterThread.open(path, inbox, config)
     if reference:
@@ -166,8 +188,9 @@ def _log(path: Path, items: list[tuple], reference: bool) -> tuple[bytes, int]:
         thread._block = thread._block_rows  # type: ignore[method-assign]
     batches = []
     if not reference:
-        add_messages = thread._writer.add_messages
-        thread._writer.add_messages = lambda *a: batches.append(a) or add_messages(*a)
+        name = "add_records" if compiled else "add_messages"
+        add = getattr(thread._writer, name)
+        setattr(thread._writer, name, lambda *a: batches.append(a) or add(*a))
     for item in items:
         inbox.put(item)
     inbox.put(STOP)
@@ -176,7 +199,8 @@ def _log(path: Path, items: list[tuple], reference: bool) -> tuple[bytes, int]:
     return path.read_bytes(), len(batches)
 
 
-def test_writer_thread_file_is_the_per_row_file(tmp_path):
+@pytest.mark.parametrize("compiled", [False, True])
+def test_writer_thread_file_is_the_per_row_file(tmp_path, compiled):
     rng = np.random.default_rng(5)
     loop, spec = ["t", "target", "command", "force"], ["t", "displacement", "force"]
     nan_block = _block(loop, 301, 50, rng)
@@ -195,7 +219,7 @@ def test_writer_thread_file_is_the_per_row_file(tmp_path):
         ("b", "rths/specimen", _block(spec, 200, 1, rng)),
         ("e", 10**9, {"kind": "stop", "message": "done"}),
     ]
-    batched, blocks = _log(tmp_path / "batched.mcap", items, reference=False)
+    batched, blocks = _log(tmp_path / "batched.mcap", items, reference=False, compiled=compiled)
     assert blocks == 5  # the others: empty, after a gap, reordered
     assert batched == _log(tmp_path / "reference.mcap", items, reference=True)[0]
     reader = make_reader(io.BytesIO(batched))

@@ -117,6 +117,9 @@ class WriterThread(threading.Thread):
         Wall time [s] between two flushes of the current chunk.
     on_fault
         Called once with a message when the log is in danger (module docstring).
+    compiled
+        Pack row blocks into records with the compiled kernel of
+        :mod:`rths.log.writer.rowpack` (imports numba; the same bytes as the interpreted path).
     """
 
     def __init__(
@@ -128,6 +131,7 @@ class WriterThread(threading.Thread):
         chunk_size: int,
         flush_interval: float,
         on_fault: Callable[[str], None] | None = None,
+        compiled: bool = False,
     ) -> None:
         super().__init__(name="rths-recorder", daemon=True)
         self.error: BaseException | None = None
@@ -149,6 +153,11 @@ class WriterThread(threading.Thread):
         self._flush_interval = flush_interval
         self._topics: dict[str, _Topic] = {}
         self._templates: dict[tuple[str, ...], bytes] = {}
+        self._packer: Any = None
+        if compiled:
+            from rths.log.writer.rowpack import RowPacker  # numba: only where it is wanted
+
+            self._packer = RowPacker()
         self._dirty = False
         self._last_flush = time.monotonic()
         self._flush_waiters: list[threading.Event] = []
@@ -162,7 +171,8 @@ class WriterThread(threading.Thread):
         on_fault: Callable[[str], None] | None = None,
     ) -> WriterThread:
         """Create the file (:class:`rths.log.writer.logfile.LogFile`) and its writer; ``config``
-        holds ``reserve`` [B] and the other parameters of the class by name.
+        holds ``reserve`` [B] and the other parameters of the class by name (``compiled``
+        optional).
 
         Raises
         ------
@@ -178,6 +188,7 @@ class WriterThread(threading.Thread):
             config["chunk_size"],
             config["flush_interval"],
             on_fault,
+            bool(config.get("compiled", False)),
         )
 
     def stats(self) -> dict[str, TopicStats]:
@@ -397,9 +408,16 @@ class WriterThread(threading.Thread):
         n = block.count
         seq = block.seq[:n]
         if n and seq[0] == entry.last_seq + 1 and (n == 1 or bool((np.diff(seq) == 1).all())):
-            data, nonfinite = block_json(block, self._templates)
             times = block.t_ns[:n]
-            self._writer.add_messages(entry.channel_id, seq & 0xFFFFFFFF, times, times, data)
+            packed = None if self._packer is None else self._packer.pack(block, entry.channel_id)
+            if packed is None:
+                data, nonfinite = block_json(block, self._templates)
+                self._writer.add_messages(entry.channel_id, seq & 0xFFFFFFFF, times, times, data)
+            else:
+                if times.min() < 0:
+                    raise ValueError(f"{topic}: a row's log time is negative")
+                records, ends, nonfinite = packed
+                self._writer.add_records(entry.channel_id, times, records, ends)
             self._rows_done = n
             self._dirty = True
             if entry.last_seq < 0:
