@@ -20,6 +20,7 @@ from mcap.reader import make_reader
 from mcap.writer import CompressionType, Writer
 
 from rths.core.channels import Channel, RowBlock
+from rths.log.writer import mcap_writer
 from rths.log.writer.block_writer import BlockWriter
 from rths.log.writer.mcap_writer import STOP, WriterThread
 from rths.log.writer.rowjson import block_json, block_messages
@@ -53,12 +54,22 @@ def _records(ch: int, seqs: list[int], logs: list[int], pubs: list[int], data: l
 
 
 def _write(
-    batched: bool, chunk_size: int, compression: CompressionType, seed: int, records: bool = False
+    batched: bool,
+    chunk_size: int,
+    compression: CompressionType,
+    seed: int,
+    records: bool = False,
+    zstd_level: int | None = None,
 ) -> bytes:
     out = io.BytesIO()
-    writer = (BlockWriter if batched else Writer)(
-        out, chunk_size=chunk_size, compression=compression
-    )
+    if batched:
+        writer: Writer = BlockWriter(
+            out, chunk_size=chunk_size, compression=compression, zstd_level=zstd_level
+        )
+        expected = zstd_level if compression == CompressionType.ZSTD else None
+        assert writer.zstd_level == expected
+    else:
+        writer = Writer(out, chunk_size=chunk_size, compression=compression)
     writer.start(profile="", library="test")
     schema = writer.register_schema("s", "jsonschema", b"{}")
     for topic in ("a", "b", "c"):
@@ -99,6 +110,35 @@ def test_block_writer_writes_the_bytes_of_add_message(chunk_size, compression):
         reference = _write(False, chunk_size, compression, seed)
         assert _write(True, chunk_size, compression, seed) == reference
         assert _write(True, chunk_size, compression, seed, records=True) == reference
+        # the chunk-finishing code that takes a zstd level is mcap's, level 3 being mcap's own
+        assert _write(True, chunk_size, compression, seed, True, zstd_level=3) == reference
+
+
+def test_block_writer_zstd_level_changes_only_the_compressed_bytes():
+    """Level 1: other chunk bytes, the same records, indexes and summary (mcap's reader)."""
+
+    def read(data: bytes):
+        reader = make_reader(io.BytesIO(data))
+        messages = [
+            (c.id, m.sequence, m.log_time, m.publish_time, m.data)
+            for _, c, m in reader.iter_messages(log_time_order=False)
+        ]
+        summary = reader.get_summary()
+        chunks = [
+            (i.chunk_start_offset > 0, i.message_start_time, i.message_end_time, i.compression)
+            for i in summary.chunk_indexes
+        ]
+        return (
+            messages,
+            summary.statistics,
+            chunks,
+            [i.uncompressed_size for i in summary.chunk_indexes],
+        )
+
+    reference = _write(False, 10_000, CompressionType.ZSTD, 1)
+    level1 = _write(True, 10_000, CompressionType.ZSTD, 1, records=True, zstd_level=1)
+    assert level1 != reference
+    assert read(level1) == read(reference)
 
 
 def test_block_writer_file_reads_back_with_mcap():
@@ -200,7 +240,8 @@ def _log(
 
 
 @pytest.mark.parametrize("compiled", [False, True])
-def test_writer_thread_file_is_the_per_row_file(tmp_path, compiled):
+def test_writer_thread_file_is_the_per_row_file(tmp_path, compiled, monkeypatch):
+    monkeypatch.setattr(mcap_writer, "ZSTD_LEVEL", 3)  # mcap's level, as the reference writes
     rng = np.random.default_rng(5)
     loop, spec = ["t", "target", "command", "force"], ["t", "displacement", "force"]
     nan_block = _block(loop, 301, 50, rng)

@@ -14,26 +14,34 @@ chunk is kept as arrays, a block at a time, and packed by numpy when the chunk i
 boundaries fall where ``add_message`` puts them: the message that takes the chunk past
 ``chunk_size`` goes through ``add_message`` itself, which finishes the chunk.
 
+With ``zstd_level``, chunks are compressed at that zstd level rather than ``mcap``'s fixed 3 (the
+same frames, decompressed alike by every reader): ``mcap``'s chunk-finishing code with the level
+as the only change (``tests/test_block_writer.py`` holds it to ``mcap``'s bytes at level 3).
+
 Everything else -- header, schemas, channels, compression, chunk and message indexes, summary,
 footer -- is ``mcap``'s own code.  The private surface used is two attributes of
 :class:`mcap.writer.Writer` (its chunk builder, replaced by a subclass that adds
 :meth:`_BlockChunkBuilder.add_records`, and its ``Statistics`` record); if a future ``mcap`` no
 longer has them, :attr:`BlockWriter.batched` is False and both methods fall back to
-``add_message`` per message (slower, same file).
+``add_message`` per message (slower, same file).  A chosen zstd level further needs the writer's
+stream, record builder, chunk index list, index types, CRC setting and ``__flush``; without any of
+them chunks are compressed at ``mcap``'s level (:attr:`BlockWriter.zstd_level` says which).
 """
 
 from __future__ import annotations
 
 import struct
+import zlib
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+import zstandard
 from mcap._chunk_builder import ChunkBuilder
 from mcap.data_stream import RecordBuilder
 from mcap.opcode import Opcode
-from mcap.records import Message, MessageIndex, Statistics
-from mcap.writer import Writer
+from mcap.records import Chunk, ChunkIndex, Message, MessageIndex, Statistics
+from mcap.writer import CompressionType, IndexType, Writer
 from numpy.typing import NDArray
 
 __all__ = ["BlockWriter"]
@@ -135,6 +143,9 @@ class BlockWriter(Writer):
         The stream (or file name) to write to.
     chunk_size
         Uncompressed bytes per chunk [B] (as for :class:`mcap.writer.Writer`).
+    zstd_level
+        zstd compression level of the chunks (with ``compression=CompressionType.ZSTD``);
+        None (default): ``mcap``'s (3).
     **options
         Any other keyword of :class:`mcap.writer.Writer` (compression, indexes, ...).
 
@@ -144,9 +155,17 @@ class BlockWriter(Writer):
         Whether :meth:`add_messages` takes the batched path (False: ``add_message`` per message,
         for an ``mcap`` whose writer no longer has the attributes this class relies on, or
         without chunking).
+    zstd_level : int or None
+        The level chunks are compressed at by this class (None: by ``mcap``, at its level).
     """
 
-    def __init__(self, output: Any, chunk_size: int = 1024 * 1024, **options: Any) -> None:
+    def __init__(
+        self,
+        output: Any,
+        chunk_size: int = 1024 * 1024,
+        zstd_level: int | None = None,
+        **options: Any,
+    ) -> None:
         super().__init__(output, chunk_size=chunk_size, **options)
         self._chunk_limit = chunk_size
         builder = getattr(self, "_Writer__chunk_builder", None)
@@ -157,6 +176,20 @@ class BlockWriter(Writer):
             self._chunks = _BlockChunkBuilder()
             self._stats = stats
             setattr(self, "_Writer__chunk_builder", self._chunks)  # its mangled name
+        self.zstd_level: int | None = None
+        self._compressor: zstandard.ZstdCompressor | None = None
+        self._crcs = bool(options.get("enable_crcs", True))
+        own = ("flush", "stream", "record_builder", "chunk_indices", "index_types")
+        if (
+            zstd_level is not None
+            and options.get("compression", CompressionType.ZSTD) == CompressionType.ZSTD
+            and self._chunks is not None
+            and all(hasattr(self, f"_Writer__{name}") for name in own)
+            and callable(getattr(self, "_Writer__finalize_chunk", None))
+        ):
+            self.zstd_level = zstd_level
+            self._compressor = zstandard.ZstdCompressor(level=zstd_level)
+            setattr(self, "_Writer__finalize_chunk", self._finalize_chunk)  # on this instance
 
     @property
     def batched(self) -> bool:
@@ -278,6 +311,52 @@ class BlockWriter(Writer):
         channel_id, sequence, log_time, publish_time = _MESSAGE_FIELDS.unpack_from(record, 9)
         data = bytes(record[_HEADER_SIZE:])
         self.add_message(channel_id, log_time, data, publish_time, sequence)
+
+    def _finalize_chunk(self) -> None:
+        """``mcap``'s ``Writer.__finalize_chunk`` (1.6), the chunk compressed at
+        :attr:`zstd_level`."""
+        chunks, stats, compressor = self._chunks, self._stats, self._compressor
+        assert chunks is not None and stats is not None and compressor is not None
+        if chunks.num_messages == 0:
+            return
+        flush = getattr(self, "_Writer__flush")
+        stream = getattr(self, "_Writer__stream")
+        records: RecordBuilder = getattr(self, "_Writer__record_builder")
+        stats.chunk_count += 1
+        chunk_data = chunks.end()
+        compressed = compressor.compress(chunk_data)
+        chunk = Chunk(
+            compression="zstd",
+            data=compressed,
+            message_start_time=chunks.message_start_time,
+            message_end_time=chunks.message_end_time,
+            uncompressed_crc=zlib.crc32(chunk_data) if self._crcs else 0,
+            uncompressed_size=len(chunk_data),
+        )
+        flush()
+        chunk_start = stream.tell()
+        chunk.write(records)
+        index = ChunkIndex(
+            message_start_time=chunk.message_start_time,
+            message_end_time=chunk.message_end_time,
+            chunk_start_offset=chunk_start,
+            chunk_length=records.count,
+            message_index_offsets={},
+            message_index_length=0,
+            compression=chunk.compression,
+            compressed_size=len(compressed),
+            uncompressed_size=chunk.uncompressed_size,
+        )
+        flush()
+        index_start = stream.tell()
+        if getattr(self, "_Writer__index_types") & IndexType.MESSAGE:
+            for channel_id, entries in chunks.message_indices.items():
+                index.message_index_offsets[channel_id] = index_start + records.count
+                entries.write(records)
+        index.message_index_length = records.count
+        flush()
+        getattr(self, "_Writer__chunk_indices").append(index)
+        chunks.reset()
 
     def _count(self, channel_id: int, times: NDArray[np.int64]) -> None:
         """Count ``len(times)`` messages of ``channel_id`` at ``times`` [ns] in the file's
