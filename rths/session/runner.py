@@ -14,9 +14,10 @@
               encoding and compressing a block neither holds this process's GIL nor takes the
               loop's CPU; it finishes the log even if this process is killed.
 
-Real-time runs keep the garbage collector out of the loop (:class:`rths.runtime.clocks.QuietGC`)
-and lower the loop thread's timer slack; collections, deadline misses and the measurement's age
-are counted and written to the summary.
+Every clock computes with one BLAS thread (:mod:`rths.session.blas`).  Real-time runs keep the
+garbage collector out of the loop (:class:`rths.runtime.clocks.QuietGC`) and lower the loop
+thread's timer slack; collections, deadline misses and the measurement's age are counted and
+written to the summary.
 
 A crashed or vanished specimen ends the run with a :class:`rths.core.errors.TransportError`; the log
 is finished, carries an ``error`` event with the specimen's last words (its stderr), and the summary
@@ -56,6 +57,7 @@ from rths.runtime.clocks import (
 from rths.runtime.cpu_latency import CpuLatency
 from rths.runtime.guard import CommandGuard
 from rths.runtime.loop import InProcessLink, LinkSample, Loop, LoopResult
+from rths.session.blas import one_blas_thread
 from rths.session.budget import check_budget, step_cost
 from rths.session.outcome import (
     Collector,
@@ -226,6 +228,7 @@ def _check_out(path: Path) -> None:
         path.unlink()
 
 
+@one_blas_thread()
 def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome:
     """Run ``scn`` (see the module docstring); the MCAP log is always finished.
 
