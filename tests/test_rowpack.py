@@ -72,3 +72,12 @@ def test_row_packer_reuses_its_buffer_and_skips_what_it_cannot_pack():
     assert packer.pack(_block(["x"], 0, 0, rng), 1) is None  # no rows
     with pytest.raises(ValueError, match="no channels or no rows"):
         block_records(_block(["x"], 0, 0, rng), 1)
+
+
+def test_row_packer_refuses_negative_counters_and_times():
+    rng = np.random.default_rng(2)
+    for field in ("seq", "t_ns"):
+        block = _block(["x"], 0, 3, rng)
+        getattr(block, field)[1] = -1
+        with pytest.raises(ValueError, match="negative"):
+            block_records(block, 1)

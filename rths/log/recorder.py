@@ -156,9 +156,7 @@ class Recorder:
             "compression": compression,
             "chunk_size": check_positive_int(chunk_size, "chunk_size"),
             "flush_interval": check_positive(flush_interval, "flush_interval"),
-            # the in-process writer packs rows with numba (loaded by the loop anyway); the
-            # writer process stays without it, so that it starts fast
-            "compiled": writer == "thread",
+            "compiled": writer == "thread",  # numba: in process (the loop has it), not in a child
         }
         self._schemas: dict[str, bytes] = {}
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()

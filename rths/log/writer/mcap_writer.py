@@ -175,8 +175,7 @@ class WriterThread(threading.Thread):
         on_fault: Callable[[str], None] | None = None,
     ) -> WriterThread:
         """Create the file (:class:`rths.log.writer.logfile.LogFile`) and its writer; ``config``
-        holds ``reserve`` [B] and the other parameters of the class by name (``compiled``
-        optional).
+        holds ``reserve`` [B] and the other parameters of the class by name.
 
         Raises
         ------
@@ -418,10 +417,8 @@ class WriterThread(threading.Thread):
                 data, nonfinite = block_json(block, self._templates)
                 self._writer.add_messages(entry.channel_id, seq & 0xFFFFFFFF, times, times, data)
             else:
-                if times.min() < 0:
-                    raise ValueError(f"{topic}: a row's log time is negative")
-                records, ends, nonfinite = packed
-                self._writer.add_records(entry.channel_id, times, records, ends)
+                self._writer.add_records(entry.channel_id, times, packed[0], packed[1])
+                nonfinite = packed[2]
             self._rows_done = n
             self._dirty = True
             if entry.last_seq < 0:

@@ -119,11 +119,18 @@ class RowPacker:
         (the interpreted path writes those).
 
         The returned view is into a buffer the next call overwrites.
+
+        Raises
+        ------
+        ValueError
+            If a row's step counter or log time is negative.
         """
         n = block.count
         names = block.names
         if not names or not n:
             return None
+        if min(block.seq[:n].min(), block.t_ns[:n].min()) < 0:
+            raise ValueError("a row's step counter or log time is negative")
         keys = self._keys.get(names)
         if keys is None:
             pieces = [f',"{name}":'.encode() for name in names]
@@ -157,8 +164,7 @@ def block_records(block: Any, channel_id: int) -> tuple[bytes, NDArray[np.int64]
     Parameters
     ----------
     block
-        A :class:`rths.core.channels.RowBlock` with at least one channel and one row; its
-        ``seq`` and ``t_ns`` must be >= 0 (not checked).
+        A :class:`rths.core.channels.RowBlock` with at least one channel and one row.
     channel_id
         The records' channel.
 
@@ -170,6 +176,11 @@ def block_records(block: Any, channel_id: int) -> tuple[bytes, NDArray[np.int64]
         End of each record within ``records`` [B] (int64, shape ``(count,)``).
     nonfinite : int
         Rows holding a NaN or an infinity.
+
+    Raises
+    ------
+    ValueError
+        If the block has no channel or no row, or a negative step counter or log time.
     """
     packed = RowPacker().pack(block, channel_id)
     if packed is None:
