@@ -153,8 +153,8 @@ class _Progress(threading.Thread):
 
 
 #: Items (row blocks) the fast clock lets wait for the recorder's writer thread: the compiled
-#: loop runs about twice as fast as the writer, and what is queued when a nearly full disk stops
-#: the run must fit the log's 8 MiB disk reserve (32 blocks of 256 rows: ~2 MB at 2048 Hz).
+#: loop can outrun the writer (one core for both), and what is queued when a nearly full disk
+#: stops the run must fit the log's 8 MiB disk reserve (32 blocks of 256 rows: ~2 MB at 2048 Hz).
 FAST_BACKLOG = 32
 
 
@@ -308,7 +308,7 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
         def make_loop(link: Any, extra_sink: Callable[[RowBlock], None] | None = None) -> Loop:
             def sink(block: RowBlock) -> None:
                 collector(block)
-                if clock == "fast":  # the compiled loop outruns the writer thread
+                if clock == "fast":  # the compiled loop can outrun the writer thread
                     rec.throttle(FAST_BACKLOG)
                 rec.put_block(LOOP_TOPIC, block)
                 if live is not None:
