@@ -8,13 +8,18 @@ as the MCAP spec lays it out.
 from __future__ import annotations
 
 import struct
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from rths.core.channels import Channel, RowBlock
+from rths.log.reader import is_complete, read_topic
+from rths.log.recorder import Recorder
 from rths.log.writer.rowjson import block_json
 from rths.log.writer.rowpack import RowPacker, block_records
+
+PATIENCE = 60.0  # upper bound for the writer's periodic flush; reached only if the code is broken
 
 
 def _block(names: list[str], start: int, rows: int, rng: np.random.Generator) -> RowBlock:
@@ -81,3 +86,24 @@ def test_row_packer_refuses_negative_counters_and_times():
         getattr(block, field)[1] = -1
         with pytest.raises(ValueError, match="negative"):
             block_records(block, 1)
+
+
+def test_killed_recorder_with_packed_blocks_leaves_a_readable_log(tmp_path: Path):
+    """The in-process writer (compiled packing, zstd level 1): what its periodic flush put on
+    disk reads back with every row, although the file was never finished."""
+    path, snap = tmp_path / "killed.mcap", tmp_path / "snap.mcap"
+    rng = np.random.default_rng(3)
+    blocks = [_block(["t", "x", "y"], 50 * i, 50, rng) for i in range(4)]
+    rec = Recorder(path, topics={}, flush_interval=0.01).start()
+    for block in blocks:
+        rec.put_block("rths/loop", block)
+    assert rec.wait_flushed(PATIENCE)
+    snap.write_bytes(path.read_bytes())  # what is on disk if the process died now
+    rec.close()
+    assert not is_complete(snap)
+    with pytest.warns(Warning, match="unfinished"):
+        rows = read_topic(snap, "rths/loop")
+    assert rows["sequence"].tolist() == list(range(200))
+    want = np.concatenate([b.values[: b.count] for b in blocks])
+    assert np.array_equal(np.column_stack([rows[n] for n in ("t", "x", "y")]), want)
+    assert np.array_equal(read_topic(path, "rths/loop")["x"], want[:, 1])
