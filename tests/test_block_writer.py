@@ -11,6 +11,7 @@ from __future__ import annotations
 import io
 import json
 import queue
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +20,7 @@ from mcap.reader import make_reader
 from mcap.writer import CompressionType, Writer
 
 from rths.core.channels import Channel, RowBlock
+from rths.log.writer import mcap_writer
 from rths.log.writer.block_writer import BlockWriter
 from rths.log.writer.mcap_writer import STOP, WriterThread
 from rths.log.writer.rowjson import block_json, block_messages
@@ -41,11 +43,33 @@ def _batches(seed: int) -> list[tuple[int, list[int], list[int], list[int], list
     return out
 
 
-def _write(batched: bool, chunk_size: int, compression: CompressionType, seed: int) -> bytes:
+def _records(ch: int, seqs: list[int], logs: list[int], pubs: list[int], data: list[bytes]):
+    """The messages as serialised Message records (as ``rowpack`` hands them over) and ends."""
+    heads = [
+        struct.pack("<BQHIQQ", 5, 22 + len(d), ch, k, t, p)
+        for k, t, p, d in zip(seqs, logs, pubs, data)
+    ]
+    records = [h + d for h, d in zip(heads, data)]
+    return b"".join(records), np.cumsum([len(r) for r in records], dtype=np.int64)
+
+
+def _write(
+    batched: bool,
+    chunk_size: int,
+    compression: CompressionType,
+    seed: int,
+    records: bool = False,
+    zstd_level: int | None = None,
+) -> bytes:
     out = io.BytesIO()
-    writer = (BlockWriter if batched else Writer)(
-        out, chunk_size=chunk_size, compression=compression
-    )
+    if batched:
+        writer: Writer = BlockWriter(
+            out, chunk_size=chunk_size, compression=compression, zstd_level=zstd_level
+        )
+        expected = zstd_level if compression == CompressionType.ZSTD else None
+        assert writer.zstd_level == expected
+    else:
+        writer = Writer(out, chunk_size=chunk_size, compression=compression)
     writer.start(profile="", library="test")
     schema = writer.register_schema("s", "jsonschema", b"{}")
     for topic in ("a", "b", "c"):
@@ -53,7 +77,11 @@ def _write(batched: bool, chunk_size: int, compression: CompressionType, seed: i
     for i, (ch, seqs, logs, pubs, data) in enumerate(_batches(seed)):
         if batched:
             assert isinstance(writer, BlockWriter) and writer.batched
-            writer.add_messages(ch, seqs, logs, pubs, data)
+            if records:
+                packed, ends = _records(ch, seqs, logs, pubs, data)
+                writer.add_records(ch, np.array(logs, dtype=np.int64), memoryview(packed), ends)
+            else:
+                writer.add_messages(ch, seqs, logs, pubs, data)
         else:
             for k, t, p, d in zip(seqs, logs, pubs, data):
                 writer.add_message(ch, t, d, p, k)
@@ -81,6 +109,36 @@ def test_block_writer_writes_the_bytes_of_add_message(chunk_size, compression):
     for seed in (1, 2):
         reference = _write(False, chunk_size, compression, seed)
         assert _write(True, chunk_size, compression, seed) == reference
+        assert _write(True, chunk_size, compression, seed, records=True) == reference
+        # the chunk-finishing code that takes a zstd level is mcap's, level 3 being mcap's own
+        assert _write(True, chunk_size, compression, seed, True, zstd_level=3) == reference
+
+
+def test_block_writer_zstd_level_changes_only_the_compressed_bytes():
+    """Level 1: other chunk bytes, the same records, indexes and summary (mcap's reader)."""
+
+    def read(data: bytes):
+        reader = make_reader(io.BytesIO(data))
+        messages = [
+            (c.id, m.sequence, m.log_time, m.publish_time, m.data)
+            for _, c, m in reader.iter_messages(log_time_order=False)
+        ]
+        summary = reader.get_summary()
+        chunks = [
+            (i.chunk_start_offset > 0, i.message_start_time, i.message_end_time, i.compression)
+            for i in summary.chunk_indexes
+        ]
+        return (
+            messages,
+            summary.statistics,
+            chunks,
+            [i.uncompressed_size for i in summary.chunk_indexes],
+        )
+
+    reference = _write(False, 10_000, CompressionType.ZSTD, 1)
+    level1 = _write(True, 10_000, CompressionType.ZSTD, 1, records=True, zstd_level=1)
+    assert level1 != reference
+    assert read(level1) == read(reference)
 
 
 def test_block_writer_file_reads_back_with_mcap():
@@ -147,8 +205,11 @@ def test_block_json_parses_to_the_rows():
     assert block_json(_block(["x"], 0, 0, rng)) == ([], 0)
 
 
-def _log(path: Path, items: list[tuple], reference: bool) -> tuple[bytes, int]:
-    """Write ``items`` with the writer thread; ``reference``: mcap's Writer, one row at a time.
+def _log(
+    path: Path, items: list[tuple], reference: bool, compiled: bool = False
+) -> tuple[bytes, int]:
+    """Write ``items`` with the writer thread; ``reference``: mcap's Writer, one row at a time;
+    ``compiled``: rows packed by :mod:`rths.log.writer.rowpack`.
 
     Returns the file and how many blocks took the batched path.
     """
@@ -159,6 +220,7 @@ def _log(path: Path, items: list[tuple], reference: bool) -> tuple[bytes, int]:
         "compression": "zstd",
         "chunk_size": 5000,
         "flush_interval": 1e9,  # chunks end by size only: both files cut them at the same rows
+        "compiled": compiled,
     }
     thread = WriterThread.open(path, inbox, config)
     if reference:
@@ -166,8 +228,9 @@ def _log(path: Path, items: list[tuple], reference: bool) -> tuple[bytes, int]:
         thread._block = thread._block_rows  # type: ignore[method-assign]
     batches = []
     if not reference:
-        add_messages = thread._writer.add_messages
-        thread._writer.add_messages = lambda *a: batches.append(a) or add_messages(*a)
+        name = "add_records" if compiled else "add_messages"
+        add = getattr(thread._writer, name)
+        setattr(thread._writer, name, lambda *a: batches.append(a) or add(*a))
     for item in items:
         inbox.put(item)
     inbox.put(STOP)
@@ -176,7 +239,9 @@ def _log(path: Path, items: list[tuple], reference: bool) -> tuple[bytes, int]:
     return path.read_bytes(), len(batches)
 
 
-def test_writer_thread_file_is_the_per_row_file(tmp_path):
+@pytest.mark.parametrize("compiled", [False, True])
+def test_writer_thread_file_is_the_per_row_file(tmp_path, compiled, monkeypatch):
+    monkeypatch.setattr(mcap_writer, "ZSTD_LEVEL", 3)  # mcap's level, as the reference writes
     rng = np.random.default_rng(5)
     loop, spec = ["t", "target", "command", "force"], ["t", "displacement", "force"]
     nan_block = _block(loop, 301, 50, rng)
@@ -195,7 +260,7 @@ def test_writer_thread_file_is_the_per_row_file(tmp_path):
         ("b", "rths/specimen", _block(spec, 200, 1, rng)),
         ("e", 10**9, {"kind": "stop", "message": "done"}),
     ]
-    batched, blocks = _log(tmp_path / "batched.mcap", items, reference=False)
+    batched, blocks = _log(tmp_path / "batched.mcap", items, reference=False, compiled=compiled)
     assert blocks == 5  # the others: empty, after a gap, reordered
     assert batched == _log(tmp_path / "reference.mcap", items, reference=True)[0]
     reader = make_reader(io.BytesIO(batched))

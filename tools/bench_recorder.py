@@ -6,11 +6,13 @@ Usage::
     python tools/bench_recorder.py --writer-only [--blocks 80] [--channels 21] [--rounds 5]
 
 ``--writer-only`` measures the writer's own CPU per row instead (no threads, no pacing): the
-writer thread's code writing ``--blocks`` blocks to memory, by the batched path
-(:meth:`rths.log.writer.block_writer.BlockWriter.add_messages`, what runs) and by the reference
-path (``mcap``'s ``add_message`` per row, what ran before; the same bytes), interleaved over
-``--rounds``, with the parts: JSON formatting of the rows, zstd compression of the chunks.  The
-seed scenario's two topics have 21 channels each (~640 B per row).
+writer thread's code writing ``--blocks`` blocks to memory, by the compiled path (rows packed into
+records by :mod:`rths.log.writer.rowpack`, what the fast clock's writer thread runs), the batched
+path (:meth:`rths.log.writer.block_writer.BlockWriter.add_messages`, what the writer process
+runs) and the reference path (``mcap``'s ``add_message`` per row at ``mcap``'s zstd level 3, what
+ran first; the same records), interleaved over ``--rounds``, with the parts: JSON formatting of
+the rows, zstd compression of the chunks at the writer's level and at 3.  The seed scenario's two
+topics have 21 channels each (~640 B per row).
 
 The loop hands the recorder one :class:`rths.core.channels.RowBlock` of 256 rows every 256 steps
 (8 blocks/s at 2048 Hz).  This benchmark does the same at ``--rate`` blocks/s with the seed's
@@ -55,7 +57,7 @@ from mcap.writer import CompressionType, Writer
 
 from rths.core.channels import Channel, RowBlock
 from rths.log.recorder import Recorder
-from rths.log.writer.mcap_writer import WriterThread
+from rths.log.writer.mcap_writer import ZSTD_LEVEL, WriterThread
 from rths.log.writer.rowjson import block_json
 
 ROWS = 256
@@ -129,11 +131,20 @@ def handover(writer: str, blocks: list[RowBlock], rate: float) -> dict[str, floa
     }
 
 
-def writer_cost(blocks: list[RowBlock], batched: bool) -> tuple[float, int]:
-    """CPU [s] of the writer thread's code writing ``blocks`` to memory, and the file's size."""
+def writer_cost(blocks: list[RowBlock], path: str) -> tuple[float, int]:
+    """CPU [s] of the writer thread's code writing ``blocks`` to memory by ``path``
+    (``compiled``, ``batched`` or ``reference``), and the file's size."""
     out = io.BytesIO()
-    thread = WriterThread(out, queue.SimpleQueue(), {}, "zstd", 1 << 20, 1.0)  # type: ignore[arg-type]
-    if not batched:  # the reference: mcap's add_message per row
+    thread = WriterThread(
+        out,  # type: ignore[arg-type]
+        queue.SimpleQueue(),
+        {},
+        "zstd",
+        1 << 20,
+        1.0,
+        compiled=path == "compiled",
+    )
+    if path == "reference":  # mcap's add_message per row
         thread._writer = Writer(out, chunk_size=1 << 20, compression=CompressionType.ZSTD)
         thread._block = thread._block_rows  # type: ignore[method-assign]
     thread._writer.start()
@@ -146,20 +157,25 @@ def writer_cost(blocks: list[RowBlock], batched: bool) -> tuple[float, int]:
 
 
 def writer_only(blocks: list[RowBlock], rounds: int) -> None:
-    """Print the writer's CPU per row, batched and reference, and its parts (``--writer-only``)."""
+    """Print the writer's CPU per row by each path, and its parts (``--writer-only``)."""
     rows = sum(b.count for b in blocks)
-    runs: dict[str, list[float]] = {"batched": [], "reference": [], "json": [], "zstd": []}
+    paths, size = ("compiled", "batched", "reference"), 0
+    runs: dict[str, list[float]] = {name: [] for name in (*paths, "json", "zstd", "zstd 3")}
+    writer_cost(blocks[:1], "compiled")  # the kernel loaded (or compiled) once
     for _ in range(rounds):
-        for name in ("batched", "reference"):
-            cpu, size = writer_cost(blocks, name == "batched")
+        for name in paths:
+            cpu, written = writer_cost(blocks, name)
             runs[name].append(cpu / rows * 1e6)
+            size = written if name == "compiled" else size
         c0 = time.thread_time()
         data = b"".join(m for b in blocks for m in block_json(b, {})[0])
         runs["json"].append((time.thread_time() - c0) / rows * 1e6)
-        c0 = time.thread_time()
-        for i in range(0, len(data), 1 << 20):
-            zstandard.compress(data[i : i + (1 << 20)])
-        runs["zstd"].append((time.thread_time() - c0) / rows * 1e6)
+        for name, level in (("zstd", ZSTD_LEVEL), ("zstd 3", 3)):
+            compressor = zstandard.ZstdCompressor(level=level)
+            c0 = time.thread_time()
+            for i in range(0, len(data), 1 << 20):
+                compressor.compress(data[i : i + (1 << 20)])
+            runs[name].append((time.thread_time() - c0) / rows * 1e6)
     print(
         f"writer CPU per row [us], {len(blocks)} blocks of {ROWS} x {blocks[0].values.shape[1]}, "
         f"{size / rows:.0f} B per row in the file, {rounds} rounds, median (worst) "

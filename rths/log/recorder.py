@@ -1,16 +1,16 @@
 """MCAP recording off the loop thread (design.md §4).
 
-The loop thread only calls :meth:`Recorder.put` / :meth:`Recorder.put_block`, which put a tuple on
-a :class:`queue.SimpleQueue` and return: no JSON encoding, no compression, no I/O.  A writer
+The loop thread only calls :meth:`Recorder.put` / :meth:`Recorder.put_block`, which put a tuple on a
+:class:`queue.SimpleQueue` and return: no JSON encoding, no compression, no I/O.  A writer
 (:class:`rths.log.writer.mcap_writer.WriterThread`) encodes each message as JSON, writes it to an
-MCAP file with the ``mcap`` package (one ``jsonschema`` schema per topic, zstd-compressed chunks,
-``log_time`` = simulated time [ns]), counts per topic the messages written and the gaps in their
-sequence numbers, and finishes the file -- footer and summary -- when the recorder is closed, also
-when the ``with`` body raises. The writer runs as a thread of this process (``writer="thread"``, the
-default: the ``fast`` clock, tests) or in a process of its own at ordinary priority
-(``writer="process"``, :mod:`rths.log.writer.writer_process`: the ``realtime`` and ``lockstep``
-clocks), where it neither holds this process's GIL nor competes with the loop for the CPU; that
-process also finishes the file if this one is killed.
+MCAP file with the ``mcap`` package (one ``jsonschema`` schema per topic, chunks zstd-compressed at
+level 1, ``log_time`` = simulated time [ns]), counts per topic the messages written and the gaps in
+their sequence numbers, and finishes the file -- footer and summary -- when the recorder is closed,
+also when the ``with`` body raises. The writer runs as a thread of this process
+(``writer="thread"``, the default: the ``fast`` clock, tests) or in a process of its own at ordinary
+priority (``writer="process"``, :mod:`rths.log.writer.writer_process`: the ``realtime`` and
+``lockstep`` clocks), where it neither holds this process's GIL nor competes with the loop for the
+CPU; that process also finishes the file if this one is killed.
 
 Log contract (read it with ``mcap.reader.make_reader``, no project code needed):
 
@@ -156,6 +156,7 @@ class Recorder:
             "compression": compression,
             "chunk_size": check_positive_int(chunk_size, "chunk_size"),
             "flush_interval": check_positive(flush_interval, "flush_interval"),
+            "compiled": writer == "thread",  # numba: in process (the loop has it), not in a child
         }
         self._schemas: dict[str, bytes] = {}
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()

@@ -14,9 +14,10 @@
               encoding and compressing a block neither holds this process's GIL nor takes the
               loop's CPU; it finishes the log even if this process is killed.
 
-Real-time runs keep the garbage collector out of the loop (:class:`rths.runtime.clocks.QuietGC`)
-and lower the loop thread's timer slack; collections, deadline misses and the measurement's age
-are counted and written to the summary.
+Every clock computes with one BLAS thread (:mod:`rths.session.blas`).  Real-time runs keep the
+garbage collector out of the loop (:class:`rths.runtime.clocks.QuietGC`) and lower the loop
+thread's timer slack; collections, deadline misses and the measurement's age are counted and
+written to the summary.
 
 A crashed or vanished specimen ends the run with a :class:`rths.core.errors.TransportError`; the log
 is finished, carries an ``error`` event with the specimen's last words (its stderr), and the summary
@@ -56,6 +57,7 @@ from rths.runtime.clocks import (
 from rths.runtime.cpu_latency import CpuLatency
 from rths.runtime.guard import CommandGuard
 from rths.runtime.loop import InProcessLink, LinkSample, Loop, LoopResult
+from rths.session.blas import one_blas_thread
 from rths.session.budget import check_budget, step_cost
 from rths.session.outcome import (
     Collector,
@@ -151,8 +153,8 @@ class _Progress(threading.Thread):
 
 
 #: Items (row blocks) the fast clock lets wait for the recorder's writer thread: the compiled
-#: loop runs about twice as fast as the writer, and what is queued when a nearly full disk stops
-#: the run must fit the log's 8 MiB disk reserve (32 blocks of 256 rows: ~2 MB at 2048 Hz).
+#: loop can outrun the writer (one core for both), and what is queued when a nearly full disk
+#: stops the run must fit the log's 8 MiB disk reserve (32 blocks of 256 rows: ~2 MB at 2048 Hz).
 FAST_BACKLOG = 32
 
 
@@ -226,6 +228,7 @@ def _check_out(path: Path) -> None:
         path.unlink()
 
 
+@one_blas_thread()
 def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome:
     """Run ``scn`` (see the module docstring); the MCAP log is always finished.
 
@@ -305,7 +308,7 @@ def run_scenario(scn: Scenario, options: RunOptions | None = None) -> RunOutcome
         def make_loop(link: Any, extra_sink: Callable[[RowBlock], None] | None = None) -> Loop:
             def sink(block: RowBlock) -> None:
                 collector(block)
-                if clock == "fast":  # the compiled loop outruns the writer thread
+                if clock == "fast":  # the compiled loop can outrun the writer thread
                     rec.throttle(FAST_BACKLOG)
                 rec.put_block(LOOP_TOPIC, block)
                 if live is not None:
