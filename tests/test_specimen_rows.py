@@ -18,7 +18,8 @@ from rths.core.errors import DataError
 from rths.session.specimen_rows import BLOCK_ROWS, SpecimenRows
 from rths.wire.auth import RunSecret
 from rths.wire.codec import Command, Measurement, pack_reply, unpack_reply
-from rths.wire.links import LockstepServer, SyncClient
+from rths.wire.links import LockstepServer
+from rths.wire.sync_link import SyncClient
 from rths.wire.transport import RunKeys, ZenohEndpoints, open_session, wait_matched
 
 PATIENCE = 10.0

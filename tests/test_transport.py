@@ -489,7 +489,7 @@ def test_sealed_links_drop_forged_and_replayed_messages(pair) -> None:
     """Commands, measurements and stop requests that do not carry the run's check, or carry it
     a second time, are dropped and counted; the genuine exchange goes on unchanged."""
     from rths.wire.auth import RunSecret
-    from rths.wire.links import SyncClient
+    from rths.wire.sync_link import SyncClient
 
     co, sp, ep = pair
     keys = RunKeys("sealed")

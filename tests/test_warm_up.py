@@ -22,7 +22,7 @@ from rths.session.warm_up import warm_up
 from rths.session.zenoh_run import RESERVE_NS
 from rths.wire.auth import RunSecret
 from rths.wire.codec import PROBE_T_NS, Command, Measurement
-from rths.wire.links import SyncClient
+from rths.wire.sync_link import SyncClient
 from rths.wire.transport import Presence, RunKeys, ZenohEndpoints, open_session
 
 PATIENCE = 10.0

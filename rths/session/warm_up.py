@@ -89,7 +89,7 @@ def warm_up(
     Parameters
     ----------
     client
-        The coordinator's end of the link (:meth:`rths.wire.links.SyncClient.probe`).
+        The coordinator's end of the link (:meth:`rths.wire.sync_link.SyncClient.probe`).
     dt
         The loop's step [s].
     on_time_run

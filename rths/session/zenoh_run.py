@@ -9,7 +9,8 @@ words.  After every stop the specimen is asked to stop, which it does with a con
 zero (its :class:`rths.runtime.guard.CommandGuard`).
 
 ``realtime`` is synchronous: command ``k`` goes out, the specimen steps once and answers at once,
-and the loop waits for that answer until the step's deadline (:class:`rths.wire.links.SyncClient`).
+and the loop waits for that answer until the step's deadline
+(:class:`rths.wire.sync_link.SyncClient`).
 Before step 0 the round trip is warmed with probes that move nothing
 (:mod:`rths.session.warm_up`; a ``warm-up`` event in the log says what it saw).
 

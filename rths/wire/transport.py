@@ -61,7 +61,6 @@ from rths.wire.links import (
     LockstepServer,
     RealtimeClient,
     RealtimeServer,
-    SyncClient,
 )
 from rths.wire.presence import Presence, Role, wait_matched
 from rths.wire.sidestreams import (
@@ -71,6 +70,7 @@ from rths.wire.sidestreams import (
     LogPublisher,
     RecordSink,
 )
+from rths.wire.sync_link import SyncClient
 
 __all__ = [
     "BackgroundPublisher",
