@@ -126,6 +126,12 @@ class Model(ABC):
         """Nominal values of ``beta`` (the ridge pulls towards them where the data do not
         determine ``beta``, e.g. inertance against stiffness under a single sine)."""
 
+    def tolerance(self, channel: Channel) -> NDArray[np.float64]:
+        """Relative tolerance of each linear parameter ``beta`` that is NOMINAL.toml's own,
+        NaN where free (an effect's level; default all free): the re-calibration keeps such a
+        parameter within it (:mod:`rths.diagnose.search.bounded`)."""
+        return np.full(self.prior(channel).size, np.nan)
+
     @abstractmethod
     def describe(
         self, channel: Channel, theta: Theta, beta: NDArray[np.float64]

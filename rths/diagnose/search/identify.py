@@ -39,6 +39,7 @@ from scipy import optimize
 from rths.core.errors import NumericalError
 from rths.diagnose.channels.channel import TIME_BLOCKS, Channel, Segment
 from rths.diagnose.effects.model import Model, Param, Theta
+from rths.diagnose.search.bounded import box_bounds, box_solve
 
 __all__ = [
     "POLISH_EVALUATIONS",
@@ -182,6 +183,7 @@ class _Problem:
         )
         self.records = sorted({s.index for s in self.segments})
         self.prior = model.prior(channel)
+        self.tolerance = model.tolerance(channel)
 
     def design(self, theta: Theta) -> tuple[NDArray, NDArray, NDArray]:
         xs, fs, nuis = [], [], []
@@ -200,7 +202,8 @@ class _Problem:
 
     def solve(self, theta: Theta) -> tuple[NDArray, NDArray, NDArray]:
         """``(residual, beta, offsets)``; ridge ``RIDGE * ||d_j (beta_j - prior_j)||^2``
-        with ``d_j`` the column norms (negligible where the data determine ``beta``)."""
+        with ``d_j`` the column norms (negligible where the data determine ``beta``); the
+        nominal's own parameters within the model's tolerance (:mod:`.bounded`)."""
         x, f, o = self.design(theta)
         p = x.shape[1]
         a = np.hstack([x, o])
@@ -215,7 +218,11 @@ class _Problem:
         prior = np.concatenate([self.prior, np.zeros(o.shape[1])]) * norms
         ridge = np.concatenate([np.full(p, RIDGE), np.zeros(o.shape[1])])
         gram[np.diag_indices_from(gram)] += ridge + 1e-12
-        sol = np.linalg.solve(gram, rhs + ridge * prior) / norms
+        lo, hi = box_bounds(self.prior, self.tolerance, x, target)
+        free = np.full(o.shape[1], np.inf)
+        lo = np.concatenate([lo, -free]) * norms
+        hi = np.concatenate([hi, free]) * norms
+        sol = box_solve(gram, rhs + ridge * prior, lo, hi) / norms
         beta, off = sol[:p], sol[p:]
         return target - x @ beta - o @ off, beta, off
 
