@@ -59,10 +59,12 @@ RESOLVED_CLEARANCE: float = 2.0
 
 #: Relative tolerance of the re-calibration of NOMINAL.toml's own specimen parameters
 #: (inertance, damping, stiffness, a declared friction or amplitude law): a lab's identified
-#: nominal is off by up to 10-15 %; what lies beyond is structure the nominal lacks, not
+#: nominal is off by up to 10-15 %, and the records' own model form (sensor dynamics, a
+#: simulator's discretisation: the emulated lab's IMD shows 9 % less damping at 1024 Hz than
+#: it holds) adds a few per cent; what lies beyond is structure the nominal lacks, not
 #: calibration.  A parameter the nominal sets to zero may take a term of at most this share of
-#: the force's RMS (:mod:`rths.diagnose.search.bounded`).
-NOMINAL_TOLERANCE: float = 0.15
+#: the force's standard deviation (:mod:`rths.diagnose.search.bounded`).
+NOMINAL_TOLERANCE: float = 0.2
 
 
 #: Shortest memory [s] of the running load amplitude (a cycle at 10 Hz).

@@ -72,7 +72,7 @@ def box_solve(
     lo, hi
         Bounds (``-inf``/``inf`` where free), shape ``(q,)``.
     """
-    z = np.linalg.solve(gram, rhs)
+    z = np.asarray(np.linalg.solve(gram, rhs), dtype=np.float64)
     if np.all(z >= lo) and np.all(z <= hi):
         return z
     q = rhs.size
