@@ -108,7 +108,7 @@ def test_errors_are_one_line_with_exit_code_2(case_dir, tmp_path, capsys):
         "non-uniform sampling",
     )
     _one_line_error(capsys, _args(case_dir, "--effects", "wobble"), "unknown effect 'wobble'")
-    _one_line_error(capsys, _args(case_dir, "--cutoff", "300"), "smoothing cutoff must lie in")
+    _one_line_error(capsys, _args(case_dir, "--cutoff", "600"), "smoothing cutoff must lie in")
 
 
 def test_non_positive_cutoff_is_one_line(tmp_path, capsys):
