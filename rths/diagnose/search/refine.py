@@ -30,12 +30,24 @@ class Problem(Protocol):
     y: NDArray
 
     def solve(self, theta: Theta) -> tuple[NDArray, NDArray, NDArray]:
-        """``(residual, beta, offsets)`` at ``theta``."""
+        """``(residual, beta, offsets)`` at ``theta``.
+
+        Parameters
+        ----------
+        theta
+            Nonlinear parameters by name.
+        """
         ...
 
 
 class Coords:
-    """Map between named parameters and the search's unit coordinates (log or scaled)."""
+    """Map between named parameters and the search's unit coordinates (log or scaled).
+
+    Parameters
+    ----------
+    space
+        The model's nonlinear parameters (bounds, log or linear scale).
+    """
 
     def __init__(self, space: list[Param]) -> None:
         self.space = space
@@ -44,12 +56,26 @@ class Coords:
         self.width = np.maximum(self.hi - self.lo, 1e-12)
 
     def to_z(self, theta: Theta) -> NDArray:
+        """Unit coordinates of ``theta`` (clipped to the box).
+
+        Parameters
+        ----------
+        theta
+            Parameters by name (SI).
+        """
         v = np.array(
             [math.log(max(theta[p.name], p.lo)) if p.log else theta[p.name] for p in self.space]
         )
         return np.clip((v - self.lo) / self.width, 0.0, 1.0)
 
     def to_theta(self, z: NDArray) -> Theta:
+        """Named parameters (SI) at unit coordinates ``z``.
+
+        Parameters
+        ----------
+        z
+            Unit coordinates, shape ``(len(space),)``.
+        """
         v = self.lo + np.clip(z, 0.0, 1.0) * self.width
         return {
             p.name: float(math.exp(q) if p.log else q) for p, q in zip(self.space, v, strict=True)
@@ -57,6 +83,18 @@ class Coords:
 
 
 def grid_points(space: list[Param], starts: list[Theta], limit: int) -> list[Theta]:
+    """The global grid (Cartesian, subsampled with a fixed seed beyond ``limit`` points) and
+    the warm starts.
+
+    Parameters
+    ----------
+    space
+        The nonlinear parameters (:meth:`rths.diagnose.effects.model.Param.values`).
+    starts
+        Warm starts (a parameter a start lacks takes its middle value).
+    limit
+        Largest number of grid points.
+    """
     axes = [p.values() for p in space]
     points = list(itertools.product(*axes))
     if len(points) > limit:
@@ -103,7 +141,19 @@ class _Tracker:
 
 def refine(problem: Problem, coords: Coords, z0: NDArray, polish: bool) -> tuple[NDArray, float]:
     """Trust-region least squares (then Nelder-Mead if ``polish``) from ``z0`` within
-    :data:`REFINE_EVALUATIONS` evaluations per parameter; the best point seen and its cost."""
+    :data:`REFINE_EVALUATIONS` evaluations per parameter; the best point seen and its cost.
+
+    Parameters
+    ----------
+    problem
+        The stacked regression (its residual at a ``theta``).
+    coords
+        The map to unit coordinates.
+    z0
+        Starting point (unit coordinates).
+    polish
+        Polish with Nelder-Mead (kinked cost surfaces).
+    """
     track = _Tracker(problem, coords, REFINE_EVALUATIONS * z0.size)
     scale = math.sqrt(max(track.cost(z0), 1e-300))
     try:
