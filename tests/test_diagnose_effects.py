@@ -283,3 +283,17 @@ def test_the_baseline_recalibrates_the_nominal_only_within_its_tolerance():
     for name, key in (("damping", "v"), ("stiffness", "x")):
         rms = float(np.sqrt(np.mean(ch.stack(key) ** 2)))
         assert abs(base[name]) * rms <= NOMINAL_TOLERANCE * spread * 1.05
+
+
+def test_a_model_far_below_its_own_noise_floor_is_refuted():
+    """A stiff contact fitted where there is none propagates drive noise into a floor larger
+    than its residual: its floor must not be credited as a closed gap (an independent
+    generator's rate-limit case: held-out NRMSE 3.7 % against a 6.1 % floor, 'closed' 2040 %
+    of the gap although the baseline left 1.2 %)."""
+    from rths.diagnose.residuals import FLOOR_MARGIN
+    from rths.diagnose.search.floors import consistent
+
+    assert not consistent(0.037**2, 0.061**2)
+    assert consistent(1.0, 1.0) and consistent(1.0, 0.5)  # at or above its floor
+    assert consistent(1.0, 1.0 + FLOOR_MARGIN)  # within the floor's uncertainty
+    assert not consistent(1.0, 1.01 * (1.0 + FLOOR_MARGIN))

@@ -10,7 +10,8 @@ Otherwise effects are added one at a time:
 2. the candidate that closes most of the remaining held-out gap ``J_S - N_S`` is added if it
    closes at least :data:`PRICE` per identified parameter (it "buys its parameters") of that
    gap, or of :data:`NESTED_RESOLUTION` of the channel's reducible gap when less remains
-   (:func:`_buys`), and its parameters are physical;
+   (:func:`_buys`), and its parameters are physical and its residual consistent with its own
+   noise floor (:func:`rths.diagnose.search.floors.consistent`);
 3. while the residual of the set is still significant, each remaining compatible candidate is
    identified *together* with the set (warm-started from the set's and its own single fit)
    and step 2 repeats.
@@ -71,7 +72,7 @@ from rths.diagnose.effects.model import Theta
 from rths.diagnose.residuals import Decomposition, decompose
 from rths.diagnose.search.calibrated import finer_calibration, needs_finer
 from rths.diagnose.search.crossval import cross_fit
-from rths.diagnose.search.floors import noise_floor
+from rths.diagnose.search.floors import consistent, noise_floor
 from rths.diagnose.search.identify import Fit, fit_model
 from rths.diagnose.search.results import Candidate, ChannelResult, held_parts, held_runs
 
@@ -301,7 +302,7 @@ def select(
         remaining = max(current.held_mse - current_floor, 1e-300)
         gain = ((current.held_mse - current_floor) - (fit.held_mse - floor)) / remaining
         closed = (excess0 - (fit.held_mse - floor)) / excess0
-        ok = fit.model.physical(channel, fit.params)
+        ok = fit.model.physical(channel, fit.params) and consistent(fit.held_mse, floor)
         cand = Candidate(fit, floor, closed, gain, False, ok)
         candidates.append(cand)
         n_params = sum(EFFECTS[e].n_params for e in add)
