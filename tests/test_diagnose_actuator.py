@@ -17,7 +17,7 @@ from rths.diagnose import load_nominal, load_record
 from rths.diagnose.channels.channel import Channel, Segment, actuator_channel
 from rths.diagnose.data.nominal import ActuatorNominal, NominalModel, SpecimenNominal
 from rths.diagnose.effects import ActuatorModel
-from rths.diagnose.search.identify import blocked
+from rths.diagnose.search.crossval import blocked
 from rths.diagnose.search.selection import select
 
 TOOLS = Path(__file__).resolve().parents[1] / "tools"

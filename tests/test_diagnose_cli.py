@@ -12,7 +12,11 @@ from rths.diagnose.data.nominal import nominal_toml
 from rths.diagnose.data.records import write_csv
 from rths.diagnose.data.synthetic import CLASSES, LabCase, band_limited_command, lab_record
 
-DT = 1.0 / 512.0
+#: 1024 Hz: at 512 Hz the emulated lab's own discretisation takes 36 % off the IMD's apparent
+#: damping (9 % at 1024 Hz, 2 % at 2048 Hz, of the 6000 N s/m it holds) -- beyond the
+#: +/-15 % within which the baseline re-calibrates a nominal, so the nominal the test writes
+#: would no longer describe its own records.
+DT = 1.0 / 1024.0
 
 
 @pytest.fixture(scope="module")
@@ -104,7 +108,7 @@ def test_errors_are_one_line_with_exit_code_2(case_dir, tmp_path, capsys):
         "non-uniform sampling",
     )
     _one_line_error(capsys, _args(case_dir, "--effects", "wobble"), "unknown effect 'wobble'")
-    _one_line_error(capsys, _args(case_dir, "--cutoff", "300"), "smoothing cutoff must lie in")
+    _one_line_error(capsys, _args(case_dir, "--cutoff", "600"), "smoothing cutoff must lie in")
 
 
 def test_non_positive_cutoff_is_one_line(tmp_path, capsys):

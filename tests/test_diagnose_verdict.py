@@ -43,7 +43,9 @@ def _records(case: LabCase, n: int = 2, duration: float = 6.0, seed: int = 5) ->
 
 
 def _nominal(case: LabCase):
-    return case.nominal(0.94 * case.inertance, 1.25 * case.damping, 1.03)
+    # a lab-identified nominal: within the +/-20 % the baseline re-calibrates (the emulated
+    # lab's IMD shows ~9 % less damping at 1024 Hz than it holds)
+    return case.nominal(0.94 * case.inertance, 1.08 * case.damping, 1.03)
 
 
 def test_own_lab_friction_is_named_with_its_level_and_the_gap_shrinks():

@@ -14,7 +14,9 @@ internal_stiffness      specimen   stiffness [N/m], series_damping [N s/m],     
 amplitude_damping       specimen   c1 [N s], c2 [m] of ``c1/(A + c2)``           S0 Eq.17-18
 ======================  =========  ============================================  ===============
 
-A channel's model is its re-calibrated baseline (NOMINAL.toml's own parameters) extended by a
+A channel's model is its re-calibrated baseline (NOMINAL.toml's own parameters, within the
+tolerance of :data:`rths.diagnose.effects.specimen.NOMINAL_TOLERANCE` for the specimen and
+:data:`rths.diagnose.effects.actuator.CALIBRATION_TOLERANCE` for the actuator) extended by a
 set of effects, built by :func:`models_for`:
 
 ``measured``  :class:`~rths.diagnose.effects.actuator.ActuatorModel` (any subset).

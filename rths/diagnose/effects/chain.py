@@ -33,6 +33,7 @@ from rths.diagnose.effects.kernels import series_chain
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
 from rths.diagnose.effects.specimen import (
     NOMINAL_PRESLIDING,
+    NOMINAL_TOLERANCE,
     amplitude,
     amplitude_space,
     clearance_resolved,
@@ -185,6 +186,27 @@ class SeriesChain(Model):
         m = self._base.get("inertance", 0.0)
         return m if m > 0.0 else max(channel.nominal.specimen.inertance, 1e-6)
 
+    @staticmethod
+    def _per_mass(channel: Channel, name: str, m: float) -> tuple[float, float]:
+        """Range of the body's ``damping`` or ``stiffness`` per unit inertance: NOMINAL.toml's
+        value within :data:`rths.diagnose.effects.specimen.NOMINAL_TOLERANCE` (a term the
+        nominal sets to zero: at most that share of the force's spread), over the re-calibrated
+        inertance ``m`` within the same tolerance (the body's share of it is the fit's)."""
+        t = NOMINAL_TOLERANCE
+        nominal = float(getattr(channel.nominal.specimen, name))
+        if nominal != 0.0:
+            lo, hi = nominal - t * abs(nominal), nominal + t * abs(nominal)
+        else:
+            key = "v" if name == "damping" else "x"
+            rms = max(float(np.sqrt(np.mean(channel.stack(key) ** 2))), 1e-300)
+            hi = t * float(np.std(channel.stack("observed"))) / rms
+            lo = -hi
+        if name == "damping":
+            lo = max(lo, 0.0)
+        lo = lo / (m * (1.0 + t)) if lo >= 0.0 else lo * (1.0 + t) / m
+        hi = hi * (1.0 + t) / m if hi >= 0.0 else hi / (m * (1.0 + t))
+        return lo, max(hi, lo + 1e-12 * max(abs(lo), 1.0))
+
     def space(self, channel: Channel) -> list[Param]:
         m = self._mass(channel)
         f_lo = max(0.5, math.sqrt(STIFFNESS_RANGE[0] / m) / (2 * math.pi))
@@ -192,7 +214,6 @@ class SeriesChain(Model):
         f_lo = min(f_lo, 0.5 * f_hi)
         c0 = max(self._base.get("damping", 0.0), 0.0) / m
         k0 = self._base.get("stiffness", 0.0) / m
-        w_hi = 2 * math.pi * f_hi
         out = [
             Param("frequency", f_lo, f_hi, grid=12 if self.backlash else 24),
             Param("zeta", 0.005, 2.0, grid=4 if self.backlash else 5, start=0.1),
@@ -201,14 +222,8 @@ class SeriesChain(Model):
             hi = max(drive_scale(channel), 5e-3)  # up to the travel's RMS (>= 5 mm)
             out.append(Param("gap", min(1e-6, 1e-3 * hi), hi, grid=10))
         out += [
-            Param("body_damping", 0.0, max(10.0 * c0, 0.2 * w_hi), log=False, start=c0),
-            Param(
-                "body_stiffness",
-                -abs(k0) - 1.0,
-                10.0 * abs(k0) + (0.05 * w_hi) ** 2,
-                log=False,
-                start=k0,
-            ),
+            Param("body_damping", *self._per_mass(channel, "damping", m), log=False, start=c0),
+            Param("body_stiffness", *self._per_mass(channel, "stiffness", m), log=False, start=k0),
         ]
         if self.on_body:
             # friction level per unit inertance: 0.5-60 % of the peak inertial force per mass
@@ -247,7 +262,8 @@ class SeriesChain(Model):
             exponent=self.exponent,
             reference=reference_penetration(channel),
         )
-        cols = [seg.h(per_mass), rigid_columns(seg)[0]]
+        accel = rigid_columns(seg)[0]
+        cols = [seg.h(per_mass) - accel, accel]  # m e + m_r a = m (e - a) + (m + m_r) a
         if self.friction and not self.on_body:
             cols.append(friction_column(seg, theta["presliding"]))
         elif channel.nominal.specimen.friction > 0.0 and not self.friction:
@@ -274,13 +290,24 @@ class SeriesChain(Model):
 
     def prior(self, channel: Channel) -> NDArray[np.float64]:
         s = channel.nominal.specimen
-        out = [s.inertance, 0.0]
+        out = [s.inertance, s.inertance]
         if (s.friction > 0.0 and not self.friction) or (self.friction and not self.on_body):
             out.append(s.friction)
         return np.array(out, dtype=float)
 
+    def tolerance(self, channel: Channel) -> NDArray[np.float64]:
+        """The total inertance ``m + m_r`` and a nominal friction ahead of the element within
+        :data:`rths.diagnose.effects.specimen.NOMINAL_TOLERANCE`; the split between body and
+        drive (the element's place) and a friction effect's level are free."""
+        out = [math.nan, NOMINAL_TOLERANCE]
+        if self.friction and not self.on_body:
+            out.append(math.nan)
+        elif channel.nominal.specimen.friction > 0.0 and not self.friction:
+            out.append(NOMINAL_TOLERANCE)
+        return np.array(out, dtype=float)
+
     def describe(self, channel: Channel, theta: Theta, beta: NDArray[np.float64]):
-        m, m_r = float(beta[0]), float(beta[1])
+        m, m_r = float(beta[0]), float(beta[1]) - float(beta[0])
         w = 2.0 * math.pi * theta["frequency"]
         k_e, c_e = m * w * w, 2.0 * theta["zeta"] * w * m
         base = {

@@ -6,8 +6,10 @@ Every model predicts its channel's observation as
 
 with a few nonlinear parameters ``theta`` (named, searched globally over orders of magnitude
 and refined by :mod:`rths.diagnose.search.identify`), linear ones ``beta`` (least squares for
-each ``theta``: variable projection) and one offset ``b_r`` per record (the fitter's).  A model
-holds the baseline -- the nominal model's own parameters re-calibrated -- and a set of effects
+each ``theta``: variable projection; those that are NOMINAL.toml's own within the model's
+:meth:`Model.tolerance`, :mod:`rths.diagnose.search.bounded`) and one offset ``b_r`` per record
+(the fitter's).  A model holds the baseline -- the nominal model's own parameters re-calibrated
+within a stated tolerance -- and a set of effects
 (possibly empty): effects are always fitted *jointly* with the re-calibrated baseline, so none
 gets credit for a mis-calibration.
 """
@@ -125,6 +127,12 @@ class Model(ABC):
     def prior(self, channel: Channel) -> NDArray[np.float64]:
         """Nominal values of ``beta`` (the ridge pulls towards them where the data do not
         determine ``beta``, e.g. inertance against stiffness under a single sine)."""
+
+    def tolerance(self, channel: Channel) -> NDArray[np.float64]:
+        """Relative tolerance of each linear parameter ``beta`` that is NOMINAL.toml's own,
+        NaN where free (an effect's level; default all free): the re-calibration keeps such a
+        parameter within it (:mod:`rths.diagnose.search.bounded`)."""
+        return np.full(self.prior(channel).size, np.nan)
 
     @abstractmethod
     def describe(

@@ -89,7 +89,7 @@ def finer_calibration(
     Parameters
     ----------
     channel, fitter
-        The channel and its fitter (:func:`rths.diagnose.search.identify.cross_fit` for the
+        The channel and its fitter (:func:`rths.diagnose.search.crossval.cross_fit` for the
         actuator).
     fits
         ``(base, current)``: the common re-calibration's fit and the selected set's fit (the

@@ -9,6 +9,7 @@ time with a synthetic copy of the estimated displacement noise added (white, the
 RMS, smoothed like the record) and the change of its output is that noise.  A resonant model
 (internal stiffness) propagates far more than a rigid one, which is why the floor is per model.
 ``repeats`` independent copies are averaged (seeded: the diagnosis is reproducible).
+A model whose held-out residual lies far below its own floor is refuted (:func:`consistent`).
 """
 
 from __future__ import annotations
@@ -17,9 +18,10 @@ import numpy as np
 
 from rths.diagnose.channels.channel import Channel, Segment
 from rths.diagnose.channels.signals import derivatives, impulse_kernel, smooth
+from rths.diagnose.residuals import FLOOR_MARGIN
 from rths.diagnose.search.identify import Fit
 
-__all__ = ["noise_floor"]
+__all__ = ["consistent", "noise_floor"]
 
 
 def noise_floor(fit: Fit, channel: Channel, seed: int = 0, repeats: int = 2) -> float:
@@ -60,3 +62,22 @@ def noise_floor(fit: Fit, channel: Channel, seed: int = 0, repeats: int = 2) -> 
     assert sos is not None
     force = channel.noise["force"] ** 2 * float(np.sum(impulse_kernel(sos, channel.dt) ** 2))
     return acc / max(count, 1) + force
+
+
+def consistent(held_mse: float, floor: float) -> bool:
+    """Whether a fitted model's held-out mean square ``held_mse`` is consistent with its own
+    noise floor ``floor`` (both [unit^2]): a model is a candidate truth only if the data do not
+    fall below the noise it would propagate (a stiff contact turning micrometres of drive noise
+    into newtons) by more than the floor's uncertainty, ``1 + FLOOR_MARGIN``.  A residual far
+    below its floor refutes the model's noise path, and the floor's size must not be credited
+    as a closed gap (a stiff element that fits worse than the baseline would otherwise "close"
+    many times the gap).
+
+    Parameters
+    ----------
+    held_mse
+        The model's held-out mean squared residual.
+    floor
+        Its held-out noise floor (:func:`rths.diagnose.search.floors.noise_floor`).
+    """
+    return held_mse * (1.0 + FLOOR_MARGIN) >= floor

@@ -7,19 +7,16 @@ least-squares solution, so the search runs over ``theta`` only, in three stages:
 1. global: every point of the model's grid (:class:`rths.diagnose.effects.model.Param`:
    orders of magnitude on a log scale) and every warm start is scored on short windows of
    the identification records (:data:`SEARCH_SECONDS` each, where the drive moves most);
-2. refine: ``scipy.optimize.least_squares`` (trust-region reflective, bounded, on the log
-   scale for log parameters) from the :data:`REFINE_STARTS` best distinct points, on longer
-   windows (:data:`REFINE_SECONDS`); kinked cost surfaces (dead zones, limiters) are polished
-   by Nelder-Mead;
+2. refine (:mod:`rths.diagnose.search.refine`): ``scipy.optimize.least_squares``
+   (trust-region reflective, bounded, on the log scale for log parameters) from the
+   :data:`REFINE_STARTS` best distinct points, on longer windows (:data:`REFINE_SECONDS`);
+   kinked cost surfaces (dead zones, limiters) are polished by Nelder-Mead;
 3. final: ``beta`` on all identification samples, predictions of every record, held-out
    residuals with each held-out record's offset calibrated on that record (its mean residual).
 
-:func:`cross_fit` scores a model by two-fold cross-validation over time blocks of *every*
-record (:func:`blocked`): identified on the even blocks and held out on the odd ones, then the
-other way round, the two held-out parts pooled.  Every fold sees every excitation and
-amplitude, so the score does not hinge on which record happens to be held out, and a record
-that alone cannot tell two parameters apart (a single sine: a delay against slower poles)
-never identifies a model alone.
+:func:`rths.diagnose.search.crossval.cross_fit` scores a model by two-fold cross-validation
+over time blocks of *every* record (identified on the even blocks and held out on the odd ones,
+then the other way round): every fold sees every excitation and amplitude.
 
 A window restarts the model at rest on the drive; its first :data:`WARMUP_SECONDS` and the
 smoother's edges are not scored.
@@ -27,31 +24,26 @@ smoother's edges are not scored.
 
 from __future__ import annotations
 
-import copy
-import itertools
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import optimize
 
 from rths.core.errors import NumericalError
-from rths.diagnose.channels.channel import TIME_BLOCKS, Channel, Segment
-from rths.diagnose.effects.model import Model, Param, Theta
+from rths.diagnose.channels.channel import Channel, Segment
+from rths.diagnose.effects.model import Model, Theta
+from rths.diagnose.search.bounded import box_bounds, box_solve
+from rths.diagnose.search.refine import Coords, grid_points, refine
 
 __all__ = [
-    "POLISH_EVALUATIONS",
-    "REFINE_EVALUATIONS",
     "REFINE_SECONDS",
     "REFINE_STARTS",
     "RIDGE",
     "SEARCH_SECONDS",
     "WARMUP_SECONDS",
     "Fit",
-    "cross_fit",
     "fit_model",
-    "blocked",
     "nuisance_columns",
     "stride_for",
 ]
@@ -66,11 +58,6 @@ REFINE_SECONDS: float = 8.0
 WARMUP_SECONDS: float = 0.5
 #: Distinct grid points refined.
 REFINE_STARTS: int = 2
-#: Evaluations per nonlinear parameter of one least-squares refinement (finite differences
-#: included).
-REFINE_EVALUATIONS: int = 12
-#: Further evaluations per parameter of the Nelder-Mead polish.
-POLISH_EVALUATIONS: int = 16
 
 
 @dataclass(frozen=True)
@@ -182,6 +169,7 @@ class _Problem:
         )
         self.records = sorted({s.index for s in self.segments})
         self.prior = model.prior(channel)
+        self.tolerance = model.tolerance(channel)
 
     def design(self, theta: Theta) -> tuple[NDArray, NDArray, NDArray]:
         xs, fs, nuis = [], [], []
@@ -200,7 +188,8 @@ class _Problem:
 
     def solve(self, theta: Theta) -> tuple[NDArray, NDArray, NDArray]:
         """``(residual, beta, offsets)``; ridge ``RIDGE * ||d_j (beta_j - prior_j)||^2``
-        with ``d_j`` the column norms (negligible where the data determine ``beta``)."""
+        with ``d_j`` the column norms (negligible where the data determine ``beta``); the
+        nominal's own parameters within the model's tolerance (:mod:`.bounded`)."""
         x, f, o = self.design(theta)
         p = x.shape[1]
         a = np.hstack([x, o])
@@ -215,7 +204,11 @@ class _Problem:
         prior = np.concatenate([self.prior, np.zeros(o.shape[1])]) * norms
         ridge = np.concatenate([np.full(p, RIDGE), np.zeros(o.shape[1])])
         gram[np.diag_indices_from(gram)] += ridge + 1e-12
-        sol = np.linalg.solve(gram, rhs + ridge * prior) / norms
+        lo, hi = box_bounds(self.prior, self.tolerance, x, target)
+        free = np.full(o.shape[1], np.inf)
+        lo = np.concatenate([lo, -free]) * norms
+        hi = np.concatenate([hi, free]) * norms
+        sol = box_solve(gram, rhs + ridge * prior, lo, hi) / norms
         beta, off = sol[:p], sol[p:]
         return target - x @ beta - o @ off, beta, off
 
@@ -247,111 +240,6 @@ def nuisance_columns(model: Model, channel: Channel, seg: Segment, theta: Theta)
     return ones if extra is None else np.hstack([ones, extra])
 
 
-class _Coords:
-    """Map between named parameters and the search's unit coordinates (log or scaled)."""
-
-    def __init__(self, space: list[Param]) -> None:
-        self.space = space
-        self.lo = np.array([math.log(p.lo) if p.log else p.lo for p in space])
-        self.hi = np.array([math.log(p.hi) if p.log else p.hi for p in space])
-        self.width = np.maximum(self.hi - self.lo, 1e-12)
-
-    def to_z(self, theta: Theta) -> NDArray:
-        v = np.array(
-            [math.log(max(theta[p.name], p.lo)) if p.log else theta[p.name] for p in self.space]
-        )
-        return np.clip((v - self.lo) / self.width, 0.0, 1.0)
-
-    def to_theta(self, z: NDArray) -> Theta:
-        v = self.lo + np.clip(z, 0.0, 1.0) * self.width
-        return {
-            p.name: float(math.exp(q) if p.log else q) for p, q in zip(self.space, v, strict=True)
-        }
-
-
-def _grid(space: list[Param], starts: list[Theta], limit: int) -> list[Theta]:
-    axes = [p.values() for p in space]
-    points = list(itertools.product(*axes))
-    if len(points) > limit:
-        rng = np.random.default_rng(0)
-        keep = rng.choice(len(points), limit, replace=False)
-        points = [points[i] for i in sorted(keep)]
-    grid = [{p.name: float(v) for p, v in zip(space, q, strict=True)} for q in points]
-    for s in starts:
-        grid.append({p.name: float(s.get(p.name, p.middle())) for p in space})
-    return grid
-
-
-class _Budget(Exception):
-    """Raised inside an optimiser when its evaluation budget is spent."""
-
-
-class _Tracker:
-    """Counts evaluations of a problem's residual, keeps the best point, enforces a budget."""
-
-    def __init__(self, problem: _Problem, coords: _Coords, budget: int) -> None:
-        self.problem, self.coords, self.budget = problem, coords, budget
-        self.count = 0
-        self.best_z: NDArray | None = None
-        self.best = math.inf
-
-    def residual(self, z: NDArray) -> NDArray:
-        if self.count >= self.budget:
-            raise _Budget
-        self.count += 1
-        try:
-            r = self.problem.solve(self.coords.to_theta(z))[0]
-        except (np.linalg.LinAlgError, ValueError):
-            return np.full(self.problem.y.size, 1e150)
-        if not np.all(np.isfinite(r)):
-            return np.full(self.problem.y.size, 1e150)
-        c = float(np.mean(r * r))
-        if c < self.best:
-            self.best, self.best_z = c, np.array(z, dtype=float)
-        return r
-
-    def cost(self, z: NDArray) -> float:
-        return float(np.mean(self.residual(z) ** 2))
-
-
-def _refine(problem: _Problem, coords: _Coords, z0: NDArray, polish: bool) -> tuple[NDArray, float]:
-    """Trust-region least squares (then Nelder-Mead if ``polish``) from ``z0`` within
-    :data:`REFINE_EVALUATIONS` evaluations per parameter; the best point seen and its cost."""
-    track = _Tracker(problem, coords, REFINE_EVALUATIONS * z0.size)
-    scale = math.sqrt(max(track.cost(z0), 1e-300))
-    try:
-        optimize.least_squares(
-            lambda z: track.residual(z) / scale,
-            z0,
-            bounds=(np.zeros(z0.size), np.ones(z0.size)),
-            diff_step=1e-3,
-            x_scale=np.full(z0.size, 0.05),
-        )
-    except _Budget:
-        pass
-    z = track.best_z if track.best_z is not None else z0
-    if polish:
-        track.budget += POLISH_EVALUATIONS * z0.size
-        try:
-            optimize.minimize(
-                track.cost,
-                z,
-                method="Nelder-Mead",
-                bounds=[(0.0, 1.0)] * z.size,
-                options={
-                    "xatol": 1e-4,
-                    "fatol": 0.0,
-                    "initial_simplex": np.vstack(
-                        [z] + [np.clip(z + 0.02 * e, 0.0, 1.0) for e in np.eye(z.size)]
-                    ),
-                },
-            )
-        except _Budget:
-            pass
-    assert track.best_z is not None
-    return track.best_z, track.best
-
-
 def fit_model(
     model: Model,
     channel: Channel,
@@ -381,11 +269,11 @@ def fit_model(
     edge = int(round(4.0 / (channel.cutoff or 0.25 / channel.dt) / channel.dt)) + 1
     theta: Theta = {}
     if space:
-        coords = _Coords(space)
+        coords = Coords(space)
         stride = stride_for(channel)
         windows = [_window(s, SEARCH_SECONDS, edge) for s in channel.segments if np.any(s.ident)]
         search = _Problem(model, channel, windows, stride)
-        grid = _grid(space, [*model.starts(channel), *(starts or [])], model.max_grid)
+        grid = grid_points(space, [*model.starts(channel), *(starts or [])], model.max_grid)
         costs = np.array([search.cost(t) for t in grid])
         order = np.argsort(costs)
         picked: list[NDArray] = []
@@ -396,10 +284,10 @@ def fit_model(
             if len(picked) == REFINE_STARTS:
                 break
         windows = [_window(s, REFINE_SECONDS, edge) for s in channel.segments if np.any(s.ident)]
-        refine = _Problem(model, channel, windows, stride)
+        longer = _Problem(model, channel, windows, stride)
         best, best_cost = None, math.inf
         for z0 in picked:
-            z, c = _refine(refine, coords, z0, model.polish)
+            z, c = refine(longer, coords, z0, model.polish)
             if c < best_cost:
                 best, best_cost = z, c
         if best is None:
@@ -442,55 +330,3 @@ def fit_model(
         held_sq / n_held if n_held else math.nan,
         prediction,
     )
-
-
-def blocked(channel: Channel, parity: int) -> Channel:
-    """``channel`` with every record's scored samples (identification and held-out alike) cut
-    into :data:`rths.diagnose.channels.channel.TIME_BLOCKS` equal blocks in time: the blocks of
-    ``parity`` (0: even, 1: odd) identify, the others are held out (replay caches shared).
-
-    Parameters
-    ----------
-    channel
-        The channel.
-    parity
-        0 or 1.
-    """
-    segments = []
-    for s in channel.segments:
-        inner = s.ident | s.held
-        block = (np.arange(inner.size) * TIME_BLOCKS) // max(inner.size, 1)
-        even = block % 2 == parity
-        segments.append(replace(s, ident=inner & even, held=inner & ~even, cache=s.cache))
-    return replace(channel, segments=segments)
-
-
-def cross_fit(
-    model: Model,
-    channel: Channel,
-    base: dict[str, float] | None = None,
-    starts: list[Theta] | None = None,
-) -> Fit:
-    """:func:`fit_model` on both folds of :func:`blocked` (module docstring): the first
-    fold's fit, its ``held_mse`` the mean squared residual over both folds' held-out samples
-    and its ``prediction`` the cross-validated one (each sample predicted by the fold that did
-    not see it), so that the residuals a caller reads on any samples are out of sample.
-
-    Parameters
-    ----------
-    model, channel, base, starts
-        As for :func:`fit_model` (the same starts serve both folds).
-    """
-    folds = [blocked(channel, 0), blocked(channel, 1)]
-    first = fit_model(model, folds[0], base, starts)
-    second = fit_model(copy.deepcopy(model), folds[1], base, starts)
-    n1 = sum(int(np.sum(s.held)) for s in folds[0].segments)
-    n2 = sum(int(np.sum(s.held)) for s in folds[1].segments)
-    pooled = (first.held_mse * n1 + second.held_mse * n2) / max(n1 + n2, 1)
-    prediction = [
-        np.where(s.held, p1, np.where(t.held, p2, p1))
-        for s, t, p1, p2 in zip(
-            folds[0].segments, folds[1].segments, first.prediction, second.prediction, strict=True
-        )
-    ]
-    return replace(first, held_mse=pooled, prediction=prediction)
