@@ -22,6 +22,8 @@ def test_the_summary_counts_late_wakeups_and_swallowed_steps():
     got = summarise(late, 2048.0)
     assert got["late_over_ms"] == {"0.25": 3, "1": 2, "2.4": 2, "5": 1, "10": 1}
     assert got["max_us"] == 12_000.0 and got["max_steps"] == 24 and got["wakeups"] == 4
+    # whole steps late: 0, 1 (0.5 ms = 1.02 steps), 6 (3 ms = 6.1), 24 -> 31 of 4 deadlines
+    assert got["missed_pct"] == 100.0 * 31 / 4
 
 
 @pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None, reason="no cc")

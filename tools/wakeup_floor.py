@@ -9,7 +9,9 @@ deadlines ``k / rate`` on ``CLOCK_MONOTONIC``, timer slack 1 µs, the PM QoS CPU
 held at 0 when ``/dev/cpu_dma_latency`` is writable, memory locked when allowed, and -- with
 ``--priority`` -- in ``SCHED_FIFO`` (needs root or ``ulimit -r``).  It prints how many wake-ups
 were later than 0.25 / 1 / 2.4 / 5 / 10 ms, the p50 / p99 / p99.9 / longest lateness [µs], and
-the longest run of consecutive steps a late wake-up swallowed at ``--rate``.
+the longest run of consecutive steps a late wake-up swallowed at ``--rate``, and the share of
+deadlines a program with no work at all would miss (a wake-up ``m`` whole steps late misses
+``m``): a floor under any real-time figure of the machine.
 
 That longest lateness is a lower bound for the watchdogs of ``realtime`` runs on the machine
 (``[loop] max_lag`` steps and ``[loop] command_timeout`` s): a watchdog shorter than what the
@@ -99,6 +101,8 @@ def summarise(late_ns: np.ndarray, rate: float) -> dict[str, object]:
         "p999_us": float(np.percentile(late_us, 99.9)),
         "max_us": float(late_us.max()),
         "max_steps": int(np.floor(late_ns.max() * 1e-9 * rate)),
+        # a wake-up late by m whole steps makes even a program with no work miss m deadlines
+        "missed_pct": float(100.0 * np.sum(np.floor(late_ns * 1e-9 * rate)) / late_ns.size),
     }
 
 
@@ -133,7 +137,8 @@ def main() -> int:
         + ", ".join(f"{t} ms: {n}" for t, n in over.items())
         + f"; p50 / p99 / p99.9 / max {figures['p50_us']:.0f} / {figures['p99_us']:.0f} / "
         f"{figures['p999_us']:.0f} / {figures['max_us']:.0f} µs (at most "
-        f"{figures['max_steps']} steps swallowed)"
+        f"{figures['max_steps']} steps swallowed; deadlines a program with no work would miss: "
+        f"{figures['missed_pct']:.3f} %)"
     )
     if args.json:
         args.json.write_text(json.dumps(figures, indent=2))
