@@ -29,7 +29,7 @@ whether it has its summary; for the forged peer the messages sent and accepted. 
 load average is printed before and after.  ``--json`` writes the rows.
 
     python tools/fault_figures.py [--clock realtime|lockstep] [--rate 2048] [--duration 4]
-                                  [--max-lag 5] [--only NAME ...] [--json FILE]
+                                  [--max-lag N] [--only NAME ...] [--json FILE]
 
 The fault is injected once the run is under way (a passive zenoh peer has seen half a second of
 commands go by; two seconds for SIGKILL, so the log has been flushed at least once).

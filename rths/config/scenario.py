@@ -125,8 +125,9 @@ MAX_VELOCITY = 10.0
 MAX_LAG_TIME = 1.0
 #: The measurement watchdog's default age [s]: ``max_lag`` defaults to this many seconds of
 #: steps, at least ``MIN_DEFAULT_LAG``.  A 2-core VM's scheduler alone delays a real-time C
-#: loop's wake-up by more than 2.4 ms (5 steps at 2048 Hz) 11 times a minute, by up to 7.2 ms
-#: (README, "Real time"): a watchdog below that floor stops runs for the machine, not the test.
+#: loop's wake-up by more than 2.4 ms (5 steps at 2048 Hz) 11 to 72 times a minute, by up to
+#: 7.9 ms (``tools/wakeup_floor.py``; README, "Real time"): a watchdog below that floor stops
+#: runs for the machine, not the test.
 DEFAULT_MAX_AGE = 0.010
 #: Fewest steps of the default watchdog (at rates below 500 Hz it is 5 steps, not 10 ms).
 MIN_DEFAULT_LAG = 5
@@ -158,8 +159,8 @@ class LoopSpec:
         (default 0.05).
     max_lag : int
         Measurement watchdog [steps], >= 1, with ``max_lag * dt`` at most ``MAX_LAG_TIME`` =
-        1 s (default: ``DEFAULT_MAX_AGE`` = 10 ms of steps, at least 5 -- 20 steps at
-        2048 Hz, 41 at 4096 Hz).
+        1 s (default: ``DEFAULT_MAX_AGE`` = 10 ms of steps rounded up, at least 5 -- 21
+        steps at 2048 Hz, 41 at 4096 Hz).
     command_timeout : float
         The specimen's command watchdog [s] in real time: no command for this long ramps the
         actuator down, > 0 and at most ``MAX_LAG_TIME`` (default ``DEFAULT_COMMAND_TIMEOUT`` =
