@@ -222,9 +222,9 @@ def test_rootwise_calibration_with_equal_factors_is_the_common_one():
         assert h == pytest.approx(h0, rel=1e-9)
 
 
-def test_rootwise_calibration_leaning_on_the_lag_bound_is_no_model_form():
-    # a pole at -10 % (the tolerance's slowest) or the alignment at +1 sample may hide a
-    # delay; a faster pole or an advance cannot
+def test_rootwise_calibration_taking_on_a_sample_of_lag_is_no_model_form():
+    # the 10 Hz pole's group delay is 1/W = 15.9 ms: at -10 % it adds 1.77 ms (1.77 samples
+    # at 1 kHz), at -3 % 0.49 ms; the alignment adds its own share of a sample
     from rths.diagnose.effects.calibration import RootwiseActuator
 
     ch = _channel([np.zeros(100)], [np.zeros(100)])
@@ -233,8 +233,36 @@ def test_rootwise_calibration_leaning_on_the_lag_bound_is_no_model_form():
     assert [p.name for p in m.space(ch)] == ["pole_0", "shift"]
     assert m.lagging(ch, {"pole_0": 0.9, "shift": 0.0})
     assert m.lagging(ch, {"pole_0": 1.0, "shift": 1.0})
+    assert m.lagging(ch, {"pole_0": 0.95, "shift": 0.5})  # 0.84 ms + 0.5 ms
     assert not m.lagging(ch, {"pole_0": 1.1, "shift": -1.0})
-    assert not m.lagging(ch, {"pole_0": 0.95, "shift": 0.5})
+    assert not m.lagging(ch, {"pole_0": 0.97, "shift": 0.3})  # 0.49 ms + 0.3 ms
+    assert not m.lagging(ch, {"pole_0": 1.1, "shift": 1.0})  # -1.45 ms + 1 ms
+
+
+def test_rootwise_calibration_slowing_one_root_and_speeding_another_is_model_form():
+    # nominal 10 Hz real pole and 40 Hz pair (zeta 0.7): group delays 15.9 ms and
+    # 2 zeta/w = 5.6 ms; the pair 10 % slower (+0.62 ms) beside the real pole 4 % faster
+    # (-0.61 ms) nets no lag although a pole sits at the tolerance's slow bound
+    from rths.diagnose.data.nominal import ActuatorNominal, NominalModel, SpecimenNominal
+    from rths.diagnose.effects.calibration import RootwiseActuator, group_delay, rootwise_tf
+
+    wn, z = 2 * math.pi * 40.0, 0.7
+    den = tuple(np.polymul([1.0, W], [1.0, 2 * z * wn, wn * wn]))
+    nominal = NominalModel(ActuatorNominal((W * wn * wn,), den, 0.0), SpecimenNominal(0.0))
+    ch = _channel([np.zeros(100)], [np.zeros(100)])
+    ch = Channel("measured", "actuator", ch.segments, nominal, ch.noise)
+    m = RootwiseActuator()
+    m.prepare(ch, {})
+    names = [p.name for p in m.space(ch)]
+    assert names == ["pole_0", "damping_0", "pole_1", "shift"]
+    theta = {"pole_0": 1.0, "damping_0": 1.0, "pole_1": 1.0, "shift": 0.0}
+    pair = next(i for i in (0, 1) if f"damping_{i}" in names)
+    real = 1 - pair
+    b, a = rootwise_tf((W * wn * wn,), den, [], [1.0, 1.0], [1.0, 1.0])
+    assert group_delay(b, a) == pytest.approx(1 / W + 2 * z / wn, rel=1e-9)
+    slow = {**theta, f"pole_{pair}": 0.9, f"pole_{real}": 1.04}
+    assert not m.lagging(ch, slow)
+    assert m.lagging(ch, {**theta, f"pole_{pair}": 0.9, f"pole_{real}": 0.95})  # +1.46 ms
 
 
 def _two_mode_channel(delay_samples: int, seed: int) -> Channel:

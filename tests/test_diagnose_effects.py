@@ -13,6 +13,7 @@ from plants.linear_specimen import LinearSpecimen
 from rths.diagnose.channels import specimen_channel
 from rths.diagnose.channels.signals import (
     actuator_replay,
+    peak_amplitude,
     running_amplitude,
     shifted,
     white_noise_rms,
@@ -107,6 +108,54 @@ def test_running_amplitude_settles_on_the_sine_amplitude():
         # ripple of the 2-stage low-pass at 2 f0: |H| = 1/(1 + (4 pi f0 tau)^2) of A^2 / 2
         ripple = 1.0 / (1.0 + (4 * math.pi * f0) ** 2)
         assert np.median(a[-5 * 1024 :]) == pytest.approx(amp, rel=ripple + 1e-3)
+
+
+def test_peak_hold_is_the_recursive_envelope_detector_and_takes_a_new_peak_at_once():
+    dt, tau = 1.0 / 1024.0, 0.5
+    t = dt * np.arange(20 * 1024)
+    x = 2e-3 * np.sin(2 * math.pi * 3.0 * t) * (1.0 + (t > 10.0))  # the amplitude doubles
+    a = peak_amplitude(x, dt, tau)
+    # the recursion A_k = max(|d_k|, A_{k-1} e^{-dt/tau}), d = x - LP[x], by a plain loop
+    pole = math.exp(-dt / tau)
+    b, aa = np.array([1.0 - pole]), np.array([1.0, -pole])
+    d = np.abs(x - signal.lfilter(b, aa, signal.lfilter(b, aa, x)))
+    ref, held = np.empty_like(d), 0.0
+    for k, v in enumerate(d):
+        held = max(v, held * pole)
+        ref[k] = held
+    assert a == pytest.approx(ref, rel=1e-9, abs=1e-15)
+    # between peaks (1/6 s apart) it fades by at most e^{-1/(6 tau)}; the two-stage running
+    # mean passes 1/(1 + (omega tau)^2) = 1.1 % of a 3 Hz sine at tau = 0.5 s
+    leak = 1.0 / (1.0 + (2 * math.pi * 3.0 * tau) ** 2)
+    late = a[(t > 8.0) & (t < 10.0)]
+    assert late.max() == pytest.approx(2e-3, rel=leak + 1e-3)
+    assert late.min() >= 2e-3 * math.exp(-1.0 / (6.0 * tau)) * (1 - leak - 1e-3)
+    # a peak-hold takes the doubled amplitude within a quarter period; the running RMS lags
+    after = (t > 10.0 + 1.0 / 12.0) & (t < 10.5)
+    assert a[after].min() >= 4e-3 * math.exp(-1.0 / (6.0 * tau)) * (1 - leak - 1e-3)
+    assert np.median(running_amplitude(x, dt, tau)[after]) < 0.9 * 4e-3
+
+
+def test_a_passive_specimen_keeps_non_negative_inertance_and_damping():
+    """Under one sine the inertance's column is the stiffness's times -omega^2: a nominal
+    that sets both to zero left the split to the ridge, which took a negative inertance
+    (-2 t on a real friction damper).  Friction alone here: inertance and damping must not
+    go below zero whatever the search does with the rest."""
+    dt = 1.0 / 1024.0
+    t = dt * np.arange(1, 10 * 1024 + 1)
+    x = 0.02 * np.sin(2 * math.pi * 0.5 * t)
+    v = np.gradient(x, dt)
+    f = 2000.0 * np.tanh(v / 1e-3) + 3.0e4 * x  # a friction and a band's spring
+    nominal = NominalModel(UNIT.actuator, SpecimenNominal(0.0, 0.0, 0.0, 1500.0))
+    ch = specimen_channel([_record(t, x, x, f)], nominal, 30.0)
+    model = RigidSpecimen()
+    assert list(model.nonnegative(ch)) == [True, True, False, False]
+    base = fit_model(model, ch).baseline
+    assert base["inertance"] >= 0.0 and base["damping"] >= 0.0
+    # the same fit with the passive bound released finds the negative split
+    model.nonnegative = lambda channel: np.zeros(4, dtype=bool)  # type: ignore[method-assign]
+    free = fit_model(model, ch).baseline
+    assert free["inertance"] < 0.0
 
 
 def test_models_hold_only_compatible_effect_sets():

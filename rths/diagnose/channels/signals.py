@@ -28,7 +28,11 @@ Running load amplitude (the ``A`` of S0 Eq.17-18).  ``A = sqrt(2 (LP[x^2] - LP[x
 square root of twice the running variance of the drive, ``LP`` a causal critically damped
 second-order low-pass (two first-order stages of time constant ``tau``).  For a sine of
 amplitude ``X`` it settles on ``X`` within a few ``tau``, whatever the frequency; it follows
-a non-stationary record with a memory of about ``2 tau``.
+a non-stationary record with a memory of about ``2 tau``.  The other common reading of an
+amplitude, the decaying peak hold of :func:`peak_amplitude` (an envelope detector: it takes a
+new peak at once and lets it fade with time constant ``tau``), follows a growing motion without
+lag; for a non-stationary record the two differ (by up to the peak factor of a random motion),
+so the amplitude law is fitted on a blend of both (:mod:`rths.diagnose.effects.specimen`).
 """
 
 from __future__ import annotations
@@ -48,6 +52,7 @@ __all__ = [
     "derivatives",
     "discrete_tf",
     "impulse_kernel",
+    "peak_amplitude",
     "running_amplitude",
     "shifted",
     "smooth",
@@ -315,3 +320,28 @@ def running_amplitude(x: NDArray[np.float64], dt: float, tau: float) -> NDArray[
 
     var = lp(x * x) - lp(x) ** 2
     return np.sqrt(2.0 * np.clip(var, 0.0, None))
+
+
+def peak_amplitude(x: NDArray[np.float64], dt: float, tau: float) -> NDArray[np.float64]:
+    """Decaying peak hold ``A_k = max(|d_k|, A_{k-1} exp(-dt/tau))`` [m] of the drive's motion
+    about its running mean, ``d = x - LP[x]`` (``LP`` as in :func:`running_amplitude`).
+
+    Computed without a loop in the log domain, ``log A_k = -k dt/tau + cummax_j (log|d_j| +
+    j dt/tau)``.
+
+    Parameters
+    ----------
+    x
+        Drive displacement [m], shape ``(n,)``; starts at rest.
+    dt
+        Sample period [s].
+    tau
+        Time constant [s] of the fading and of the two stages of ``LP``.
+    """
+    pole = math.exp(-dt / tau)
+    b, a = np.array([1.0 - pole]), np.array([1.0, -pole])
+    d = np.abs(x - signal.lfilter(b, a, signal.lfilter(b, a, x)))
+    ramp = np.arange(d.size) * (dt / tau)
+    with np.errstate(divide="ignore"):
+        held = np.maximum.accumulate(np.log(d) + ramp)
+    return np.exp(held - ramp)

@@ -12,7 +12,7 @@ gain, the offset and the one-sample alignment of the baseline: still NOMINAL.tom
 parameters and nothing else.  It is used only to tell model form from an unexplained gap
 (:func:`rths.diagnose.search.selection.select`), never to absorb an effect a candidate names:
 it is tried when no candidate effect buys its parameters, and it counts only when it does not
-lean on the tolerance in the lagging direction (:meth:`RootwiseActuator.lagging`).
+take on more than a sample of lag in all (:meth:`RootwiseActuator.lagging`).
 
 Within the tolerance a pole's factor mimics at most a delay of 10 % of its own low-frequency
 group delay ``1/|p|`` (``2 zeta/w`` for a pair), so a delay far beyond that sum is still no
@@ -30,7 +30,7 @@ from rths.diagnose.channels.signals import discrete_tf, shifted
 from rths.diagnose.effects.actuator import CALIBRATION_TOLERANCE, ActuatorModel, _move, scaled_tf
 from rths.diagnose.effects.model import Param, Theta
 
-__all__ = ["RootwiseActuator", "absorbed_lag", "root_modes", "rootwise_tf"]
+__all__ = ["RootwiseActuator", "absorbed_lag", "group_delay", "root_modes", "rootwise_tf"]
 
 _LO, _HI = 1.0 - CALIBRATION_TOLERANCE, 1.0 + CALIBRATION_TOLERANCE
 
@@ -86,6 +86,22 @@ def rootwise_tf(
     return k * b, a
 
 
+def group_delay(b: NDArray[np.float64], a: NDArray[np.float64]) -> float:
+    """Low-frequency group delay ``a_1/a_0 - b_1/b_0`` [s] of ``b(s)/a(s)`` (coefficients in
+    descending powers of ``s``; 0 for a TF with a root at the origin).
+
+    Parameters
+    ----------
+    b, a
+        Numerator and denominator coefficients.
+    """
+    if a[-1] == 0.0 or b[-1] == 0.0:
+        return 0.0
+    ga = a[-2] / a[-1] if a.size > 1 else 0.0
+    gb = b[-2] / b[-1] if b.size > 1 else 0.0
+    return float(ga - gb)
+
+
 def absorbed_lag(
     num: tuple[float, ...], den: tuple[float, ...], baseline: dict[str, float]
 ) -> float:
@@ -102,13 +118,6 @@ def absorbed_lag(
     baseline
         The common re-calibration (``frequency_scale``, ``damping_scale``, ``alignment`` [s]).
     """
-
-    def group_delay(b: NDArray[np.float64], a: NDArray[np.float64]) -> float:
-        if a[-1] == 0.0 or b[-1] == 0.0:
-            return 0.0
-        ga = a[-2] / a[-1] if a.size > 1 else 0.0
-        gb = b[-2] / b[-1] if b.size > 1 else 0.0
-        return float(ga - gb)
 
     f = float(baseline.get("frequency_scale", 1.0))
     z = float(baseline.get("damping_scale", 1.0))
@@ -157,10 +166,12 @@ class RootwiseActuator(ActuatorModel):
         return [{p.name: (0.0 if p.name == "shift" else 1.0) for p in self.space(channel)}]
 
     def lagging(self, channel: Channel, theta: Theta) -> bool:
-        """Whether the fit leans on the tolerance in the lagging direction: a pole frequency
-        at its lower bound, a zero's at its upper bound, or the alignment at +1 sample.  A
-        calibration that needs all the lag the tolerance allows may be hiding a delay (each
-        pole mimics up to 10 % of its own group delay), so it is no evidence of model form.
+        """Whether the fit took on a sample of lag or more: the low-frequency group delay
+        of the root-by-root TF (:func:`group_delay`) plus the alignment, minus the nominal's.
+        Each pole mimics up to 10 % of its own group delay, so a calibration that slows the
+        poles by more than a sample in all may be hiding a delay and is no evidence of model
+        form; one that slows some roots and speeds others by as much (the nominal off by
+        different factors at different roots) is.
 
         Parameters
         ----------
@@ -169,16 +180,15 @@ class RootwiseActuator(ActuatorModel):
         theta
             The fitted factors.
         """
-        eps = 1e-3
-        for p in self.space(channel):
-            v = float(theta.get(p.name, 1.0))
-            if p.name.startswith("pole_") and v <= p.lo + eps:
-                return True
-            if p.name.startswith("zero_") and v >= p.hi - eps:
-                return True
-            if p.name == "shift" and v >= p.hi - eps:
-                return True
-        return False
+        a = channel.nominal.actuator
+        nz, np_ = len(root_modes(a.num)), len(root_modes(a.den))
+        zf = [float(theta.get(f"zero_{i}", 1.0)) for i in range(nz)]
+        pf = [float(theta.get(f"pole_{i}", 1.0)) for i in range(np_)]
+        pd = [float(theta.get(f"damping_{i}", 1.0)) for i in range(np_)]
+        num, den = rootwise_tf(a.num, a.den, zf, pf, pd)
+        nominal = group_delay(np.asarray(a.num, float), np.asarray(a.den, float))
+        lag = group_delay(num, den) - nominal + float(theta.get("shift", 0.0)) * channel.dt
+        return lag >= (1.0 - 1e-3) * channel.dt  # the alignment's own bound counts
 
     def _linear(self, channel: Channel, seg: Segment, theta: Theta) -> NDArray:
         a = channel.nominal.actuator

@@ -235,7 +235,7 @@ class SeriesChain(Model):
         elif self.friction:
             out.append(Param("presliding", 1e-8, 0.5 * drive_scale(channel), grid=6))
         if self.amplitude:
-            out += amplitude_space(channel)
+            out += amplitude_space(channel, envelopes=False)  # a chain's replay costs
             peak_c = max(c0, 1.0) * 10.0 * drive_scale(channel)
             out.append(Param("c1_per_mass", 1e-4 * peak_c, 10.0 * peak_c, grid=5))
         return out
@@ -244,7 +244,8 @@ class SeriesChain(Model):
         c = max(float(theta["body_damping"]), 0.0)
         if not self.amplitude:
             return c
-        return c + theta["c1_per_mass"] / (amplitude(seg, theta["memory"]) + theta["c2"])
+        a = amplitude(seg, theta["memory"], theta.get("peak", 0.0))
+        return c + theta["c1_per_mass"] / (a + theta["c2"])
 
     def columns(self, channel: Channel, seg: Segment, theta: Theta) -> Columns:
         s = seg.signals
@@ -306,6 +307,12 @@ class SeriesChain(Model):
             out.append(NOMINAL_TOLERANCE)
         return np.array(out, dtype=float)
 
+    def nonnegative(self, channel: Channel) -> NDArray[np.bool_]:
+        """The body's and the total inertance (a passive specimen)."""
+        out = np.zeros(self.prior(channel).size, dtype=bool)
+        out[:2] = True
+        return out
+
     def describe(self, channel: Channel, theta: Theta, beta: NDArray[np.float64]):
         m, m_r = float(beta[0]), float(beta[1]) - float(beta[0])
         w = 2.0 * math.pi * theta["frequency"]
@@ -348,6 +355,7 @@ class SeriesChain(Model):
                 "c1": m * theta["c1_per_mass"],
                 "c2": theta["c2"],
                 "memory": theta["memory"],
+                "peak": theta["peak"],
             }
         return params, base
 

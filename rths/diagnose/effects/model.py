@@ -134,6 +134,11 @@ class Model(ABC):
         parameter within it (:mod:`rths.diagnose.search.bounded`)."""
         return np.full(self.prior(channel).size, np.nan)
 
+    def nonnegative(self, channel: Channel) -> NDArray[np.bool_]:
+        """Which linear parameters ``beta`` cannot be negative (a passive specimen's inertance
+        and damping: no re-calibration may turn them into a source); default none."""
+        return np.zeros(self.prior(channel).size, dtype=bool)
+
     @abstractmethod
     def describe(
         self, channel: Channel, theta: Theta, beta: NDArray[np.float64]

@@ -11,8 +11,12 @@ rigid extensions by friction, amplitude-dependent damping and friction behind a 
 * ``coulomb_friction``: ``F_c phi``, ``phi`` the elasto-plastic operator of
   :func:`rths.diagnose.effects.kernels.friction_operator` (presliding displacement ``delta``,
   presliding stiffness ``F_c/delta``; ``delta -> 0`` is Coulomb's ``sign(x')`` with memory);
-* ``amplitude_damping``: ``c_1/(A + c_2)``, S0 Eq.17-18's form, ``A`` the running load
-  amplitude of :func:`rths.diagnose.channels.signals.running_amplitude` with memory ``tau``;
+* ``amplitude_damping``: ``c_1/(A + c_2)``, S0 Eq.17-18's form, ``A`` the load amplitude
+  with memory ``tau``: ``(1 - p)`` times the running amplitude of
+  :func:`rths.diagnose.channels.signals.running_amplitude` plus ``p`` times the decaying peak
+  hold of :func:`rths.diagnose.channels.signals.peak_amplitude` (S0 defines ``A`` for a
+  harmonic motion, where both agree; under a non-stationary one a device may follow its mean
+  square or its last peak, and the share ``p`` in [0, 1] is fitted);
 * ``backlash`` together with friction (a friction device of negligible inertia): the friction
   element sits behind a clearance ``g``; its stiffness ``F_c/delta`` is the contact's in series
   with the presliding spring.
@@ -31,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rths.diagnose.channels.channel import Channel, Segment
-from rths.diagnose.channels.signals import running_amplitude
+from rths.diagnose.channels.signals import peak_amplitude, running_amplitude
 from rths.diagnose.effects.kernels import friction_operator
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
 
@@ -148,31 +152,43 @@ def friction_column(seg: Segment, delta: float, gap: float = 0.0) -> NDArray:
     )
 
 
-def amplitude(seg: Segment, tau: float) -> NDArray:
-    """Running load amplitude of the drive [m] (cached per memory ``tau``)."""
+def amplitude(seg: Segment, tau: float, peak: float = 0.0) -> NDArray:
+    """Load amplitude of the drive [m]: ``(1 - peak)`` running amplitude plus ``peak`` decaying
+    peak hold, both of memory ``tau`` (module docstring; each cached per memory)."""
     key = f"amp:{tau!r}"
     if key not in seg.cache:
         seg.cache[key] = running_amplitude(seg.signals["x"], seg.dt, tau)
-    return seg.cache[key]
+    if peak <= 0.0:
+        return seg.cache[key]
+    hold = f"peak:{tau!r}"
+    if hold not in seg.cache:
+        seg.cache[hold] = peak_amplitude(seg.signals["x"], seg.dt, tau)
+    return (1.0 - peak) * seg.cache[key] + peak * seg.cache[hold]
 
 
-def amplitude_column(seg: Segment, c2: float, tau: float) -> NDArray:
+def amplitude_column(seg: Segment, c2: float, tau: float, peak: float = 0.0) -> NDArray:
     """``h (x' / (A + c2))`` [1/s]: the regressor of ``c1``."""
     return smoothed(
-        seg, f"ad:{c2!r}:{tau!r}", lambda: seg.signals["v"] / (amplitude(seg, tau) + c2)
+        seg,
+        f"ad:{c2!r}:{tau!r}:{peak!r}",
+        lambda: seg.signals["v"] / (amplitude(seg, tau, peak) + c2),
     )
 
 
-def amplitude_space(channel: Channel, grid: bool = True) -> list[Param]:
-    """``c2`` [m] and the amplitude memory ``tau`` [s]: orders of magnitude around the drive.
+def amplitude_space(channel: Channel, grid: bool = True, envelopes: bool = True) -> list[Param]:
+    """``c2`` [m], the amplitude memory ``tau`` [s] (orders of magnitude around the drive) and
+    the peak-hold share ``peak`` [-] of the amplitude.
 
     The memory is at least :data:`MIN_MEMORY`: an amplitude is a property of a cycle, and a
-    shorter memory would turn the law into a position-dependent damping.
+    shorter memory would turn the law into a position-dependent damping.  With ``envelopes``
+    the global grid tries both readings of the amplitude (``peak`` 0 and 1); else the share
+    starts half-way and is only refined.
     """
     scale = drive_scale(channel)
     return [
         Param("c2", 1e-3 * scale, 30.0 * scale, grid=8 if grid else 0),
         Param("memory", MIN_MEMORY, 3.0, grid=3 if grid else 0, start=0.3),
+        Param("peak", 0.0, 1.0, log=False, grid=2 if grid and envelopes else 0, start=0.5),
     ]
 
 
@@ -226,7 +242,7 @@ class RigidSpecimen(Model):
         elif self._nominal_friction(channel):
             cols.append(friction_column(seg, NOMINAL_PRESLIDING * drive_scale(channel)))
         if self.amplitude or self._nominal_amplitude(channel):
-            cols.append(amplitude_column(seg, theta["c2"], theta["memory"]))
+            cols.append(amplitude_column(seg, theta["c2"], theta["memory"], theta.get("peak", 0.0)))
         return np.column_stack(cols), np.zeros_like(seg.observed)
 
     def prior(self, channel: Channel) -> NDArray[np.float64]:
@@ -248,6 +264,12 @@ class RigidSpecimen(Model):
             out.append(NOMINAL_TOLERANCE if self._nominal_amplitude(channel) else math.nan)
         return np.array(out, dtype=float)
 
+    def nonnegative(self, channel: Channel) -> NDArray[np.bool_]:
+        """Inertance and damping (a passive specimen: S0 Eq.1's ``m, c >= 0``)."""
+        out = np.zeros(self.prior(channel).size, dtype=bool)
+        out[:2] = True
+        return out
+
     def describe(self, channel: Channel, theta: Theta, beta: NDArray[np.float64]):
         b = [float(q) for q in beta]
         base = {"inertance": b[0], "damping": b[1], "stiffness": b[2]}
@@ -267,7 +289,12 @@ class RigidSpecimen(Model):
             base["friction"] = b[i]
             i += 1
         if self.amplitude:
-            params["amplitude_damping"] = {"c1": b[i], "c2": theta["c2"], "memory": theta["memory"]}
+            params["amplitude_damping"] = {
+                "c1": b[i],
+                "c2": theta["c2"],
+                "memory": theta["memory"],
+                "peak": theta["peak"],
+            }
         elif self._nominal_amplitude(channel):
             base["amplitude_c1"], base["amplitude_c2"] = b[i], theta["c2"]
         return params, base

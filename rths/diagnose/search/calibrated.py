@@ -44,8 +44,10 @@ def needs_finer(
     channel: Channel, current: Fit, chosen: tuple[str, ...], closed: float, min_closed: float
 ) -> bool:
     """Whether the root-by-root calibration can change a channel's answer: the channel has one,
-    and either its selected effects close less than ``min_closed`` of the gap, or the common
-    factors beside a delay or beside no effect took on more than one sample of lag
+    and either its selected effects close less than ``min_closed`` of the gap, or they hold a
+    delay (a delay trades with the common factors in either direction: faster poles beside a
+    longer delay mimic poles that are off by different factors), or the common factors beside
+    no effect took on more than one sample of lag
     (:func:`rths.diagnose.effects.calibration.absorbed_lag`: a delay, or part of one, may
     hide in them).
 
@@ -64,7 +66,9 @@ def needs_finer(
         return False
     if chosen and closed < min_closed:
         return True
-    if chosen and not any(e in HIDDEN_BY_CALIBRATION for e in chosen):
+    if any(e in HIDDEN_BY_CALIBRATION for e in chosen):
+        return True  # a delay is named only against the finest calibration of the nominal
+    if chosen:
         return False
     act = channel.nominal.actuator
     return absorbed_lag(act.num, act.den, current.baseline) > channel.dt
@@ -112,8 +116,8 @@ def finer_calibration(
         calibration alone (``price`` per parameter of the gap it leaves; an effect the
         common factors did not select must close ``min_closed`` of it), else None.
         ``model_form``: the root-by-root calibration alone closes ``min_closed`` of the gap
-        without leaning on the tolerance in the lagging direction (a pole at -10 %: a hidden
-        delay).
+        without taking on a sample of lag in all
+        (:meth:`rths.diagnose.effects.calibration.RootwiseActuator.lagging`: a hidden delay).
     """
     alone = calibration_for(channel.name)
     if alone is None:

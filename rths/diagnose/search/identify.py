@@ -170,6 +170,7 @@ class _Problem:
         self.records = sorted({s.index for s in self.segments})
         self.prior = model.prior(channel)
         self.tolerance = model.tolerance(channel)
+        self.nonnegative = model.nonnegative(channel) & (self.prior >= 0.0)
 
     def design(self, theta: Theta) -> tuple[NDArray, NDArray, NDArray]:
         xs, fs, nuis = [], [], []
@@ -189,7 +190,8 @@ class _Problem:
     def solve(self, theta: Theta) -> tuple[NDArray, NDArray, NDArray]:
         """``(residual, beta, offsets)``; ridge ``RIDGE * ||d_j (beta_j - prior_j)||^2``
         with ``d_j`` the column norms (negligible where the data determine ``beta``); the
-        nominal's own parameters within the model's tolerance (:mod:`.bounded`)."""
+        nominal's own parameters within the model's tolerance (:mod:`.bounded`), a passive
+        specimen's inertance and damping not below zero."""
         x, f, o = self.design(theta)
         p = x.shape[1]
         a = np.hstack([x, o])
@@ -205,6 +207,7 @@ class _Problem:
         ridge = np.concatenate([np.full(p, RIDGE), np.zeros(o.shape[1])])
         gram[np.diag_indices_from(gram)] += ridge + 1e-12
         lo, hi = box_bounds(self.prior, self.tolerance, x, target)
+        lo[self.nonnegative] = np.maximum(lo[self.nonnegative], 0.0)
         free = np.full(o.shape[1], np.inf)
         lo = np.concatenate([lo, -free]) * norms
         hi = np.concatenate([hi, free]) * norms

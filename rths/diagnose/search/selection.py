@@ -40,9 +40,9 @@ pole-by-pole calibration) and the channel's verdict is ``none`` (``model_form``)
 holds when no candidate buys its parameters and the channel's finer re-calibration of the
 nominal's own parameters (:func:`rths.diagnose.effects.calibration_for`: the actuator's TF
 calibrated root by root within the +/-10 % tolerance) closes at least :data:`MIN_CLOSED` of
-the gap without leaning on the tolerance in the lagging direction (a pole at -10 %: a
-hidden delay): a nominal mis-calibrated differently at every pole, which the baseline's
-common factors cannot follow.
+the gap without taking on a sample of lag in all (poles slowed by more than that may hide a
+delay): a nominal mis-calibrated differently at every pole, which the baseline's common
+factors cannot follow.
 
 The actuator's effects are also judged against the nominal calibrated root by root
 (:mod:`rths.diagnose.search.calibrated`) when they close less than :data:`MIN_CLOSED` of
