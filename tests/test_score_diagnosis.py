@@ -58,3 +58,12 @@ def test_real_data_commands_skip_cleanly_without_data(monkeypatch, capsys):
     monkeypatch.delenv("RTHS_DATA", raising=False)
     assert main(["friction-damper", "--data", "/nonexistent"]) == 0
     assert capsys.readouterr().out.startswith("skipped")
+
+
+def test_a_table_of_an_unknown_format_is_one_line_and_exit_2(tmp_path, capsys):
+    (tmp_path / "labels.json").write_text("{}")
+    with pytest.raises(SystemExit) as e:
+        main(["suite", str(tmp_path), "--table", str(tmp_path / "t.table")])
+    assert e.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--table must end in .parquet or .csv" in err[0]

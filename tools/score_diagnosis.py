@@ -384,6 +384,8 @@ def main(argv: list[str] | None = None) -> int:
         p.error(f"no labels.json in {args.dir}")
     if args.jobs < 1:
         p.error(f"--jobs must be >= 1; got {args.jobs}")
+    if args.table is not None and args.table.suffix not in (".parquet", ".csv"):
+        p.error(f"--table must end in .parquet or .csv; got {str(args.table)!r}")
     return {"suite": cmd_suite, "friction-damper": cmd_friction_damper, "mts": cmd_mts}[
         args.source
     ](args)
