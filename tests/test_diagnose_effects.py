@@ -158,6 +158,32 @@ def test_a_passive_specimen_keeps_non_negative_inertance_and_damping():
     assert free["inertance"] < 0.0
 
 
+def test_a_dissipation_law_replaces_the_nominal_viscous_share():
+    """A viscous nominal fitted to a friction damper's loops holds the friction's dissipation
+    as damping; bounded within 20 % it left the friction candidate a fifth of the friction
+    (0.9 of 2.2 kN on the real damper).  With a friction or amplitude law the damping is free
+    (not below zero); inertance and stiffness keep their tolerance."""
+    import math as m
+
+    from rths.diagnose.effects.specimen import NOMINAL_TOLERANCE
+
+    nominal = NominalModel(UNIT.actuator, SpecimenNominal(10.0, 3.3e4, 0.0))
+    dt = 1.0 / 1024.0
+    t = dt * np.arange(1, 4 * 1024 + 1)
+    x = 0.025 * np.sin(2 * m.pi * 0.5 * t)
+    ch = specimen_channel(
+        [_record(t, x, x, 2200.0 * np.tanh(np.gradient(x, dt) / 1e-3))], nominal, 30.0
+    )
+    assert list(RigidSpecimen().tolerance(ch)) == [NOMINAL_TOLERANCE] * 3
+    for effects in (("coulomb_friction",), ("amplitude_damping",)):
+        tol = RigidSpecimen(effects).tolerance(ch)
+        assert tol[0] == NOMINAL_TOLERANCE and tol[2] == NOMINAL_TOLERANCE
+        assert m.isnan(tol[1])
+    fit = fit_model(RigidSpecimen(("coulomb_friction",)), ch)
+    assert fit.params["coulomb_friction"]["friction"] == pytest.approx(2200.0, rel=0.05)
+    assert 0.0 <= fit.baseline["damping"] <= 0.05 * 3.3e4
+
+
 def test_models_hold_only_compatible_effect_sets():
     assert compatible(("coulomb_friction", "backlash"))
     assert not compatible(("backlash", "internal_stiffness"))  # one series element

@@ -256,8 +256,12 @@ class RigidSpecimen(Model):
 
     def tolerance(self, channel: Channel) -> NDArray[np.float64]:
         """:data:`NOMINAL_TOLERANCE` for inertance, damping, stiffness and the friction or
-        amplitude law NOMINAL.toml declares; an effect's level is free."""
+        amplitude law NOMINAL.toml declares; an effect's level is free, and so is the damping
+        beside a friction or amplitude effect (a dissipation law replaces the viscous share of
+        a nominal fitted to the same loops: a viscous fit of a friction damper)."""
         out = [NOMINAL_TOLERANCE] * 3
+        if self.friction or self.amplitude:
+            out[1] = math.nan  # a dissipation law replaces the nominal's viscous share
         if self.friction or self._nominal_friction(channel):
             out.append(NOMINAL_TOLERANCE if self._nominal_friction(channel) else math.nan)
         if self.amplitude or self._nominal_amplitude(channel):
