@@ -86,6 +86,18 @@ def rootwise_tf(
     return k * b, a
 
 
+def _factors(
+    num: tuple[float, ...], den: tuple[float, ...], theta: Theta
+) -> tuple[list[float], list[float], list[float]]:
+    """``(zero, pole, damping)`` factors of :func:`rootwise_tf` from a fit (1 where absent)."""
+    nz, np_ = len(root_modes(num)), len(root_modes(den))
+    return (
+        [float(theta.get(f"zero_{i}", 1.0)) for i in range(nz)],
+        [float(theta.get(f"pole_{i}", 1.0)) for i in range(np_)],
+        [float(theta.get(f"damping_{i}", 1.0)) for i in range(np_)],
+    )
+
+
 def group_delay(b: NDArray[np.float64], a: NDArray[np.float64]) -> float:
     """Low-frequency group delay ``a_1/a_0 - b_1/b_0`` [s] of ``b(s)/a(s)`` (coefficients in
     descending powers of ``s``; 0 for a TF with a root at the origin).
@@ -181,10 +193,7 @@ class RootwiseActuator(ActuatorModel):
             The fitted factors.
         """
         a = channel.nominal.actuator
-        nz, np_ = len(root_modes(a.num)), len(root_modes(a.den))
-        zf = [float(theta.get(f"zero_{i}", 1.0)) for i in range(nz)]
-        pf = [float(theta.get(f"pole_{i}", 1.0)) for i in range(np_)]
-        pd = [float(theta.get(f"damping_{i}", 1.0)) for i in range(np_)]
+        zf, pf, pd = _factors(a.num, a.den, theta)
         num, den = rootwise_tf(a.num, a.den, zf, pf, pd)
         nominal = group_delay(np.asarray(a.num, float), np.asarray(a.den, float))
         lag = group_delay(num, den) - nominal + float(theta.get("shift", 0.0)) * channel.dt
@@ -192,10 +201,7 @@ class RootwiseActuator(ActuatorModel):
 
     def _linear(self, channel: Channel, seg: Segment, theta: Theta) -> NDArray:
         a = channel.nominal.actuator
-        nz, np_ = len(root_modes(a.num)), len(root_modes(a.den))
-        zf = [float(theta.get(f"zero_{i}", 1.0)) for i in range(nz)]
-        pf = [float(theta.get(f"pole_{i}", 1.0)) for i in range(np_)]
-        pd = [float(theta.get(f"damping_{i}", 1.0)) for i in range(np_)]
+        zf, pf, pd = _factors(a.num, a.den, theta)
         key = f"root:{zf!r}:{pf!r}:{pd!r}"
         if key not in seg.cache:
             num, den = rootwise_tf(a.num, a.den, zf, pf, pd)
