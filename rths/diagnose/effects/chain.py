@@ -153,6 +153,7 @@ class SeriesChain(Model):
     """
 
     subsystem = "specimen"
+    passive_terms = 2  # the body's and the total inertance
 
     def __init__(
         self, effects: tuple[str, ...] = (), friction_at: str = "body", contact: str = "linear"
@@ -306,12 +307,6 @@ class SeriesChain(Model):
         elif channel.nominal.specimen.friction > 0.0 and not self.friction:
             out.append(NOMINAL_TOLERANCE)
         return np.array(out, dtype=float)
-
-    def nonnegative(self, channel: Channel) -> NDArray[np.bool_]:
-        """The body's and the total inertance (a passive specimen)."""
-        out = np.zeros(self.prior(channel).size, dtype=bool)
-        out[:2] = True
-        return out
 
     def describe(self, channel: Channel, theta: Theta, beta: NDArray[np.float64]):
         m, m_r = float(beta[0]), float(beta[1]) - float(beta[0])

@@ -134,10 +134,15 @@ class Model(ABC):
         parameter within it (:mod:`rths.diagnose.search.bounded`)."""
         return np.full(self.prior(channel).size, np.nan)
 
+    #: How many leading linear parameters ``beta`` cannot be negative (a passive specimen's
+    #: inertance and damping: no re-calibration may turn them into a source); default none.
+    passive_terms: int = 0
+
     def nonnegative(self, channel: Channel) -> NDArray[np.bool_]:
-        """Which linear parameters ``beta`` cannot be negative (a passive specimen's inertance
-        and damping: no re-calibration may turn them into a source); default none."""
-        return np.zeros(self.prior(channel).size, dtype=bool)
+        """Which linear parameters ``beta`` cannot be negative (:attr:`passive_terms`)."""
+        out = np.zeros(self.prior(channel).size, dtype=bool)
+        out[: self.passive_terms] = True
+        return out
 
     @abstractmethod
     def describe(

@@ -206,6 +206,7 @@ class RigidSpecimen(Model):
     """The rigid specimen family (module docstring)."""
 
     subsystem = "specimen"
+    passive_terms = 2  # inertance and damping (S0 Eq.1: m, c >= 0)
 
     def __init__(self, effects: tuple[str, ...] = ()) -> None:
         super().__init__(effects)
@@ -267,12 +268,6 @@ class RigidSpecimen(Model):
         if self.amplitude or self._nominal_amplitude(channel):
             out.append(NOMINAL_TOLERANCE if self._nominal_amplitude(channel) else math.nan)
         return np.array(out, dtype=float)
-
-    def nonnegative(self, channel: Channel) -> NDArray[np.bool_]:
-        """Inertance and damping (a passive specimen: S0 Eq.1's ``m, c >= 0``)."""
-        out = np.zeros(self.prior(channel).size, dtype=bool)
-        out[:2] = True
-        return out
 
     def describe(self, channel: Channel, theta: Theta, beta: NDArray[np.float64]):
         b = [float(q) for q in beta]
