@@ -13,6 +13,7 @@ from plants.linear_specimen import LinearSpecimen
 from rths.diagnose.channels import specimen_channel
 from rths.diagnose.channels.signals import (
     actuator_replay,
+    dominant_tone,
     peak_amplitude,
     running_amplitude,
     shifted,
@@ -152,10 +153,60 @@ def test_a_passive_specimen_keeps_non_negative_inertance_and_damping():
     assert list(model.nonnegative(ch)) == [True, True, False, False]
     base = fit_model(model, ch).baseline
     assert base["inertance"] >= 0.0 and base["damping"] >= 0.0
-    # the same fit with the passive bound released finds the negative split
+    # one sine: the inertance stays at its nominal zero (single_tone); with that rule and the
+    # passive bound released the fit finds the negative split
+    assert base["inertance"] == 0.0
     model.nonnegative = lambda channel: np.zeros(4, dtype=bool)  # type: ignore[method-assign]
+    model.tolerance = lambda channel: np.full(4, 0.2)  # type: ignore[method-assign]
     free = fit_model(model, ch).baseline
     assert free["inertance"] < 0.0
+
+
+def test_one_tone_is_told_from_several_tones_a_sweep_and_random_motion():
+    """dominant_tone: a sine with 3 % of third harmonic and a ramp-in is one line at its
+    frequency (within one periodogram bin, 1/T); two sines a factor 2 apart, a sweep and
+    band-limited noise are not."""
+    dt = 1.0 / 1024.0
+    t = dt * np.arange(20 * 1024)
+    ramp = np.minimum(t / 2.0, 1.0)
+    sine = ramp * (np.sin(2 * math.pi * 0.5 * t) + 0.03 * np.sin(2 * math.pi * 1.5 * t))
+    f = dominant_tone(sine, dt)
+    assert f is not None and abs(f - 0.5) <= 1.0 / (t[-1] + dt)
+    assert dominant_tone(np.sin(2 * math.pi * 0.5 * t) + np.sin(2 * math.pi * t), dt) is None
+    assert dominant_tone(signal.chirp(t, 0.2, t[-1], 5.0), dt) is None
+    rng = np.random.default_rng(3)
+    noise = signal.sosfiltfilt(
+        signal.butter(4, 5.0, fs=1024.0, output="sos"), rng.normal(size=t.size)
+    )
+    assert dominant_tone(noise, dt) is None
+    assert dominant_tone(np.zeros(100), dt) is None
+
+
+def test_inertance_keeps_its_nominal_only_when_all_identification_is_one_frequency():
+    """Under sines of one frequency (any amplitudes) ``m a = -m w^2 x``: only ``k - m w^2``
+    is determined and the inertance keeps its nominal value; records at 0.5 and 1 Hz
+    determine both, and the fit recovers them (to 2 %: the smoother's edges and the ridge)."""
+    from rths.diagnose.effects.specimen import NOMINAL_TOLERANCE, single_tone
+
+    dt = 1.0 / 1024.0
+    t = dt * np.arange(1, 10 * 1024 + 1)
+    nominal = NominalModel(UNIT.actuator, SpecimenNominal(200.0, 1000.0, 2.0e4))
+
+    def rec(freq: float, amp: float) -> Record:
+        x = amp * np.sin(2 * math.pi * freq * t) * np.minimum(t, 1.0)
+        v, a = np.gradient(x, dt), np.gradient(np.gradient(x, dt), dt)
+        return _record(t, x, x, 220.0 * a + 1000.0 * v + 2.1e4 * x)
+
+    # the default split: the first two of three records identify
+    one = specimen_channel([rec(0.5, 0.02), rec(0.5, 0.04), rec(1.0, 0.02)], nominal, 30.0)
+    assert single_tone(one)
+    assert list(RigidSpecimen().tolerance(one)) == [0.0, NOMINAL_TOLERANCE, NOMINAL_TOLERANCE]
+    assert fit_model(RigidSpecimen(), one).baseline["inertance"] == 200.0
+    two = specimen_channel([rec(0.5, 0.02), rec(1.0, 0.02), rec(0.5, 0.04)], nominal, 30.0)
+    assert not single_tone(two)
+    base = fit_model(RigidSpecimen(), two).baseline
+    assert base["inertance"] == pytest.approx(220.0, rel=0.02)
+    assert base["stiffness"] == pytest.approx(2.1e4, rel=0.02)
 
 
 def test_a_dissipation_law_replaces_the_nominal_viscous_share():
@@ -174,10 +225,11 @@ def test_a_dissipation_law_replaces_the_nominal_viscous_share():
     ch = specimen_channel(
         [_record(t, x, x, 2200.0 * np.tanh(np.gradient(x, dt) / 1e-3))], nominal, 30.0
     )
-    assert list(RigidSpecimen().tolerance(ch)) == [NOMINAL_TOLERANCE] * 3
+    # one sine: the inertance is held at its nominal (tolerance 0, see single_tone)
+    assert list(RigidSpecimen().tolerance(ch)) == [0.0] + [NOMINAL_TOLERANCE] * 2
     for effects in (("coulomb_friction",), ("amplitude_damping",)):
         tol = RigidSpecimen(effects).tolerance(ch)
-        assert tol[0] == NOMINAL_TOLERANCE and tol[2] == NOMINAL_TOLERANCE
+        assert tol[0] == 0.0 and tol[2] == NOMINAL_TOLERANCE
         assert m.isnan(tol[1])
     fit = fit_model(RigidSpecimen(("coulomb_friction",)), ch)
     assert fit.params["coulomb_friction"]["friction"] == pytest.approx(2200.0, rel=0.05)

@@ -51,6 +51,7 @@ __all__ = [
     "actuator_replay",
     "derivatives",
     "discrete_tf",
+    "dominant_tone",
     "impulse_kernel",
     "peak_amplitude",
     "running_amplitude",
@@ -64,6 +65,12 @@ __all__ = [
 SMOOTHING_ORDER: int = 4
 #: Fraction of the Nyquist band [lo, hi] whose PSD median gives the white-noise level.
 NOISE_BAND: tuple[float, float] = (0.7, 0.95)
+#: A motion is one tone when this share of its variance lies within a factor
+#: :data:`TONE_BAND` of its spectral peak (a sine with its ramps and the few per cent of
+#: harmonics a displacement-controlled actuator adds; a sweep or a random motion spreads far wider).
+TONE_SHARE: float = 0.95
+#: Half-width (a frequency factor) of the band around the peak that holds a tone.
+TONE_BAND: float = 1.25
 
 
 def smoother(cutoff: float, dt: float) -> NDArray[np.float64]:
@@ -345,3 +352,29 @@ def peak_amplitude(x: NDArray[np.float64], dt: float, tau: float) -> NDArray[np.
     with np.errstate(divide="ignore"):
         held = np.maximum.accumulate(np.log(d) + ramp)
     return np.exp(held - ramp)
+
+
+def dominant_tone(x: NDArray[np.float64], dt: float) -> float | None:
+    """Frequency [Hz] of the one spectral line holding :data:`TONE_SHARE` of ``x``'s variance
+    within a factor :data:`TONE_BAND` of the peak, or the window's main lobe (two bins) if
+    wider (Hann-windowed periodogram of ``x`` minus its mean), or None when the motion spreads wider (several tones, a sweep, random motion).
+
+    Parameters
+    ----------
+    x
+        A motion (any unit), shape ``(n,)``.
+    dt
+        Sample period [s].
+    """
+    d = np.asarray(x, dtype=float) - float(np.mean(x))
+    if d.size < 8 or not np.any(d):
+        return None
+    power = np.abs(np.fft.rfft(d * np.hanning(d.size))) ** 2
+    power[0] = 0.0
+    freq = np.fft.rfftfreq(d.size, dt)
+    peak = float(freq[int(np.argmax(power))])
+    lobe = 2.0 / (d.size * dt)  # the Hann window's main lobe: +/-2 bins
+    near = (freq >= min(peak / TONE_BAND, peak - lobe)) & (
+        freq <= max(peak * TONE_BAND, peak + lobe)
+    )
+    return peak if float(np.sum(power[near])) >= TONE_SHARE * float(np.sum(power)) else None

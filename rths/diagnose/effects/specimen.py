@@ -35,7 +35,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rths.diagnose.channels.channel import Channel, Segment
-from rths.diagnose.channels.signals import peak_amplitude, running_amplitude
+from rths.diagnose.channels.signals import (
+    TONE_BAND,
+    dominant_tone,
+    peak_amplitude,
+    running_amplitude,
+)
 from rths.diagnose.effects.kernels import friction_operator
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
 
@@ -46,6 +51,7 @@ __all__ = [
     "clearance_resolved",
     "drive_scale",
     "friction_resolved",
+    "single_tone",
     "smoothed",
 ]
 
@@ -69,6 +75,30 @@ RESOLVED_CLEARANCE: float = 2.0
 #: calibration.  A parameter the nominal sets to zero may take a term of at most this share of
 #: the force's standard deviation (:mod:`rths.diagnose.search.bounded`).
 NOMINAL_TOLERANCE: float = 0.2
+
+
+def single_tone(channel: Channel) -> bool:
+    """Whether the drive of every identification record is one tone
+    (:func:`rths.diagnose.channels.signals.dominant_tone`) and all of them lie within a
+    factor :data:`rths.diagnose.channels.signals.TONE_BAND` of each other: inertia and
+    stiffness then act at one frequency and only their sum ``k - m w^2`` is determined.
+
+    Parameters
+    ----------
+    channel
+        The specimen channel (drive displacement ``x`` in every segment's signals).
+    """
+    tones = []
+    for seg in channel.segments:
+        if not np.any(seg.ident):
+            continue
+        if "tone" not in seg.cache:
+            f = dominant_tone(seg.signals["x"], seg.dt)
+            seg.cache["tone"] = np.array([math.nan if f is None else f])
+        tones.append(float(seg.cache["tone"][0]))
+    if not tones or not all(math.isfinite(f) and f > 0.0 for f in tones):
+        return False
+    return max(tones) <= TONE_BAND * min(tones)
 
 
 #: Shortest memory [s] of the running load amplitude (a cycle at 10 Hz).
@@ -259,8 +289,13 @@ class RigidSpecimen(Model):
         """:data:`NOMINAL_TOLERANCE` for inertance, damping, stiffness and the friction or
         amplitude law NOMINAL.toml declares; an effect's level is free, and so is the damping
         beside a friction or amplitude effect (a dissipation law replaces the viscous share of
-        a nominal fitted to the same loops: a viscous fit of a friction damper)."""
+        a nominal fitted to the same loops: a viscous fit of a friction damper).  When every
+        identification record is one sine of the same frequency (:func:`single_tone`) the
+        inertance keeps its nominal value: its force ``-m w^2 x`` is the stiffness's shape,
+        only harmonics (an unmodelled effect's, as often as not) would split them."""
         out = [NOMINAL_TOLERANCE] * 3
+        if single_tone(channel):
+            out[0] = 0.0  # m and k are one number, k - m w^2, at one drive frequency
         if self.friction or self.amplitude:
             out[1] = math.nan  # a dissipation law replaces the nominal's viscous share
         if self.friction or self._nominal_friction(channel):
