@@ -357,7 +357,8 @@ def peak_amplitude(x: NDArray[np.float64], dt: float, tau: float) -> NDArray[np.
 def dominant_tone(x: NDArray[np.float64], dt: float) -> float | None:
     """Frequency [Hz] of the one spectral line holding :data:`TONE_SHARE` of ``x``'s variance
     within a factor :data:`TONE_BAND` of the peak, or the window's main lobe (two bins) if
-    wider (Hann-windowed periodogram of ``x`` minus its mean), or None when the motion spreads wider (several tones, a sweep, random motion).
+    wider (Hann-windowed periodogram of ``x`` minus its mean); None when the motion spreads
+    further (several tones, a sweep, random motion).
 
     Parameters
     ----------
