@@ -324,6 +324,28 @@ def test_a_series_spring_is_named_internal_stiffness_and_a_clearance_backlash():
     assert play.final.params["backlash"]["gap"] == pytest.approx(300e-6, rel=0.25)
 
 
+def test_a_backlash_whose_clearance_closed_is_read_as_its_series_spring():
+    """_collapsed: a fit holding a backlash below the displacement's resolution has reached
+    the special case (NESTS) -- the selection then tries the set with internal_stiffness in
+    its place; a resolved clearance, or no backlash, is no such case."""
+    from types import SimpleNamespace
+
+    from rths.diagnose.effects import NESTS
+    from rths.diagnose.effects.specimen import RESOLVED_CLEARANCE
+    from rths.diagnose.search.selection import _collapsed
+
+    ch = _chain_channel(0.0)
+    sigma = ch.noise["measured"]
+
+    def fit(**params):
+        return SimpleNamespace(params=params)
+
+    closed = fit(backlash={"gap": 0.5 * RESOLVED_CLEARANCE * sigma}, amplitude_damping={})
+    assert _collapsed(ch, closed) == ("backlash",) and NESTS["backlash"] == "internal_stiffness"
+    assert _collapsed(ch, fit(backlash={"gap": 2.0 * RESOLVED_CLEARANCE * sigma})) == ()
+    assert _collapsed(ch, fit(coulomb_friction={"friction": 10.0})) == ()
+
+
 def test_the_general_effect_must_beat_its_special_case_by_its_price():
     from types import SimpleNamespace
 

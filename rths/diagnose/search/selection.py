@@ -20,7 +20,11 @@ Of two candidates one of which holds the other as a limit (:data:`rths.diagnose.
 a backlash with a closed clearance is a series spring) the general one is taken only when it
 closes :data:`PRICE` per extra parameter of the gap the special one leaves; the special one is tried
 after the general one and starts also from its fit (a series spring from a contact's fit whose
-clearance closed: the two search spaces differ and either may find the element).
+clearance closed: the two search spaces differ and either may find the element).  When a later
+addition closes a chosen general effect's clearance (the backlash of the set has become a
+series spring beside, say, amplitude-dependent damping: the contact had stood in for the
+other effect), the set with the special effect in its place and the addition is tried too,
+from that fit, priced by its net added parameters.
 
 After the forward steps, an effect whose removal costs less than :data:`PRICE` per parameter
 of the gap the rest leaves is dropped again (:func:`_prune`).
@@ -69,6 +73,7 @@ from rths.diagnose.effects import (
     models_for,
 )
 from rths.diagnose.effects.model import Theta
+from rths.diagnose.effects.specimen import clearance_resolved
 from rths.diagnose.residuals import Decomposition, decompose
 from rths.diagnose.search.calibrated import finer_calibration, needs_finer
 from rths.diagnose.search.crossval import cross_fit
@@ -225,6 +230,13 @@ def _prune(
     return current, current_floor, chosen
 
 
+def _collapsed(channel: Channel, fit: Fit) -> tuple[str, ...]:
+    """The general effects of ``fit`` (:data:`NESTS`) identified at their special case: a
+    backlash whose clearance is below the displacement's resolution (a series spring)."""
+    gap = fit.params.get("backlash", {}).get("gap")
+    return ("backlash",) if gap is not None and not clearance_resolved(channel, gap) else ()
+
+
 def _best(fits: list[Fit], channel: Channel | None = None) -> Fit:
     """The structure that fits the identification data best -- among those whose parameters
     are physical, when ``channel`` is given and any is (a structure that fits better with a
@@ -275,9 +287,13 @@ def select(
     chosen: tuple[str, ...] = ()
     tried: set[tuple[str, ...]] = set()
 
-    def trial(add: tuple[str, ...]) -> tuple[float, Candidate] | None:
-        """Identify ``chosen + add`` jointly (warm-started), score it, record the candidate."""
-        starts = [dict(current.theta)]
+    def trial(
+        add: tuple[str, ...], drop: tuple[str, ...] = (), start: Theta | None = None
+    ) -> tuple[float, Candidate] | None:
+        """Identify ``chosen - drop + add`` jointly (warm-started, also from ``start``), score
+        it, record the candidate; priced by the parameters it adds net of those it drops."""
+        kept = tuple(e for e in chosen if e not in drop)
+        starts = [dict(current.theta)] + ([{**current.theta, **start}] if start else [])
         for e in add:
             if hints and e in hints:
                 starts.append({**current.theta, **hints[e]})
@@ -289,13 +305,14 @@ def select(
                 starts.append({**current.theta, **singles[e].theta})
         models = [
             m
-            for m in models_for(channel.name, (*chosen, *add))
+            for m in models_for(channel.name, (*kept, *add))
             if m.applicable(channel, base.baseline)
         ]
         if not models:
             return None
-        tried.add(tuple(sorted((*chosen, *add))))
+        tried.add(tuple(sorted((*kept, *add))))
         fit = _best([fitter(m, channel, base.baseline, starts) for m in models], channel)
+        last[0] = fit
         if not chosen and len(add) == 1:
             singles[add[0]] = fit
         floor = noise_floor(fit, channel, seed)
@@ -305,18 +322,39 @@ def select(
         ok = fit.model.physical(channel, fit.params) and consistent(fit.held_mse, floor)
         cand = Candidate(fit, floor, closed, gain, False, ok)
         candidates.append(cand)
-        n_params = sum(EFFECTS[e].n_params for e in add)
-        buys = _buys(gain, remaining, excess0, n_params, price)
+        n_params = sum(EFFECTS[e].n_params for e in add) - sum(EFFECTS[e].n_params for e in drop)
+        buys = _buys(gain, remaining, excess0, max(n_params, 1), price)
         return (gain, cand) if ok and buys else None
 
+    def step() -> list[tuple[float, Candidate]]:
+        """Every compatible addition to ``chosen``; where an addition closes the clearance of
+        a chosen general effect (the fit reached its special case: a backlash become a series
+        spring), the set with the special one in its place and the addition, from that fit."""
+        out = []
+        for e in names:
+            if e in chosen or not compatible((*chosen, e)):
+                continue
+            last[0] = None
+            t = trial((e,))
+            if t is not None:
+                out.append(t)
+                continue
+            fit = last[0]
+            if fit is None:
+                continue
+            for general in _collapsed(channel, fit):
+                special = NESTS[general]
+                swapped = tuple(x for x in chosen if x != general) + (special, e)
+                if general in chosen and compatible(swapped):
+                    if tuple(sorted(swapped)) not in tried:
+                        t = trial((special, e), (general,), dict(fit.theta))
+                        if t is not None:
+                            out.append(t)
+        return out
+
+    last: list[Fit | None] = [None]
     while True:
-        trials = [
-            t
-            for e in names
-            if e not in chosen and compatible((*chosen, e))
-            for t in [trial((e,))]
-            if t is not None
-        ]
+        trials = step()
         if not trials and not chosen:
             # effects that act only together (a friction device's clearance, say): when no
             # single effect buys its parameters, every compatible pair is tried as one step
