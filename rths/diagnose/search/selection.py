@@ -7,7 +7,8 @@ Otherwise effects are added one at a time:
 
 1. every candidate effect is identified jointly with the baseline (each of its model
    structures, the best on the identification data);
-2. the candidate that closes most of the remaining held-out gap ``J_S - N_S`` is added if it
+2. the candidate that closes most of the remaining held-out gap ``J_S - N_S`` (and lowers the
+   held-out residual ``J_S`` itself: a higher floor of its own is no closing) is added if it
    closes at least :data:`PRICE` per identified parameter (it "buys its parameters") of that
    gap, or of :data:`NESTED_RESOLUTION` of the channel's reducible gap when less remains
    (:func:`_buys`), and its parameters are physical and its residual consistent with its own
@@ -38,7 +39,8 @@ set is empty or closes less than :data:`MIN_CLOSED` of a significant gap, the ch
 ``unexplained`` -- except for the model-form allowance: when *no* candidate buys its
 parameters and the reducible gap ``J_0 - N_0`` is at most the baseline model's resolution
 ``R`` (:meth:`rths.diagnose.effects.model.Model.resolution`; for the actuator the mean square a
-one-sample shift of its motion leaves), the gap is the linear model's form (a servo-valve's
+one-sample shift of its motion leaves) -- or the effects chosen close less than
+:data:`MIN_CLOSED` of such a gap -- the gap is the linear model's form (a servo-valve's
 flow gain changing with load pressure beyond the first-order orifice term the baseline holds,
 pole-by-pole calibration) and the channel's verdict is ``none`` (``model_form``).  The same
 holds when no candidate buys its parameters and the channel's finer re-calibration of the
@@ -319,7 +321,10 @@ def select(
         remaining = max(current.held_mse - current_floor, 1e-300)
         gain = ((current.held_mse - current_floor) - (fit.held_mse - floor)) / remaining
         closed = (excess0 - (fit.held_mse - floor)) / excess0
-        ok = fit.model.physical(channel, fit.params) and consistent(fit.held_mse, floor)
+        # a model that predicts the held-out data worse than the current set has closed
+        # nothing, however much higher its own noise floor (a stiff contact's) is
+        better = fit.held_mse < current.held_mse
+        ok = fit.model.physical(channel, fit.params) and consistent(fit.held_mse, floor) and better
         cand = Candidate(fit, floor, closed, gain, False, ok)
         candidates.append(cand)
         n_params = sum(EFFECTS[e].n_params for e in add) - sum(EFFECTS[e].n_params for e in drop)
@@ -421,6 +426,14 @@ def select(
             closes = excess0 - (cal.held_mse - n0) >= MIN_CLOSED * excess0
             if closes and not check.lagging(channel, cal.theta):
                 verdict = "none"
+    if verdict == "unexplained" and excess0 <= resolution:
+        # the model-form allowance (module docstring) also when the effects chosen close less
+        # than MIN_CLOSED of a gap within the baseline's resolution: they explain none of it
+        for i, c in enumerate(candidates):
+            if c.accepted:
+                candidates[i] = Candidate(c.fit, c.floor, c.closed, c.gain, False, True)
+        chosen, current, current_floor, closed = (), base, n0, 0.0
+        verdict = "none"
     candidates.sort(key=lambda c: (not c.accepted, -c.closed))
     return ChannelResult(
         channel, base, n0, dec, candidates, chosen, current, closed, verdict, resolution
