@@ -346,6 +346,19 @@ def test_a_backlash_whose_clearance_closed_is_read_as_its_series_spring():
     assert _collapsed(ch, fit(coulomb_friction={"friction": 10.0})) == ()
 
 
+def test_a_trial_closes_a_gap_only_by_lowering_the_held_out_residual_itself():
+    """_gain: (J_S - N_S - (J - N)) / (J_S - N_S); a trial whose residual J rose closes
+    nothing even when its own floor N rose more (seen: a stiff Hertz contact on a no-effect
+    record, J 0.0281^2 against the baseline's 0.0275^2, N 0.029^2 against 0.0262^2)."""
+    from rths.diagnose.search.selection import _gain
+
+    assert _gain((4.0, 1.0), (2.0, 1.0)) == pytest.approx(2.0 / 3.0)
+    assert _gain((4.0, 1.0), (2.5, 1.5)) == pytest.approx(2.0 / 3.0)  # its floor counts
+    assert _gain((0.0275**2, 0.0262**2), (0.0281**2, 0.029**2)) == 0.0
+    assert _gain((4.0, 1.0), (4.0, 3.9)) == 0.0
+    assert _gain((4.0, 1.0), (5.0, 1.0)) == pytest.approx(-1.0 / 3.0)
+
+
 def test_the_general_effect_must_beat_its_special_case_by_its_price():
     from types import SimpleNamespace
 

@@ -137,6 +137,16 @@ def _decompose(channel: Channel, fit: Fit, floor_scale: float = 1.0) -> Decompos
     )
 
 
+def _gain(current: tuple[float, float], trial: tuple[float, float]) -> float:
+    """Share of the current set's remaining gap ``J_S - N_S`` a trial ``(J, N)`` (held-out
+    mean square, its own floor) closes; at most 0 when it does not lower ``J`` itself -- a model
+    that predicts the held-out data worse has closed nothing, however much higher its own
+    noise floor (a stiff contact propagates more noise) is."""
+    (j_s, n_s), (j, n) = current, trial
+    gain = ((j_s - n_s) - (j - n)) / max(j_s - n_s, 1e-300)
+    return gain if j < j_s else min(gain, 0.0)
+
+
 def _buys(gain: float, remaining: float, excess0: float, n_params: int, price: float) -> bool:
     """Whether an effect closing the share ``gain`` of the ``remaining`` gap buys its
     ``n_params`` parameters: it closes ``price`` per parameter of the remaining gap, or of
@@ -319,12 +329,9 @@ def select(
             singles[add[0]] = fit
         floor = noise_floor(fit, channel, seed)
         remaining = max(current.held_mse - current_floor, 1e-300)
-        gain = ((current.held_mse - current_floor) - (fit.held_mse - floor)) / remaining
+        gain = _gain((current.held_mse, current_floor), (fit.held_mse, floor))
         closed = (excess0 - (fit.held_mse - floor)) / excess0
-        # a model that predicts the held-out data worse than the current set has closed
-        # nothing, however much higher its own noise floor (a stiff contact's) is
-        better = fit.held_mse < current.held_mse
-        ok = fit.model.physical(channel, fit.params) and consistent(fit.held_mse, floor) and better
+        ok = fit.model.physical(channel, fit.params) and consistent(fit.held_mse, floor)
         cand = Candidate(fit, floor, closed, gain, False, ok)
         candidates.append(cand)
         n_params = sum(EFFECTS[e].n_params for e in add) - sum(EFFECTS[e].n_params for e in drop)
