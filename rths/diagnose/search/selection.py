@@ -137,6 +137,13 @@ def _decompose(channel: Channel, fit: Fit, floor_scale: float = 1.0) -> Decompos
     )
 
 
+def _withdraw(candidates: list[Candidate]) -> None:
+    """Mark every accepted candidate as no longer accepted (its set was replaced)."""
+    for i, c in enumerate(candidates):
+        if c.accepted:
+            candidates[i] = Candidate(c.fit, c.floor, c.closed, c.gain, False, True)
+
+
 def _gain(current: tuple[float, float], trial: tuple[float, float]) -> float:
     """Share of the current set's remaining gap ``J_S - N_S`` a trial ``(J, N)`` (held-out
     mean square, its own floor) closes; at most 0 when it does not lower ``J`` itself -- a model
@@ -410,9 +417,7 @@ def select(
     if finer is not None:  # the nominal's own parameters, calibrated root by root
         refit, model_form = finer
         if refit is not None or (chosen and model_form):  # the common set is replaced
-            for i, c in enumerate(candidates):
-                if c.accepted:
-                    candidates[i] = Candidate(c.fit, c.floor, c.closed, c.gain, False, True)
+            _withdraw(candidates)
         if refit is not None:  # the effects hold on the finer calibration: named
             fit, floor, share, gain = refit
             candidates.append(Candidate(fit, floor, share, gain, True, True))
@@ -436,9 +441,7 @@ def select(
     if verdict == "unexplained" and excess0 <= resolution:
         # the model-form allowance (module docstring) also when the effects chosen close less
         # than MIN_CLOSED of a gap within the baseline's resolution: they explain none of it
-        for i, c in enumerate(candidates):
-            if c.accepted:
-                candidates[i] = Candidate(c.fit, c.floor, c.closed, c.gain, False, True)
+        _withdraw(candidates)
         chosen, current, current_floor, closed = (), base, n0, 0.0
         verdict = "none"
     candidates.sort(key=lambda c: (not c.accepted, -c.closed))
