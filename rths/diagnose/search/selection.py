@@ -331,7 +331,6 @@ def select(
             return None
         tried.add(tuple(sorted((*kept, *add))))
         fit = _best([fitter(m, channel, base.baseline, starts) for m in models], channel)
-        last[0] = fit
         if not chosen and len(add) == 1:
             singles[add[0]] = fit
         floor = noise_floor(fit, channel, seed)
@@ -353,14 +352,14 @@ def select(
         for e in names:
             if e in chosen or not compatible((*chosen, e)):
                 continue
-            last[0] = None
+            before = len(candidates)
             t = trial((e,))
             if t is not None:
                 out.append(t)
                 continue
-            fit = last[0]
-            if fit is None:
+            if len(candidates) == before:  # no model holds the set
                 continue
+            fit = candidates[-1].fit  # the trial's own fit
             for general in _collapsed(channel, fit):
                 special = NESTS[general]
                 swapped = tuple(x for x in chosen if x != general) + (special, e)
@@ -371,7 +370,6 @@ def select(
                             out.append(t)
         return out
 
-    last: list[Fit | None] = [None]
     while True:
         trials = step()
         if not trials and not chosen:
