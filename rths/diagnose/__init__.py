@@ -9,7 +9,8 @@ Layout::
     search/     global identification, noise floors, greedy selection on held-out data
     residuals   decomposition of a residual: significance, band, phase of the cycle, windows
     structure   the structure channel of ``rths run`` logs
-    verdict     the whole diagnosis                                   -> Diagnosis
+    verdict     the whole diagnosis, in order of work                 -> Diagnosis
+    answer      the Diagnosis and its JSON document
     report      terminal table and figures
     suite       a labelled suite's case folder as one campaign task (tools/score_diagnosis.py)
 

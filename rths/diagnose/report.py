@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from rths.diagnose.answer import Diagnosis, flat_params, nominal_mse
 from rths.diagnose.search.selection import ChannelResult, held_runs
-from rths.diagnose.verdict import Diagnosis, _flat, _nominal_mse
 
 __all__ = ["table", "write_figures"]
 
@@ -65,7 +65,7 @@ def table(d: Diagnosis) -> str:
         band = f"{dec.band_hz[0]:.3g}-{dec.band_hz[1]:.3g}" if dec.significant else "-"
         effects = " + ".join(c.effects) if c.effects else c.verdict
         lines.append(
-            f"{name:12} {c.channel.subsystem:9} {_pct(c.nrmse(_nominal_mse(c))):>9} "
+            f"{name:12} {c.channel.subsystem:9} {_pct(c.nrmse(nominal_mse(c))):>9} "
             f"{_pct(c.nrmse(c.baseline.held_mse)):>9} {_pct(c.nrmse(c.final.held_mse)):>9} "
             f"{_pct(c.nrmse(c.floor_mse)):>9}  {'yes' if dec.significant else 'no':11} "
             f"{band:>13}  {dec.phase:14} {effects}"
@@ -78,7 +78,7 @@ def table(d: Diagnosis) -> str:
         mark = "*" if cand.accepted else " "
         lines.append(
             f"{mark}{cand.name:35} {res.channel.name:12} {_pct(res.nrmse(cand.fit.held_mse)):>9} "
-            f"{100 * cand.closed:7.1f}% {cand.gain:6.2f}  {_params(_flat(cand.fit.params))}"
+            f"{100 * cand.closed:7.1f}% {cand.gain:6.2f}  {_params(flat_params(cand.fit.params))}"
         )
     lines.append("")
     if d.verdict in ("none", "unexplained") and d.subsystem == "none":
