@@ -347,36 +347,36 @@ def test_a_backlash_whose_clearance_closed_is_read_as_its_series_spring():
 
 
 def test_a_trial_closes_a_gap_only_by_lowering_the_held_out_residual_itself():
-    """_gain: (J_S - N_S - (J - N)) / (J_S - N_S); a trial whose residual J rose closes
+    """held_out_gain: (J_S - N_S - (J - N)) / (J_S - N_S); a trial whose residual J rose closes
     nothing even when its own floor N rose more (seen: a stiff Hertz contact on a no-effect
     record, J 0.0281^2 against the baseline's 0.0275^2, N 0.029^2 against 0.0262^2)."""
-    from rths.diagnose.search.selection import _gain
+    from rths.diagnose.search.pricing import held_out_gain
 
-    assert _gain((4.0, 1.0), (2.0, 1.0)) == pytest.approx(2.0 / 3.0)
-    assert _gain((4.0, 1.0), (2.5, 1.5)) == pytest.approx(2.0 / 3.0)  # its floor counts
-    assert _gain((0.0275**2, 0.0262**2), (0.0281**2, 0.029**2)) == 0.0
-    assert _gain((4.0, 1.0), (4.0, 3.9)) == 0.0
-    assert _gain((4.0, 1.0), (5.0, 1.0)) == pytest.approx(-1.0 / 3.0)
+    assert held_out_gain((4.0, 1.0), (2.0, 1.0)) == pytest.approx(2.0 / 3.0)
+    assert held_out_gain((4.0, 1.0), (2.5, 1.5)) == pytest.approx(2.0 / 3.0)  # its floor counts
+    assert held_out_gain((0.0275**2, 0.0262**2), (0.0281**2, 0.029**2)) == 0.0
+    assert held_out_gain((4.0, 1.0), (4.0, 3.9)) == 0.0
+    assert held_out_gain((4.0, 1.0), (5.0, 1.0)) == pytest.approx(-1.0 / 3.0)
 
 
 def test_the_general_effect_must_beat_its_special_case_by_its_price():
     from types import SimpleNamespace
 
-    from rths.diagnose.search.selection import PRICE, _nested_preferred
+    from rths.diagnose.search.pricing import PRICE, nested_preferred
 
     def trial(effects, gain):
         return gain, SimpleNamespace(fit=SimpleNamespace(effects=effects))
 
     # the spring leaves 20 % of the gap: the clearance must close PRICE of those 20 %
     close = [trial(("backlash",), 0.8 + 0.5 * PRICE * 0.2), trial(("internal_stiffness",), 0.8)]
-    assert [c.fit.effects for _, c in _nested_preferred(close, PRICE)] == [("internal_stiffness",)]
+    assert [c.fit.effects for _, c in nested_preferred(close, PRICE)] == [("internal_stiffness",)]
     far = [trial(("backlash",), 0.8 + 2 * PRICE * 0.2), trial(("internal_stiffness",), 0.8)]
-    assert len(_nested_preferred(far, PRICE)) == 2  # both stay; the larger gain wins
+    assert len(nested_preferred(far, PRICE)) == 2  # both stay; the larger gain wins
     # a spring at the noise floor leaves nothing for the clearance to close
     done = [trial(("backlash",), 1.02), trial(("internal_stiffness",), 1.0)]
-    assert [c.fit.effects for _, c in _nested_preferred(done, PRICE)] == [("internal_stiffness",)]
+    assert [c.fit.effects for _, c in nested_preferred(done, PRICE)] == [("internal_stiffness",)]
     alone = [trial(("backlash", "coulomb_friction"), 0.9)]
-    assert _nested_preferred(alone, PRICE) == alone
+    assert nested_preferred(alone, PRICE) == alone
 
 
 def test_free_response_of_a_linear_chain_is_the_damped_oscillator():
@@ -403,19 +403,19 @@ def test_free_response_of_a_linear_chain_is_the_damped_oscillator():
 
 
 def test_an_effect_after_the_set_closed_all_but_a_few_per_cent_must_close_a_share_of_5():
-    from rths.diagnose.search.selection import NESTED_RESOLUTION, PRICE, _buys
+    from rths.diagnose.search.pricing import NESTED_RESOLUTION, PRICE, buys
 
     # the first step: remaining = the whole reducible gap, the plain price per parameter
-    assert _buys(2 * PRICE + 1e-9, 1.0, 1.0, 2, PRICE)
-    assert not _buys(2 * PRICE - 1e-9, 1.0, 1.0, 2, PRICE)
+    assert buys(2 * PRICE + 1e-9, 1.0, 1.0, 2, PRICE)
+    assert not buys(2 * PRICE - 1e-9, 1.0, 1.0, 2, PRICE)
     # 20 % left (above the resolution): the price of that remainder
-    assert _buys(3 * PRICE + 1e-9, 0.2, 1.0, 3, PRICE)
+    assert buys(3 * PRICE + 1e-9, 0.2, 1.0, 3, PRICE)
     # 1.4 % left, a 3-parameter clearance closing 40 % of it (0.56 % of the gap): a share
     # of a remainder inside the floor's resolution buys nothing; it must close
     # PRICE * 3 * 5 % = 1.5 % of the gap, more than is left
-    assert not _buys(0.4, 0.014, 1.0, 3, PRICE)
-    assert not _buys(1.0, 0.014, 1.0, 3, PRICE)
-    assert _buys(1.0, 0.014, 1.0, 1, PRICE) == (0.014 >= PRICE * NESTED_RESOLUTION)
+    assert not buys(0.4, 0.014, 1.0, 3, PRICE)
+    assert not buys(1.0, 0.014, 1.0, 3, PRICE)
+    assert buys(1.0, 0.014, 1.0, 1, PRICE) == (0.014 >= PRICE * NESTED_RESOLUTION)
 
 
 def test_box_solve_is_the_bounded_least_squares_of_scipy():

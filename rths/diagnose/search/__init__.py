@@ -5,6 +5,7 @@ identify    variable projection; global grid over orders of magnitude, refinemen
 floors      the noise floor a model would leave if it were exact (per model)
 calibrated  the actuator's effects judged against the root-by-root calibration of its
             nominal (a delay the common factors absorbed; a mis-calibration that is no effect)
+pricing     the share of the remaining gap an effect closes and whether it buys its parameters
 selection   greedy addition of effects per channel; ``unexplained`` when they do not close
             half of a significant gap
 """

@@ -11,8 +11,8 @@ Otherwise effects are added one at a time:
    held-out residual ``J_S`` itself: a higher floor of its own is no closing) is added if it
    closes at least :data:`PRICE` per identified parameter (it "buys its parameters") of that
    gap, or of :data:`NESTED_RESOLUTION` of the channel's reducible gap when less remains
-   (:func:`_buys`), and its parameters are physical and its residual consistent with its own
-   noise floor (:func:`rths.diagnose.search.floors.consistent`);
+   (:func:`rths.diagnose.search.pricing.buys`), and its parameters are physical and its
+   residual consistent with its own noise floor (:func:`rths.diagnose.search.floors.consistent`);
 3. while the residual of the set is still significant, each remaining compatible candidate is
    identified *together* with the set (warm-started from the set's and its own single fit)
    and step 2 repeats.
@@ -81,6 +81,13 @@ from rths.diagnose.search.calibrated import finer_calibration, needs_finer
 from rths.diagnose.search.crossval import cross_fit
 from rths.diagnose.search.floors import consistent, noise_floor
 from rths.diagnose.search.identify import Fit, fit_model
+from rths.diagnose.search.pricing import (
+    NESTED_RESOLUTION,
+    PRICE,
+    buys,
+    held_out_gain,
+    nested_preferred,
+)
 from rths.diagnose.search.results import Candidate, ChannelResult, held_parts, held_runs
 
 __all__ = [
@@ -95,14 +102,6 @@ __all__ = [
     "select",
 ]
 
-#: Fraction of the remaining reducible gap an added effect must close per identified parameter.
-PRICE: float = 0.1
-#: Share of the reducible gap below which what a set leaves is at the resolution of the
-#: floor (what a special case of a nested pair leaves -- a series spring for a backlash --
-#: or what the effects already chosen leave): an effect added then must still close
-#: :data:`PRICE` per (extra) parameter of this share, not of a remainder that is noise and
-#: model form (:func:`_buys`).
-NESTED_RESOLUTION: float = 0.05
 #: Smallest share of a significant reducible gap the selected effects must close together.
 MIN_CLOSED: float = 0.5
 #: Channels whose models are scored by two-fold cross-validation over time blocks (cheap
@@ -142,53 +141,6 @@ def _withdraw(candidates: list[Candidate]) -> None:
     for i, c in enumerate(candidates):
         if c.accepted:
             candidates[i] = Candidate(c.fit, c.floor, c.closed, c.gain, False, True)
-
-
-def _gain(current: tuple[float, float], trial: tuple[float, float]) -> float:
-    """Share of the current set's remaining gap ``J_S - N_S`` a trial ``(J, N)`` (held-out
-    mean square, its own floor) closes; at most 0 when it does not lower ``J`` itself -- a model
-    that predicts the held-out data worse has closed nothing, however much higher its own
-    noise floor (a stiff contact propagates more noise) is."""
-    (j_s, n_s), (j, n) = current, trial
-    gain = ((j_s - n_s) - (j - n)) / max(j_s - n_s, 1e-300)
-    return gain if j < j_s else min(gain, 0.0)
-
-
-def _buys(gain: float, remaining: float, excess0: float, n_params: int, price: float) -> bool:
-    """Whether an effect closing the share ``gain`` of the ``remaining`` gap buys its
-    ``n_params`` parameters: it closes ``price`` per parameter of the remaining gap, or of
-    :data:`NESTED_RESOLUTION` of the channel's reducible gap ``excess0`` when less remains.
-    Once a set has closed all but a few per cent of the gap, what is left is within the noise
-    floor's uncertainty and the model form of the effects already chosen (a friction law's
-    shape at reversals, say); a further effect that reshapes it by a share of that remainder
-    has shown no structure of its own."""
-    return gain * remaining >= price * n_params * max(remaining, NESTED_RESOLUTION * excess0)
-
-
-def _nested_preferred(
-    trials: list[tuple[float, Candidate]], price: float
-) -> list[tuple[float, Candidate]]:
-    """Drop every trial whose general effect (:data:`NESTS`, e.g. backlash) does not close
-    ``price`` per extra parameter of what the same set with its special case (internal
-    stiffness) leaves: gains ``g`` are shares of the current remaining gap, so the general
-    one must reach ``g - g_s >= price * extra * (1 - g_s)``."""
-    by_set = {frozenset(c.fit.effects): g for g, c in trials}
-    out = []
-    for g, c in trials:
-        names = frozenset(c.fit.effects)
-        dominated = False
-        for general, special in NESTS.items():
-            if general in names and special not in names:
-                other = by_set.get((names - {general}) | {special})
-                extra = EFFECTS[general].n_params - EFFECTS[special].n_params
-                left = 1.0 - other if other is not None else 0.0  # at the floor: nothing
-                # a gap the special one leaves within NESTED_RESOLUTION of its floor is none
-                need = price * max(extra, 1) * max(left, NESTED_RESOLUTION)
-                if other is not None and (left <= 0.0 or g - other < need):
-                    dominated = True
-        if not dominated:
-            out.append((g, c))
-    return out or trials
 
 
 def _prune(
@@ -235,7 +187,7 @@ def _prune(
             left = max(sub.held_mse - floor, 1e-300)
             gain = (left - (current.held_mse - current_floor)) / left
             at_floor = not _decompose(channel, sub, floor / max(n0, 1e-300)).significant
-            if at_floor or not _buys(gain, left, excess0, EFFECTS[e].n_params, price):
+            if at_floor or not buys(gain, left, excess0, EFFECTS[e].n_params, price):
                 for i, c in enumerate(candidates):
                     if c.accepted and set(c.fit.effects) == set(chosen):
                         candidates[i] = Candidate(c.fit, c.floor, c.closed, c.gain, False, True)
@@ -335,14 +287,14 @@ def select(
             singles[add[0]] = fit
         floor = noise_floor(fit, channel, seed)
         remaining = max(current.held_mse - current_floor, 1e-300)
-        gain = _gain((current.held_mse, current_floor), (fit.held_mse, floor))
+        gain = held_out_gain((current.held_mse, current_floor), (fit.held_mse, floor))
         closed = (excess0 - (fit.held_mse - floor)) / excess0
         ok = fit.model.physical(channel, fit.params) and consistent(fit.held_mse, floor)
         cand = Candidate(fit, floor, closed, gain, False, ok)
         candidates.append(cand)
         n_params = sum(EFFECTS[e].n_params for e in add) - sum(EFFECTS[e].n_params for e in drop)
-        buys = _buys(gain, remaining, excess0, max(n_params, 1), price)
-        return (gain, cand) if ok and buys else None
+        bought = buys(gain, remaining, excess0, max(n_params, 1), price)
+        return (gain, cand) if ok and bought else None
 
     def step() -> list[tuple[float, Candidate]]:
         """Every compatible addition to ``chosen``; where an addition closes the clearance of
@@ -384,7 +336,7 @@ def select(
             trials = [t for pair in pairs for t in [trial(pair)] if t is not None]
         if not trials:
             break
-        gain, cand = max(_nested_preferred(trials, price), key=lambda t: t[0])
+        gain, cand = max(nested_preferred(trials, price), key=lambda t: t[0])
         candidates[candidates.index(cand)] = Candidate(
             cand.fit, cand.floor, cand.closed, cand.gain, True, True
         )
