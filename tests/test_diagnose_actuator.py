@@ -14,7 +14,7 @@ import pytest
 
 from plants.lines import rate_limited
 from rths.diagnose import load_nominal, load_record
-from rths.diagnose.channels.channel import Channel, Segment, actuator_channel
+from rths.diagnose.channels import Channel, Segment, actuator_channel
 from rths.diagnose.data.nominal import ActuatorNominal, NominalModel, SpecimenNominal
 from rths.diagnose.effects import ActuatorModel
 from rths.diagnose.search.crossval import blocked

@@ -209,7 +209,15 @@ class Diagnosis:
 
 def magnitude(result: ChannelResult, channels: dict[str, ChannelResult]) -> float:
     """A channel's reducible gap relative to its observation (the specimen's in force units
-    whichever view explains it)."""
+    whichever view explains it).
+
+    Parameters
+    ----------
+    result
+        The channel's result.
+    channels
+        Every channel's result by name.
+    """
     if result.channel.subsystem == "specimen":
         return channels["force"].relative_gap
     return result.relative_gap

@@ -29,12 +29,12 @@ from threadpoolctl import threadpool_limits
 
 from rths.core.errors import ParameterError, check_positive, format_choices
 from rths.diagnose.answer import Diagnosis, magnitude
-from rths.diagnose.channels.channel import (
-    DEFAULT_CUTOFF,
+from rths.diagnose.channels.build import (
     actuator_channel,
     displacement_channel,
     specimen_channel,
 )
+from rths.diagnose.channels.channel import DEFAULT_CUTOFF
 from rths.diagnose.data.nominal import NominalModel
 from rths.diagnose.data.records import Record
 from rths.diagnose.effects import EFFECTS

@@ -10,7 +10,7 @@ pole and zero scaled by one factor ``lambda_w`` and the damping ratio of every c
 one factor ``lambda_z`` (``G_lambda``: the nominal TF with its DC gain kept); an alignment
 ``tau`` of at most one sample either way; the record offsets ``b_r``.  Control-structure
 interaction: the nominal TF is the transfer system *with the nominal specimen installed*; the
-force the nominal specimen does not explain, ``dF`` (:func:`rths.diagnose.channels.channel.
+force the nominal specimen does not explain, ``dF`` (:func:`rths.diagnose.channels.build.
 force_deviation`), moves the piston through the loop's force compliance, a linear path
 expanded on :data:`CSI_TERMS` Laguerre functions ``Lambda_j`` at the nominal TF's bandwidth
 (strictly proper: the path is as slow as the loop).  It carries no actuator effect (an effect
@@ -18,7 +18,7 @@ acts on the command) and keeps a specimen effect seen through the actuator from 
 The servo-valve's orifice law ``Q = K_q x_v sqrt(1 - sign(x_v) p_L/P_s)`` (Merritt, Hydraulic
 Control Systems, Eq. 5-21), which a linear nominal TF (a linearisation at ``p_L = 0``) lacks,
 costs the piston the speed ``|v| F/(2 P_s A)`` to first order: the signal ``|v| F``
-(:func:`rths.diagnose.channels.channel.load_flow`) through the loop's sensitivity over ``s``,
+(:func:`rths.diagnose.channels.build.load_flow`) through the loop's sensitivity over ``s``,
 ``S(s)/s = (1 - G(s)/G(0))/s``, and through :data:`FLOW_TERMS` ``- 1`` Laguerre functions
 (the delta-P feedback reshapes that path) gives linear columns of the baseline (reported
 ``load_flow``: the first one's coefficient, ``-1/(2 P_s A)`` [1/N] for the ideal loop).
