@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rths.diagnose.effects import EFFECTS
+from rths.diagnose.search.calibrated import calibration_lag
 from rths.diagnose.search.identify import Fit
 from rths.diagnose.search.selection import Candidate, ChannelResult
 from rths.diagnose.structure import StructureGap
@@ -101,6 +102,7 @@ def _channel_dict(result: ChannelResult) -> dict[str, object]:
         "phase": dec.phase,
         "windows": [list(w) for w in dec.windows],
         "baseline": c.baseline.baseline,
+        "calibration_lag_s": calibration_lag(c.channel, c.baseline.baseline),
         "noise_rms": dict(c.channel.noise),
         "drive": "replay" if c.channel.noise.get("drive", 1.0) == 0.0 else "measured",
         "cutoff_hz": c.channel.cutoff,

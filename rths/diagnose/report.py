@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from rths.diagnose.answer import Diagnosis, flat_params, nominal_mse
+from rths.diagnose.search.calibrated import calibration_lag
 from rths.diagnose.search.selection import ChannelResult, held_runs
 
 __all__ = ["table", "write_figures"]
@@ -99,6 +100,14 @@ def table(d: Diagnosis) -> str:
         f"gap ({d.gap_channel}, held out): {_pct(d.before)} -> {_pct(d.after)}, closes "
         f"{100 * d.shrink:.1f} % of the reducible gap"
     )
+    for name, c in d.channels.items():
+        lag = calibration_lag(c.channel, c.baseline.baseline)
+        if not c.effects and lag is not None and lag > c.channel.dt:
+            lines.append(
+                f"note: the {name} channel's re-calibration took on {1e3 * lag:.3g} ms of lag "
+                f"(slower poles and the one-sample alignment): a delay of up to that cannot be "
+                f"told from calibration on these records"
+            )
     return "\n".join(lines)
 
 

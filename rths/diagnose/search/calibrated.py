@@ -29,7 +29,7 @@ from rths.diagnose.effects import EFFECTS, absorbed_lag, calibration_for
 from rths.diagnose.search.floors import noise_floor
 from rths.diagnose.search.identify import Fit
 
-__all__ = ["HIDDEN_BY_CALIBRATION", "finer_calibration", "needs_finer"]
+__all__ = ["HIDDEN_BY_CALIBRATION", "calibration_lag", "finer_calibration", "needs_finer"]
 
 #: Effects a calibration of the nominal's own parameters can mimic in part (a pole's lag: up
 #: to the tolerance's share of its group delay), so that the common re-calibration can hide
@@ -38,6 +38,26 @@ HIDDEN_BY_CALIBRATION: tuple[str, ...] = ("actuator_delay",)
 
 #: Name prefixes of the root-by-root calibration's factors.
 _ROOTS: tuple[str, ...] = ("zero", "pole", "damping")
+
+
+def calibration_lag(channel: Channel, baseline: dict[str, float]) -> float | None:
+    """The lag [s] the common re-calibration took on (slower poles, more damping, the
+    alignment: :func:`rths.diagnose.effects.calibration.absorbed_lag`); None for a channel
+    without a calibrated transfer function.  Beyond one sample it is the largest delay the
+    records cannot tell from calibration when the baseline reached its floor: at one
+    frequency a delay and a pole's phase lag are the same thing.
+
+    Parameters
+    ----------
+    channel
+        The channel.
+    baseline
+        Its common re-calibration (``frequency_scale``, ``damping_scale``, ``alignment`` [s]).
+    """
+    if calibration_for(channel.name) is None:
+        return None
+    act = channel.nominal.actuator
+    return absorbed_lag(act.num, act.den, baseline)
 
 
 def needs_finer(
@@ -70,8 +90,8 @@ def needs_finer(
         return True  # a delay is named only against the finest calibration of the nominal
     if chosen:
         return False
-    act = channel.nominal.actuator
-    return absorbed_lag(act.num, act.den, current.baseline) > channel.dt
+    lag = calibration_lag(channel, current.baseline)
+    return lag is not None and lag > channel.dt
 
 
 def finer_calibration(
