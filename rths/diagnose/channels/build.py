@@ -195,6 +195,7 @@ def actuator_channel(
         signals = {
             "command": r.command,
             "dforce": force_deviation(r, nominal),
+            "force": smooth(r.force, smoother(DRIVE_CUTOFF / r.dt, r.dt)),
             "load_flow": load_flow(r),
         }
         segments.append(Segment(r.name, i, dt, r.measured, signals, ident, held))

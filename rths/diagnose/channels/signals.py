@@ -228,6 +228,28 @@ def impulse_kernel(
     return smooth(m * a + c * v + stiffness * k, sos)
 
 
+def sampled_tf(
+    num: tuple[float, ...] | NDArray, den: tuple[float, ...] | NDArray, dt: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(b, a)`` of the first-order-hold discrete model of ``num/den``: a *sampled* continuous
+    signal (a measured force, not a command held from ``t_k``) through it, exact for a signal
+    linear between samples (a hold would lag it by half a sample).
+
+    Parameters
+    ----------
+    num, den
+        Continuous-time transfer function, descending powers of ``s`` (proper).
+    dt
+        Sample period [s].
+    """
+    if len(den) <= 1:
+        return np.array([float(num[-1]) / float(den[0])]), np.array([1.0])
+    b, a, _ = signal.cont2discrete(
+        (np.asarray(num, float), np.asarray(den, float)), dt, method="foh"
+    )
+    return np.ravel(b).astype(float), np.asarray(a, float)
+
+
 def discrete_tf(
     num: tuple[float, ...] | NDArray, den: tuple[float, ...] | NDArray, dt: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -3,18 +3,30 @@
 .. math::
 
     y = \\mathrm{RL}_{v_{max}}\\big(g\\, e^{-s(\\tau_0 + \\tau)}\\, G_{\\lambda}(s)\\, u\\big)
+        - \\kappa\\, e^{-s\\tau_0} G_{\\lambda}(s)\\, F
         + \\sum_j h_j\\, \\Lambda_j(s)\\, \\Delta F + b_r
 
 Baseline (NOMINAL.toml's own parameters, re-calibrated): the gain ``g``; the frequency of every
 pole and zero scaled by one factor ``lambda_w`` and the damping ratio of every complex pole by
 one factor ``lambda_z`` (``G_lambda``: the nominal TF with its DC gain kept); an alignment
 ``tau`` of at most one sample either way; the record offsets ``b_r``.  Control-structure
-interaction: the nominal TF is the transfer system *with the nominal specimen installed*; the
-force the nominal specimen does not explain, ``dF`` (:func:`rths.diagnose.channels.build.
-force_deviation`), moves the piston through the loop's force compliance, a linear path
-expanded on :data:`CSI_TERMS` Laguerre functions ``Lambda_j`` at the nominal TF's bandwidth
-(strictly proper: the path is as slow as the loop).  It carries no actuator effect (an effect
-acts on the command) and keeps a specimen effect seen through the actuator from posing as one.
+interaction (Dyke et al. 1995): the specimen's force pushes the piston back through the loop's
+compliance, ``y = G (u - F/K)``.  A nominal TF may be that of the bare actuator, ``G``, or the
+one identified *with the nominal specimen installed*, ``G/(1 + G Z_0/K)`` (``Z_0``: the nominal
+specimen's impedance); both are ``y = G_0 (u - dF/K)`` once the measured force ``F`` through
+``G_lambda`` is a column: its coefficient ``kappa = 1/K`` (reported ``loop_compliance``
+[m/N]) is the bare TF's, zero for an installed one.  Without it, a bare nominal's interaction
+-- its inertial force adds ``b_0 m/K`` to the ``s^2`` coefficient of the loop's denominator
+(``b_0``: the numerator; a 29 Hz real pole and an 82 Hz pair with 240 kg on 54 MN/m: +26 %)
+-- is taken for a slower, more damped loop and a longer delay.  The force the nominal specimen does not explain, ``dF``
+(:func:`rths.diagnose.channels.build.force_deviation`), also moves the piston through a linear
+path expanded on :data:`CSI_TERMS` Laguerre functions ``Lambda_j`` at the nominal TF's
+bandwidth (strictly proper: the path is as slow as the loop; a servo-valve's pressure feedback
+shapes it differently from ``G/K``).  Neither carries an actuator effect (an effect acts on
+the command); they keep a specimen effect seen through the actuator from posing as one.  A
+damping force's interaction ``c s G/K`` is a lag ``c/K`` a delay also makes; the inertial
+term, even in frequency, pins ``kappa``.
+
 The servo-valve's orifice law ``Q = K_q x_v sqrt(1 - sign(x_v) p_L/P_s)`` (Merritt, Hydraulic
 Control Systems, Eq. 5-21), which a linear nominal TF (a linearisation at ``p_L = 0``) lacks,
 costs the piston the speed ``|v| F/(2 P_s A)`` to first order: the signal ``|v| F``
@@ -39,8 +51,11 @@ from scipy import signal
 
 from plants.lines import rate_limited
 from rths.diagnose.channels.channel import Channel, Segment
-from rths.diagnose.channels.signals import discrete_tf, shifted
+from rths.diagnose.channels.signals import discrete_tf, sampled_tf, shifted
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
+
+#: Cache-key prefixes of :meth:`ActuatorModel._through`.
+_THROUGH: tuple[str, ...] = ("command:", "force:")
 
 __all__ = [
     "CALIBRATION_TOLERANCE",
@@ -189,20 +204,46 @@ class ActuatorModel(Model):
         return [{"frequency_scale": 1.0, "damping_scale": 1.0, "shift": 0.0, "gain": 1.0}]
 
     # -- simulation ----------------------------------------------------------------------
-    def _linear(self, channel: Channel, seg: Segment, theta: Theta) -> NDArray:
+    def _transfer_key(self, channel: Channel, theta: Theta) -> str:
+        """A cache key of the re-calibrated transfer function ``theta`` selects."""
+        return f"lin:{float(theta.get('frequency_scale', 1.0))!r}:" + repr(
+            float(theta.get("damping_scale", 1.0))
+        )
+
+    def _transfer(
+        self, channel: Channel, theta: Theta
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The re-calibrated transfer function (continuous, descending powers of ``s``)."""
+        a = channel.nominal.actuator
         freq = float(theta.get("frequency_scale", 1.0))
         damp = float(theta.get("damping_scale", 1.0))
-        key = f"lin:{freq!r}:{damp!r}"
+        return scaled_tf(a.num, a.den, freq, damp)
+
+    def _through(self, channel: Channel, seg: Segment, theta: Theta, drive: str) -> NDArray:
+        """The segment's signal ``drive`` through the re-calibrated transfer function (no
+        delay), cached per calibration."""
+        key = f"{drive}:{self._transfer_key(channel, theta)}"
         if key not in seg.cache:
-            a = channel.nominal.actuator
-            num, den = scaled_tf(a.num, a.den, freq, damp)
-            b, aa = discrete_tf(num, den, seg.dt)
-            seg.cache[key] = signal.lfilter(b, aa, seg.signals["command"])
+            num, den = self._transfer(channel, theta)
+            hold = discrete_tf if drive == "command" else sampled_tf
+            b, aa = hold(tuple(num), tuple(den), seg.dt)
+            seg.cache[key] = signal.lfilter(b, aa, seg.signals[drive])
             if len(seg.cache) > 64:  # keep the cache bounded during a search
-                for k in [k for k in seg.cache if k.startswith("lin:")][:32]:
+                for k in [k for k in seg.cache if k.startswith(_THROUGH)][:32]:
                     del seg.cache[k]
+        return seg.cache[key]
+
+    def _linear(self, channel: Channel, seg: Segment, theta: Theta) -> NDArray:
         total = channel.nominal.actuator.delay / seg.dt + float(theta["shift"])
-        return shifted(seg.cache[key], total)
+        return shifted(self._through(channel, seg, theta, "command"), total)
+
+    def _bare_column(self, channel: Channel, seg: Segment, theta: Theta) -> NDArray:
+        """The measured force through the re-calibrated transfer function, ``(n, 1)``, for a
+        nominal TF without the specimen: ``y = G (u - F/K)`` (module docstring)."""
+        if "force" not in seg.signals or not self._csi(channel):
+            return np.empty((seg.observed.size, 0))
+        f = self._through(channel, seg, theta, "force")
+        return shifted(f, channel.nominal.actuator.delay / seg.dt)[:, None]
 
     def _csi_columns(self, channel: Channel, seg: Segment) -> list[NDArray]:
         if "csi" not in seg.cache:
@@ -248,7 +289,13 @@ class ActuatorModel(Model):
 
     def columns(self, channel: Channel, seg: Segment, theta: Theta) -> Columns:
         y = self._linear(channel, seg, theta)
-        csi = np.hstack([self._csi_columns(channel, seg)[0], self._flow_column(channel, seg)])
+        csi = np.hstack(
+            [
+                self._bare_column(channel, seg, theta),
+                self._csi_columns(channel, seg)[0],
+                self._flow_column(channel, seg),
+            ]
+        )
         if self.limit:
             moved = rate_limited(float(theta["gain"]) * y, float(theta["velocity_limit"]), seg.dt)
             return csi, moved
@@ -264,7 +311,9 @@ class ActuatorModel(Model):
     def prior(self, channel: Channel) -> NDArray[np.float64]:
         seg = channel.segments[0]
         n_csi = (
-            self._csi_columns(channel, seg)[0].shape[1] + self._flow_column(channel, seg).shape[1]
+            self._bare_column(channel, seg, {"shift": 0.0}).shape[1]
+            + self._csi_columns(channel, seg)[0].shape[1]
+            + self._flow_column(channel, seg).shape[1]
         )
         return np.concatenate([[] if self.limit else [1.0], np.zeros(n_csi)])
 
@@ -277,6 +326,9 @@ class ActuatorModel(Model):
             "damping_scale": float(theta.get("damping_scale", 1.0)),
             "alignment": 0.0 if self.delay else shift,
         }
+        seg = channel.segments[0]
+        if self._bare_column(channel, seg, theta).shape[1]:
+            base["loop_compliance"] = -float(beta[0 if self.limit else 1])
         if self._flow_column(channel, channel.segments[0]).shape[1]:
             base["load_flow"] = float(
                 beta[-self._flow_column(channel, channel.segments[0]).shape[1]]

@@ -199,16 +199,14 @@ class RootwiseActuator(ActuatorModel):
         lag = group_delay(num, den) - nominal + float(theta.get("shift", 0.0)) * channel.dt
         return lag >= (1.0 - 1e-3) * channel.dt  # the alignment's own bound counts
 
-    def _linear(self, channel: Channel, seg: Segment, theta: Theta) -> NDArray:
+    def _transfer_key(self, channel: Channel, theta: Theta) -> str:
         a = channel.nominal.actuator
         zf, pf, pd = _factors(a.num, a.den, theta)
-        key = f"root:{zf!r}:{pf!r}:{pd!r}"
-        if key not in seg.cache:
-            num, den = rootwise_tf(a.num, a.den, zf, pf, pd)
-            b, aa = discrete_tf(tuple(num), tuple(den), seg.dt)
-            seg.cache[key] = signal.lfilter(b, aa, seg.signals["command"])
-            if len(seg.cache) > 64:  # keep the cache bounded during a search
-                for k in [k for k in seg.cache if k.startswith("root:")][:32]:
-                    del seg.cache[k]
-        total = a.delay / seg.dt + float(theta["shift"])
-        return shifted(seg.cache[key], total)
+        return f"root:{zf!r}:{pf!r}:{pd!r}"
+
+    def _transfer(
+        self, channel: Channel, theta: Theta
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        a = channel.nominal.actuator
+        zf, pf, pd = _factors(a.num, a.den, theta)
+        return rootwise_tf(a.num, a.den, zf, pf, pd)
