@@ -9,23 +9,23 @@
 Baseline (NOMINAL.toml's own parameters, re-calibrated): the gain ``g``; the frequency of every
 pole and zero scaled by one factor ``lambda_w`` and the damping ratio of every complex pole by
 one factor ``lambda_z`` (``G_lambda``: the nominal TF with its DC gain kept); an alignment
-``tau`` of at most one sample either way; the record offsets ``b_r``.  Control-structure
+``tau`` of at most one sample either way; the record offsets ``b_r``. Control-structure
 interaction (Dyke et al. 1995): the specimen's force pushes the piston back through the loop's
-compliance, ``y = G (u - F/K)``.  A nominal TF may be that of the bare actuator, ``G``, or the
+compliance, ``y = G (u - F/K)``. A nominal TF may be that of the bare actuator, ``G``, or the
 one identified *with the nominal specimen installed*, ``G/(1 + G Z_0/K)`` (``Z_0``: the nominal
 specimen's impedance); both are ``y = G_0 (u - dF/K)`` once the measured force ``F`` through
-``G_lambda`` is a column: its coefficient ``kappa = 1/K`` (reported ``loop_compliance``
-[m/N]) is the bare TF's, zero for an installed one.  Without it, a bare nominal's interaction
--- its inertial force adds ``b_0 m/K`` to the ``s^2`` coefficient of the loop's denominator
-(``b_0``: the numerator; a 29 Hz real pole and an 82 Hz pair with 240 kg on 54 MN/m: +26 %)
--- is taken for a slower, more damped loop and a longer delay.  The force the nominal specimen does not explain, ``dF``
-(:func:`rths.diagnose.channels.build.force_deviation`), also moves the piston through a linear
-path expanded on :data:`CSI_TERMS` Laguerre functions ``Lambda_j`` at the nominal TF's
-bandwidth (strictly proper: the path is as slow as the loop; a servo-valve's pressure feedback
-shapes it differently from ``G/K``).  Neither carries an actuator effect (an effect acts on
-the command); they keep a specimen effect seen through the actuator from posing as one.  A
-damping force's interaction ``c s G/K`` is a lag ``c/K`` a delay also makes; the inertial
-term, even in frequency, pins ``kappa``.
+``G_lambda`` is a column: its coefficient ``kappa = 1/K`` (reported ``loop_compliance`` [m/N])
+is the bare TF's, zero for an installed one. Without it, a bare nominal's interaction -- its
+inertial force adds ``b_0 m/K`` to the ``s^2`` coefficient of the loop's denominator (``b_0``:
+the numerator; a 29 Hz real pole and an 82 Hz pair with 240 kg on 54 MN/m: +26 %) -- is taken
+for a slower, more damped loop and a longer delay. The force the nominal specimen does not
+explain, ``dF`` (:func:`rths.diagnose.channels.build.force_deviation`), also moves the piston
+through a linear path expanded on :data:`CSI_TERMS` Laguerre functions ``Lambda_j`` at the
+nominal TF's bandwidth (strictly proper: the path is as slow as the loop; a servo-valve's
+pressure feedback shapes it differently from ``G/K``). Neither carries an actuator effect (an
+effect acts on the command); they keep a specimen effect seen through the actuator from posing
+as one. A damping force's interaction ``c s G/K`` is a lag ``c/K`` a delay also makes; the
+inertial term, even in frequency, pins ``kappa``.
 
 The servo-valve's orifice law ``Q = K_q x_v sqrt(1 - sign(x_v) p_L/P_s)`` (Merritt, Hydraulic
 Control Systems, Eq. 5-21), which a linear nominal TF (a linearisation at ``p_L = 0``) lacks,

@@ -23,10 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import signal
 
-from rths.diagnose.channels.channel import Channel, Segment
-from rths.diagnose.channels.signals import discrete_tf, shifted
+from rths.diagnose.channels.channel import Channel
 from rths.diagnose.effects.actuator import CALIBRATION_TOLERANCE, ActuatorModel, _move, scaled_tf
 from rths.diagnose.effects.model import Param, Theta
 
