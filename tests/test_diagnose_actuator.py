@@ -44,7 +44,7 @@ def _channel(
             "load_flow": np.zeros(n) if flow is None else flow,
         }
         if force is not None:
-            signals["force"] = force[i]
+            signals["reactive"] = force[i]
         segs.append(Segment(f"r{i}", i, DT, y, signals, ident, np.zeros(n, bool)))
     noise = {"measured": 1e-7, "force": 1.0, "command": 0.0}
     return Channel("measured", "actuator", segs, nominal, noise)
@@ -410,12 +410,12 @@ def _interacting(u: np.ndarray, delay: int) -> tuple[np.ndarray, np.ndarray]:
 def test_a_delay_behind_either_nominal_convention_is_identified(convention):
     # Oracle: closed-form records of a mass on a loop of compliance 1/K, behind a 4-sample
     # delay.  The nominal is the bare loop's TF (the interaction shows as the column of the
-    # measured force, coefficient 1/K) or the installed one (the interaction is in the TF:
-    # the coefficient is 0).  Tolerances: the model is exact but for the force column's
-    # first-order hold (the force is smooth, not linear, between samples: an error of order
-    # (w dt)^2/12 of a term worth m w^2/K ~ 3 % of the motion at 10 Hz) and 1 um noise: the
-    # delay within 0.25 sample, the compliance within 10 % of 1/K (bare) or under 5 % of it
-    # (installed).
+    # nominal specimen's reactive force, here the whole force m y'', coefficient 1/K) or the
+    # installed one (the interaction is in the TF: the coefficient is 0).  Tolerances: the
+    # model is exact but for the force column's first-order hold (the force is smooth, not
+    # linear, between samples: an error of order (w dt)^2/12 of a term worth m w^2/K ~ 3 % of
+    # the motion at 10 Hz) and 1 um noise: the delay within 0.25 sample, the compliance within
+    # 10 % of 1/K (bare) or under 5 % of it (installed).
     n = 4000
     rng = np.random.default_rng(11)
     cmds = [_broadband(n, 6), _broadband(n, 7)]

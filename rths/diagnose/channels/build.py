@@ -52,6 +52,7 @@ __all__ = [
     "displacement_channel",
     "force_deviation",
     "load_flow",
+    "reactive_force",
     "specimen_channel",
 ]
 
@@ -151,6 +152,28 @@ def force_deviation(record: Record, nominal: NominalModel) -> NDArray[np.float64
     return force - (s.inertance * a + s.damping * v + s.stiffness * x)
 
 
+def reactive_force(record: Record, nominal: NominalModel) -> NDArray[np.float64]:
+    """``m x'' + k x`` [N]: the nominal specimen's reactive (inertial and elastic) force on the
+    measured displacement, through a zero-phase low-pass at :data:`DRIVE_CUTOFF` of the
+    sampling rate (at most 100 Hz: the loop's poles, where the force's interaction shows, lie
+    below; the acceleration's noise above).  It pins the loop's compliance
+    (:mod:`rths.diagnose.effects.actuator`): its interaction is even in frequency, which no
+    delay mimics.
+
+    Parameters
+    ----------
+    record
+        One record: measured displacement [m].
+    nominal
+        The nominal model whose specimen (inertance, stiffness) acts.
+    """
+    sos = smoother(min(DRIVE_CUTOFF / record.dt, 100.0), record.dt)
+    x = smooth(record.measured, sos)
+    a = derivatives(x, record.dt)[1]
+    s = nominal.specimen
+    return s.inertance * a + s.stiffness * x
+
+
 def load_flow(record: Record) -> NDArray[np.float64]:
     """``|v| F`` [W]: the measured speed times the measured force, both through zero-phase
     low-passes at :data:`DRIVE_CUTOFF` of the sampling rate (at most 100 Hz).
@@ -195,7 +218,7 @@ def actuator_channel(
         signals = {
             "command": r.command,
             "dforce": force_deviation(r, nominal),
-            "force": smooth(r.force, smoother(DRIVE_CUTOFF / r.dt, r.dt)),
+            "reactive": reactive_force(r, nominal),
             "load_flow": load_flow(r),
         }
         segments.append(Segment(r.name, i, dt, r.measured, signals, ident, held))

@@ -76,8 +76,9 @@ class Segment:
     observed
         What the models must reproduce: measured displacement [m] or smoothed force [N].
     signals
-        Drive signals: ``command``, ``force`` (the measured force through the drive's light
-        low-pass [N]), ``dforce`` (force deviation [N]) and ``load_flow``
+        Drive signals: ``command``, ``reactive`` (the nominal specimen's inertial and elastic
+        force [N], :func:`rths.diagnose.channels.build.reactive_force`), ``dforce`` (force
+        deviation [N]) and ``load_flow``
         (``|v| F`` [W], :func:`load_flow`) for the actuator channel; ``x``, ``v``, ``a``
         (smoothed drive displacement and its derivatives) for the specimen channel.
     ident, held

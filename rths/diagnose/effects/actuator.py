@@ -3,7 +3,7 @@
 .. math::
 
     y = \\mathrm{RL}_{v_{max}}\\big(g\\, e^{-s(\\tau_0 + \\tau)}\\, G_{\\lambda}(s)\\, u\\big)
-        - \\kappa\\, e^{-s\\tau_0} G_{\\lambda}(s)\\, F
+        - \\kappa\\, e^{-s\\tau_0} G_{\\lambda}(s)\\, (m_0 \\ddot y + k_0 y)
         + \\sum_j h_j\\, \\Lambda_j(s)\\, \\Delta F + b_r
 
 Baseline (NOMINAL.toml's own parameters, re-calibrated): the gain ``g``; the frequency of every
@@ -13,19 +13,21 @@ one factor ``lambda_z`` (``G_lambda``: the nominal TF with its DC gain kept); an
 interaction (Dyke et al. 1995): the specimen's force pushes the piston back through the loop's
 compliance, ``y = G (u - F/K)``. A nominal TF may be that of the bare actuator, ``G``, or the
 one identified *with the nominal specimen installed*, ``G/(1 + G Z_0/K)`` (``Z_0``: the nominal
-specimen's impedance); both are ``y = G_0 (u - dF/K)`` once the measured force ``F`` through
-``G_lambda`` is a column: its coefficient ``kappa = 1/K`` (reported ``loop_compliance`` [m/N])
-is the bare TF's, zero for an installed one. Without it, a bare nominal's interaction -- its
-inertial force adds ``b_0 m/K`` to the ``s^2`` coefficient of the loop's denominator (``b_0``:
-the numerator; a 29 Hz real pole and an 82 Hz pair with 240 kg on 54 MN/m: +26 %) -- is taken
-for a slower, more damped loop and a longer delay. The force the nominal specimen does not
-explain, ``dF`` (:func:`rths.diagnose.channels.build.force_deviation`), also moves the piston
-through a linear path expanded on :data:`CSI_TERMS` Laguerre functions ``Lambda_j`` at the
-nominal TF's bandwidth (strictly proper: the path is as slow as the loop; a servo-valve's
+specimen's impedance). The nominal specimen's reactive force ``m_0 y'' + k_0 y`` on the measured
+displacement (:func:`rths.diagnose.channels.build.reactive_force`) through ``G_lambda`` is a
+column: its coefficient ``kappa = 1/K`` (reported ``loop_compliance`` [m/N]) is the bare TF's,
+zero for an installed one. Without it, a bare nominal's interaction -- its inertial force adds
+``b_0 m/K`` to the ``s^2`` coefficient of the loop's denominator (``b_0``: the numerator; a 29
+Hz real pole and an 82 Hz pair with 240 kg on 54 MN/m: +26 %) -- is taken for a slower, more
+damped loop and a longer delay. The dissipative part's interaction, ``c s G/K``, is a lag
+``c/K`` that a delay makes as well (tens of microseconds on a stiff loop): a dissipative column
+would trade with the delay, the reactive one, even in frequency, cannot. The force the nominal
+specimen does not explain, ``dF`` (:func:`rths.diagnose.channels.build.force_deviation`), moves
+the piston through a linear path expanded on :data:`CSI_TERMS` Laguerre functions ``Lambda_j``
+at the nominal TF's bandwidth (strictly proper: the path is as slow as the loop; a servo-valve's
 pressure feedback shapes it differently from ``G/K``). Neither carries an actuator effect (an
 effect acts on the command); they keep a specimen effect seen through the actuator from posing
-as one. A damping force's interaction ``c s G/K`` is a lag ``c/K`` a delay also makes; the
-inertial term, even in frequency, pins ``kappa``.
+as one.
 
 The servo-valve's orifice law ``Q = K_q x_v sqrt(1 - sign(x_v) p_L/P_s)`` (Merritt, Hydraulic
 Control Systems, Eq. 5-21), which a linear nominal TF (a linearisation at ``p_L = 0``) lacks,
@@ -55,7 +57,7 @@ from rths.diagnose.channels.signals import discrete_tf, sampled_tf, shifted
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
 
 #: Cache-key prefixes of :meth:`ActuatorModel._through`.
-_THROUGH: tuple[str, ...] = ("command:", "force:")
+_THROUGH: tuple[str, ...] = ("command:", "reactive:")
 
 __all__ = [
     "CALIBRATION_TOLERANCE",
@@ -238,11 +240,12 @@ class ActuatorModel(Model):
         return shifted(self._through(channel, seg, theta, "command"), total)
 
     def _bare_column(self, channel: Channel, seg: Segment, theta: Theta) -> NDArray:
-        """The measured force through the re-calibrated transfer function, ``(n, 1)``, for a
-        nominal TF without the specimen: ``y = G (u - F/K)`` (module docstring)."""
-        if "force" not in seg.signals or not self._csi(channel):
+        """The nominal specimen's reactive force through the re-calibrated transfer function,
+        ``(n, 1)``, for a nominal TF without the specimen: ``y = G (u - F/K)`` (module
+        docstring)."""
+        if "reactive" not in seg.signals or not self._csi(channel):
             return np.empty((seg.observed.size, 0))
-        f = self._through(channel, seg, theta, "force")
+        f = self._through(channel, seg, theta, "reactive")
         return shifted(f, channel.nominal.actuator.delay / seg.dt)[:, None]
 
     def _csi_columns(self, channel: Channel, seg: Segment) -> list[NDArray]:
