@@ -240,13 +240,25 @@ class ActuatorModel(Model):
         return shifted(self._through(channel, seg, theta, "command"), total)
 
     def _bare_column(self, channel: Channel, seg: Segment, theta: Theta) -> NDArray:
-        """The nominal specimen's reactive force through the re-calibrated transfer function,
-        ``(n, 1)``, for a nominal TF without the specimen: ``y = G (u - F/K)`` (module
-        docstring)."""
+        """Minus the nominal specimen's reactive force through the re-calibrated transfer
+        function, ``(n, 1)``, for a nominal TF without the specimen: ``y = G (u - F/K)``
+        (module docstring; its coefficient is ``kappa = 1/K``)."""
         if "reactive" not in seg.signals or not self._csi(channel):
             return np.empty((seg.observed.size, 0))
         f = self._through(channel, seg, theta, "reactive")
-        return shifted(f, channel.nominal.actuator.delay / seg.dt)[:, None]
+        return -shifted(f, channel.nominal.actuator.delay / seg.dt)[:, None]
+
+    def _compliance_index(self) -> int:
+        """Position of ``kappa`` in ``beta`` (after the gain unless the gain is nonlinear)."""
+        return 0 if self.limit else 1
+
+    def nonnegative(self, channel: Channel) -> NDArray[np.bool_]:
+        """The loop's compliance ``kappa`` cannot be negative: a force pulling the piston
+        along would be a source in the loop."""
+        out = super().nonnegative(channel)
+        if self._bare_column(channel, channel.segments[0], {"shift": 0.0}).shape[1]:
+            out[self._compliance_index()] = True
+        return out
 
     def _csi_columns(self, channel: Channel, seg: Segment) -> list[NDArray]:
         if "csi" not in seg.cache:
@@ -331,7 +343,7 @@ class ActuatorModel(Model):
         }
         seg = channel.segments[0]
         if self._bare_column(channel, seg, theta).shape[1]:
-            base["loop_compliance"] = -float(beta[0 if self.limit else 1])
+            base["loop_compliance"] = float(beta[self._compliance_index()])
         if self._flow_column(channel, channel.segments[0]).shape[1]:
             base["load_flow"] = float(
                 beta[-self._flow_column(channel, channel.segments[0]).shape[1]]
