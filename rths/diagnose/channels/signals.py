@@ -232,8 +232,8 @@ def sampled_tf(
     num: tuple[float, ...] | NDArray, den: tuple[float, ...] | NDArray, dt: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``(b, a)`` of the first-order-hold discrete model of ``num/den``: a *sampled* continuous
-    signal (a measured force, not a command held from ``t_k``) through it, exact for a signal
-    linear between samples (a hold would lag it by half a sample).
+    signal (a force on the measured motion, not a command held from ``t_k``) through it, exact
+    for a signal linear between samples (a hold would lag it by half a sample).
 
     Parameters
     ----------

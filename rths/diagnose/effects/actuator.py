@@ -239,11 +239,16 @@ class ActuatorModel(Model):
         total = channel.nominal.actuator.delay / seg.dt + float(theta["shift"])
         return shifted(self._through(channel, seg, theta, "command"), total)
 
-    def _bare_column(self, channel: Channel, seg: Segment, theta: Theta) -> NDArray:
+    def _compliant(self, channel: Channel) -> bool:
+        """Whether the model holds the loop's compliance ``kappa`` (a dynamic nominal TF and
+        a reactive-force signal)."""
+        return "reactive" in channel.segments[0].signals and self._csi(channel)
+
+    def _compliance_column(self, channel: Channel, seg: Segment, theta: Theta) -> NDArray:
         """Minus the nominal specimen's reactive force through the re-calibrated transfer
-        function, ``(n, 1)``, for a nominal TF without the specimen: ``y = G (u - F/K)``
-        (module docstring; its coefficient is ``kappa = 1/K``)."""
-        if "reactive" not in seg.signals or not self._csi(channel):
+        function, ``(n, 1)`` (``(n, 0)`` without :meth:`_compliant`), for a nominal TF without
+        the specimen: ``y = G (u - F/K)`` (module docstring; its coefficient is ``kappa``)."""
+        if not self._compliant(channel):
             return np.empty((seg.observed.size, 0))
         f = self._through(channel, seg, theta, "reactive")
         return -shifted(f, channel.nominal.actuator.delay / seg.dt)[:, None]
@@ -256,7 +261,7 @@ class ActuatorModel(Model):
         """The loop's compliance ``kappa`` cannot be negative: a force pulling the piston
         along would be a source in the loop."""
         out = super().nonnegative(channel)
-        if self._bare_column(channel, channel.segments[0], {"shift": 0.0}).shape[1]:
+        if self._compliant(channel):
             out[self._compliance_index()] = True
         return out
 
@@ -306,7 +311,7 @@ class ActuatorModel(Model):
         y = self._linear(channel, seg, theta)
         csi = np.hstack(
             [
-                self._bare_column(channel, seg, theta),
+                self._compliance_column(channel, seg, theta),
                 self._csi_columns(channel, seg)[0],
                 self._flow_column(channel, seg),
             ]
@@ -326,7 +331,7 @@ class ActuatorModel(Model):
     def prior(self, channel: Channel) -> NDArray[np.float64]:
         seg = channel.segments[0]
         n_csi = (
-            self._bare_column(channel, seg, {"shift": 0.0}).shape[1]
+            int(self._compliant(channel))
             + self._csi_columns(channel, seg)[0].shape[1]
             + self._flow_column(channel, seg).shape[1]
         )
@@ -341,8 +346,7 @@ class ActuatorModel(Model):
             "damping_scale": float(theta.get("damping_scale", 1.0)),
             "alignment": 0.0 if self.delay else shift,
         }
-        seg = channel.segments[0]
-        if self._bare_column(channel, seg, theta).shape[1]:
+        if self._compliant(channel):
             base["loop_compliance"] = float(beta[self._compliance_index()])
         if self._flow_column(channel, channel.segments[0]).shape[1]:
             base["load_flow"] = float(
