@@ -120,6 +120,9 @@ class ComplianceModel(Model):
         super().__init__(effects)
         self.element = bool(effects)
         self.backlash = "backlash" in effects
+        # 1/m, 1/k_e and g/2 cannot be negative: a body or an element that gives way
+        # against the force would be a source, and a clearance is a length
+        self.passive_terms = 1 + int(self.element) + int(self.backlash)
         self._base: dict[str, float] = {}
 
     def prepare(self, channel: Channel, base: dict[str, float]) -> None:
