@@ -106,6 +106,28 @@ def test_rate_limit_that_is_never_reached_is_rejected():
     assert not m.physical(ch, {"rate_limit": {"velocity_limit": 0.1}})
 
 
+def test_a_limit_exceeded_by_less_than_the_gain_error_is_held_from_a_small_record():
+    # the actuator's gain is 1.1 against the nominal's 1: a 0.1 m/s limit clips a sine whose
+    # true peak speed is 0.125 m/s, which the nominal's linear motion puts at 0.114 m/s (only
+    # 14 % above the limit); a second record at a twelfth of the amplitude (peak 0.010 m/s,
+    # a tenth of the limit, 700 times the secant speed's noise) never touches the limit
+    # and gives the gain, so the linear motion is read at 0.125 m/s
+    t = np.arange(4000) * DT
+    m = ActuatorModel(("rate_limit",))
+    commands = [a * np.sin(2 * math.pi * 1.5 * t) for a in (0.01215, 0.001)]
+    ch = _channel([np.zeros(t.size)] * 2, commands)
+    for s in ch.segments:
+        s.observed = rate_limited(1.1 * m._linear(ch, s, {"shift": 0.0}), 0.1, DT)
+    assert m._free_gain(ch, [m._linear(ch, s, {"shift": 0.0}) for s in ch.segments], 0.1, 5) == (
+        pytest.approx(1.1, rel=1e-3)
+    )
+    assert m.physical(ch, {"rate_limit": {"velocity_limit": 0.1}})
+    # the small record's linear speed stays below a fifth of the limit: no sample of it is
+    # "near" the limit, and only the noise bounds the speeds that calibrate the gain
+    small = m._linear(ch, ch.segments[1], {"shift": 0.0})
+    assert np.max(np.abs(np.diff(small))) / DT < 0.2 * 0.1
+
+
 def test_resolution_is_a_one_sample_shift_of_a_sine():
     # mean square of A sin(w t) - A sin(w (t - dt)) is A^2 (1 - cos(w dt)) over whole periods
     # (1200 samples scored: 3 periods of 2.5 Hz at 1 kHz; the rest is rounding)

@@ -64,6 +64,7 @@ __all__ = [
     "CSI_TERMS",
     "FLOW_TERMS",
     "MAX_DELAY",
+    "IDLE_SNR",
     "SECANT_WINDOW",
     "ActuatorModel",
     "scaled_tf",
@@ -77,6 +78,9 @@ FLOW_TERMS: int = 3
 MAX_DELAY: float = 0.1
 #: Window [s] of the secant slope the rate-limit candidate is checked against.
 SECANT_WINDOW: float = 0.01
+#: Least ratio of a linear secant speed to its noise for the gain it calibrates (a 5 % error
+#: per sample at most, before the median).
+IDLE_SNR: float = 20.0
 #: Calibration tolerance of the nominal transfer function's pole frequencies and damping
 #: (design.md section 7: nominal mis-calibration up to +/-10 %).  The baseline re-calibrates
 #: the poles within it; beyond it the change is structure the nominal lacks -- a delay's lag
@@ -395,14 +399,17 @@ class ActuatorModel(Model):
     def _free_gain(channel: Channel, lines: list[NDArray], v_max: float, k: int) -> float:
         """The actuator's gain where the limiter is idle: the median ratio of measured to
         linear secant speed over the samples of the record the limit touches least whose linear
-        speed is within 20-80 % of the limit (1 when fewer than 10 such samples)."""
+        speed is below 80 % of the limit and above :data:`IDLE_SNR` times the secant speed's
+        noise (1 when fewer than 10 such samples).  A record driven well below the limit gives
+        the gain as well as one near it: the noise, not the limit, sets the lower bound."""
         window = 2 * k * channel.dt
         speeds = [np.abs(y[2 * k :] - y[: -2 * k]) / window for y in lines]
         least = int(np.argmin([float(np.max(v)) for v in speeds]))
         want = speeds[least]
         obs = channel.segments[least].observed
         got = np.abs(obs[2 * k :] - obs[: -2 * k]) / window
-        idle = (want > 0.2 * v_max) & (want < 0.8 * v_max)
+        noise = math.sqrt(2.0) * float(channel.noise.get("measured", 0.0)) / window
+        idle = (want > max(IDLE_SNR * noise, 1e-3 * v_max)) & (want < 0.8 * v_max)
         return float(np.median(got[idle] / want[idle])) if np.sum(idle) >= 10 else 1.0
 
     def resolution(self, channel: Channel, prediction: list[NDArray[np.float64]]) -> float:
