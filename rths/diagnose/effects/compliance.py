@@ -24,7 +24,9 @@ The body's initial state is unknown, so each record is cut into blocks of
 calibrated on the block itself, like the per-record offsets and the load cell's offset (the
 body's response to a constant force).
 Samples where ``|F| < 2 F_0`` (the clearance being crossed: the piston's motion there is the
-actuator's, not the specimen's) are not scored.  ``1/m``, ``1/k_e`` and ``g/2`` are linear;
+actuator's, not the specimen's) are not scored.  ``1/m``, ``1/k_e`` and ``g/2`` are linear and
+bounded at zero (a body or element that gives way against the force would be a source; a
+contact stiffer than the noise resolves is a rigid one, ``k_e`` infinite);
 ``c/m``, ``k/m`` and ``tau`` are searched.  The baseline is the body alone (the nominal rigid
 specimen).  Friction and amplitude damping are left to the ``force`` channel's models.
 """
