@@ -121,9 +121,10 @@ def test_a_contact_stiffer_than_the_noise_resolves_is_a_rigid_backlash():
     p = res.final.params["backlash"]
     assert p["peak_deflection"] == 0.0 and p["stiffness"] == math.inf
     assert res.closed > 0.9
-    # the clearance within a factor 1.5 only (measured +40 %): the stiff contact bounces, and
-    # its flights inside the clearance, smeared over a few samples by the anti-alias filter,
-    # are scored as contact (a known bias of the force-driven view, not asserted away)
+    # the clearance within a factor 1.5 only (measured +40 %; 2e11 and 2e12 N/m^1.5 give
+    # -14 % and -38 %): a stiff, bouncing contact biases the force-driven view's clearance,
+    # a known limit whose cause is not isolated (dropping the samples next to an open
+    # contact from the score made it worse), stated here rather than asserted away
     assert 200e-6 < p["gap"] < 450e-6
 
 
