@@ -400,8 +400,9 @@ class ActuatorModel(Model):
         """The actuator's gain where the limiter is idle: the median ratio of measured to
         linear secant speed over the samples of the record the limit touches least whose linear
         speed is below 80 % of the limit and above :data:`IDLE_SNR` times the secant speed's
-        noise (1 when fewer than 10 such samples).  A record driven well below the limit gives
-        the gain as well as one near it: the noise, not the limit, sets the lower bound."""
+        noise, and at least 0.1 % of the limit (no division by a resting piston when the noise
+        is unknown); 1 when fewer than 10 such samples.  A record driven well below the limit
+        gives the gain as well as one near it: the noise, not the limit, sets the lower bound."""
         window = 2 * k * channel.dt
         speeds = [np.abs(y[2 * k :] - y[: -2 * k]) / window for y in lines]
         least = int(np.argmin([float(np.max(v)) for v in speeds]))
