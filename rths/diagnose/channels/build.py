@@ -152,31 +152,39 @@ def force_deviation(record: Record, nominal: NominalModel) -> NDArray[np.float64
     return force - (s.inertance * a + s.damping * v + s.stiffness * x)
 
 
-def reactive_force(record: Record, nominal: NominalModel) -> NDArray[np.float64]:
+def _interaction_motion(record: Record) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """``(x, v, a, F)``: the measured displacement [m], its speed [m/s] and acceleration
+    [m/s^2], and the measured force [N], through one zero-phase low-pass at
+    :data:`DRIVE_CUTOFF` of the sampling rate, at most 100 Hz (the loop's poles, where the
+    force's interaction shows, lie below; the acceleration's noise above)."""
+    sos = smoother(min(DRIVE_CUTOFF / record.dt, 100.0), record.dt)
+    x = smooth(record.measured, sos)
+    v, a = derivatives(x, record.dt)
+    return x, v, a, smooth(record.force, sos)
+
+
+def reactive_force(
+    motion: tuple[NDArray, NDArray, NDArray, NDArray], nominal: NominalModel
+) -> NDArray[np.float64]:
     """``m x'' + k x`` [N]: the nominal specimen's reactive (inertial and elastic) force on the
-    measured displacement, through a zero-phase low-pass at :data:`DRIVE_CUTOFF` of the
-    sampling rate (at most 100 Hz: the loop's poles, where the force's interaction shows, lie
-    below; the acceleration's noise above).  It pins the loop's compliance
+    measured displacement.  It pins the loop's compliance
     (:mod:`rths.diagnose.effects.actuator`): its interaction is even in frequency, which no
     delay mimics.
 
     Parameters
     ----------
-    record
-        One record: measured displacement [m].
+    motion
+        ``(x, v, a, F)`` of one record, low-passed (:func:`_interaction_motion`).
     nominal
         The nominal model whose specimen (inertance, stiffness) acts.
     """
-    sos = smoother(min(DRIVE_CUTOFF / record.dt, 100.0), record.dt)
-    x = smooth(record.measured, sos)
-    a = derivatives(x, record.dt)[1]
+    x, _, a, _ = motion
     s = nominal.specimen
     return s.inertance * a + s.stiffness * x
 
 
-def load_flow(record: Record) -> NDArray[np.float64]:
-    """``|v| F`` [W]: the measured speed times the measured force, both through zero-phase
-    low-passes at :data:`DRIVE_CUTOFF` of the sampling rate (at most 100 Hz).
+def load_flow(motion: tuple[NDArray, NDArray, NDArray, NDArray]) -> NDArray[np.float64]:
+    """``|v| F`` [W]: the measured speed times the measured force.
 
     A servo-valve's orifice law ``Q = K_q x_v sqrt(1 - sign(x_v) p_L/P_s)`` (Merritt,
     Hydraulic Control Systems, 1967, Eq. 5-21) linearised at ``p_L = 0`` moves the piston at
@@ -185,12 +193,11 @@ def load_flow(record: Record) -> NDArray[np.float64]:
 
     Parameters
     ----------
-    record
-        One record: measured displacement [m] and force [N].
+    motion
+        ``(x, v, a, F)`` of one record, low-passed (:func:`_interaction_motion`).
     """
-    sos = smoother(min(DRIVE_CUTOFF / record.dt, 100.0), record.dt)
-    v = derivatives(smooth(record.measured, sos), record.dt)[0]
-    return np.abs(v) * smooth(record.force, sos)
+    _, v, _, force = motion
+    return np.abs(v) * force
 
 
 def actuator_channel(
@@ -215,11 +222,12 @@ def actuator_channel(
     for i, (r, (ident, held)) in enumerate(
         zip(records, split_roles(records, cutoff, held_out), strict=True)
     ):
+        motion = _interaction_motion(r)
         signals = {
             "command": r.command,
             "dforce": force_deviation(r, nominal),
-            "reactive": reactive_force(r, nominal),
-            "load_flow": load_flow(r),
+            "reactive": reactive_force(motion, nominal),
+            "load_flow": load_flow(motion),
         }
         segments.append(Segment(r.name, i, dt, r.measured, signals, ident, held))
     return Channel("measured", "actuator", segments, nominal, _noise_levels(records))
