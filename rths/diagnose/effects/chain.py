@@ -154,6 +154,7 @@ class SeriesChain(Model):
 
     subsystem = "specimen"
     passive_terms = 2  # the body's and the total inertance
+    ordered = ((0, 1),)  # the direct inertance m_r (a rod, an adapter) is not negative
 
     def __init__(
         self, effects: tuple[str, ...] = (), friction_at: str = "body", contact: str = "linear"

@@ -138,6 +138,11 @@ class Model(ABC):
     #: inertance and damping: no re-calibration may turn them into a source); default none.
     passive_terms: int = 0
 
+    #: Pairs ``(i, j)`` of linear parameters with ``beta_i <= beta_j`` (a body's inertance
+    #: behind a series element never exceeds the total: the mass ahead of it is not
+    #: negative); default none.
+    ordered: tuple[tuple[int, int], ...] = ()
+
     def nonnegative(self, channel: Channel) -> NDArray[np.bool_]:
         """Which linear parameters ``beta`` cannot be negative (:attr:`passive_terms`)."""
         out = np.zeros(self.prior(channel).size, dtype=bool)

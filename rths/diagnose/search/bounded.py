@@ -11,15 +11,21 @@ A model's :meth:`rths.diagnose.effects.model.Model.tolerance` gives, per linear 
 
 The quadratic ``0.5 z' G z - b' z`` on unit-norm columns is minimised over the box by a small
 active-set loop (the Gram matrix is a few columns wide): free variables solved, the worst
-violator clamped, clamped ones released when the gradient points into the box.
+violator clamped, clamped ones released when the gradient points into the box.  A model may
+also order two of its parameters, ``beta_i <= beta_j`` (a body's inertance behind a series
+element and the total: the mass ahead of the element is not negative): a solution that
+violates the order is solved again with ``beta_i = beta_j`` -- one more linear constraint on a
+convex problem, so an optimum that violates it lies on its boundary (:func:`ridge_box_lstsq`).
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["box_bounds", "box_solve"]
+__all__ = ["box_bounds", "box_solve", "ridge_box_lstsq"]
 
 
 def box_bounds(
@@ -101,3 +107,76 @@ def box_solve(
         j = int(np.flatnonzero(release)[np.argmax(np.abs(grad[release]))])
         fixed[j] = False
     return np.clip(z, lo, hi)
+
+
+def ridge_box_lstsq(
+    x: NDArray[np.float64],
+    o: NDArray[np.float64],
+    target: NDArray[np.float64],
+    ridge: tuple[NDArray[np.float64], float],
+    bounds: tuple[NDArray[np.float64], NDArray[np.float64]],
+    ordered: tuple[tuple[int, int], ...] = (),
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(beta, offsets)`` minimising ``||target - x beta - o offsets||^2 + r ||d (beta -
+    prior)||^2`` over ``lo <= beta <= hi`` and the ordered pairs (module docstring), ``d``
+    the column norms of ``x``; the nuisance terms ``offsets`` are free and unpenalised.  Solved
+    by :func:`box_solve` on unit-norm columns.
+
+    Parameters
+    ----------
+    x, o
+        Model columns (shape ``(n, p)``) and nuisance columns (shape ``(n, q)``).
+    target
+        The observation less the model's fixed part (shape ``(n,)``).
+    ridge
+        ``(prior, r)``: nominal values of ``beta`` (shape ``(p,)``) and the ridge weight.
+    bounds
+        ``(lo, hi)`` of ``beta`` (``-inf``/``inf`` where free), shape ``(p,)`` each.
+    ordered
+        Pairs ``(i, j)`` with ``beta_i <= beta_j``, each at most once.
+    """
+    prior, r = ridge
+    lo, hi = bounds
+    beta, off = _ridge_box(x, o, target, (prior, r, None), lo, hi)
+    d = np.linalg.norm(x, axis=0)
+    for i, j in ordered:
+        if beta[i] <= beta[j]:
+            continue
+        keep = [k for k in range(beta.size) if k != i]
+        m = keep.index(j)
+        t = np.eye(beta.size)[:, keep]
+        t[i, m] = 1.0  # beta = t @ gamma: beta_i = beta_j
+        lo_m, hi_m = lo[keep].copy(), hi[keep].copy()
+        lo_m[m], hi_m[m] = max(lo[i], lo[j]), min(hi[i], hi[j])
+        # the two ridge terms on one value: their weights add, their priors average
+        d_m, prior_m = d[keep].copy(), prior[keep].copy()
+        d_m[m] = math.hypot(d[i], d[j])
+        if d_m[m] > 0.0:
+            prior_m[m] = (d[i] ** 2 * prior[i] + d[j] ** 2 * prior[j]) / d_m[m] ** 2
+        gamma, off = _ridge_box(x @ t, o, target, (prior_m, r, d_m), lo_m, hi_m)
+        beta = t @ gamma
+    return beta, off
+
+
+def _ridge_box(x, o, target, ridge, lo, hi):
+    """:func:`ridge_box_lstsq` without order; ``ridge = (prior, r, d)``, ``d`` the ridge's
+    column scales (None: the column norms; a merged pair: the root sum of squares of its
+    two)."""
+    prior, r, d = ridge
+    p = x.shape[1]
+    a = np.hstack([x, o])
+    norms = np.linalg.norm(a, axis=0)
+    norms[norms == 0.0] = 1.0
+    an = a / norms
+    gram = an.T @ an
+    rhs = an.T @ target
+    prior_n = np.concatenate([prior, np.zeros(o.shape[1])]) * norms
+    # unit-norm columns carry the plain weight r; a merged pair its summed ridge terms' weight
+    scale = np.ones(p) if d is None else np.where(d > 0.0, d, 1.0) / norms[:p]
+    weight = np.concatenate([r * scale**2, np.zeros(o.shape[1])])
+    gram[np.diag_indices_from(gram)] += weight + 1e-12
+    free = np.full(o.shape[1], np.inf)
+    lo_n = np.concatenate([lo, -free]) * norms
+    hi_n = np.concatenate([hi, free]) * norms
+    sol = box_solve(gram, rhs + weight * prior_n, lo_n, hi_n) / norms
+    return sol[:p], sol[p:]

@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 from rths.core.errors import NumericalError
 from rths.diagnose.channels.channel import Channel, Segment
 from rths.diagnose.effects.model import Model, Theta
-from rths.diagnose.search.bounded import box_bounds, box_solve
+from rths.diagnose.search.bounded import box_bounds, ridge_box_lstsq
 from rths.diagnose.search.refine import Coords, grid_points, refine
 
 __all__ = [
@@ -191,28 +191,17 @@ class _Problem:
         """``(residual, beta, offsets)``; ridge ``RIDGE * ||d_j (beta_j - prior_j)||^2``
         with ``d_j`` the column norms (negligible where the data determine ``beta``); the
         nominal's own parameters within the model's tolerance (:mod:`.bounded`), a passive
-        specimen's inertance and damping not below zero."""
+        specimen's inertance and damping not below zero, and the model's ordered pairs
+        ``beta_i <= beta_j`` (:attr:`rths.diagnose.effects.model.Model.ordered`): a pair the
+        solution violates is solved again with ``beta_i = beta_j`` (with one more linear
+        constraint on a convex problem, an optimum that violates it lies on its boundary)."""
         x, f, o = self.design(theta)
-        p = x.shape[1]
-        a = np.hstack([x, o])
         target = self.y - f
-        # normal equations on unit-norm columns (the Gram matrix is tiny); the ridge acts on
-        # the model columns only
-        norms = np.linalg.norm(a, axis=0)
-        norms[norms == 0.0] = 1.0
-        an = a / norms
-        gram = an.T @ an
-        rhs = an.T @ target
-        prior = np.concatenate([self.prior, np.zeros(o.shape[1])]) * norms
-        ridge = np.concatenate([np.full(p, RIDGE), np.zeros(o.shape[1])])
-        gram[np.diag_indices_from(gram)] += ridge + 1e-12
         lo, hi = box_bounds(self.prior, self.tolerance, x, target)
         lo[self.nonnegative] = np.maximum(lo[self.nonnegative], 0.0)
-        free = np.full(o.shape[1], np.inf)
-        lo = np.concatenate([lo, -free]) * norms
-        hi = np.concatenate([hi, free]) * norms
-        sol = box_solve(gram, rhs + ridge * prior, lo, hi) / norms
-        beta, off = sol[:p], sol[p:]
+        beta, off = ridge_box_lstsq(
+            x, o, target, (self.prior, RIDGE), (lo, hi), self.model.ordered
+        )
         return target - x @ beta - o @ off, beta, off
 
     def cost(self, theta: Theta) -> float:
