@@ -484,9 +484,13 @@ def test_a_series_spring_above_the_band_keeps_the_body_mass_behind_it():
     drive = signal.sosfiltfilt(band, rng.standard_normal(n))
     drive *= 2e-3 / np.std(drive)
     w = 2 * math.pi * 40.0
-    force = m * series_chain(drive, np.gradient(drive, dt), dt, omega=w, zeta=0.05, gap=0.0, damping=c / m)
+    force = m * series_chain(
+        drive, np.gradient(drive, dt), dt, omega=w, zeta=0.05, gap=0.0, damping=c / m
+    )
     x = drive + 2e-6 * rng.standard_normal(n)
-    nominal = NominalModel(ActuatorNominal((1.0,), (1.0,), 0.0), SpecimenNominal(1.08 * m, 0.95 * c))
+    nominal = NominalModel(
+        ActuatorNominal((1.0,), (1.0,), 0.0), SpecimenNominal(1.08 * m, 0.95 * c)
+    )
     ch = specimen_channel(
         [_record(t, drive, x, force + 10.0 * rng.standard_normal(n))], nominal, 30.0
     )

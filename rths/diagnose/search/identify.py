@@ -199,9 +199,7 @@ class _Problem:
         target = self.y - f
         lo, hi = box_bounds(self.prior, self.tolerance, x, target)
         lo[self.nonnegative] = np.maximum(lo[self.nonnegative], 0.0)
-        beta, off = ridge_box_lstsq(
-            x, o, target, (self.prior, RIDGE), (lo, hi), self.model.ordered
-        )
+        beta, off = ridge_box_lstsq(x, o, target, (self.prior, RIDGE), (lo, hi), self.model.ordered)
         return target - x @ beta - o @ off, beta, off
 
     def cost(self, theta: Theta) -> float:
