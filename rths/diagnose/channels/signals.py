@@ -49,6 +49,7 @@ __all__ = [
     "NOISE_BAND",
     "SMOOTHING_ORDER",
     "actuator_replay",
+    "derivative",
     "derivatives",
     "discrete_tf",
     "dominant_tone",
@@ -139,8 +140,34 @@ def smooth(x: NDArray[np.float64], sos: NDArray[np.float64]) -> NDArray[np.float
     return y[pad : pad + n] if pad > 0 else y
 
 
+def derivative(y: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
+    """First derivative of a smooth record: the five-point central difference inside,
+    ``numpy.gradient`` at the two samples of each end.
+
+    The five-point stencil ``(y[k-2] - 8 y[k-1] + 8 y[k+1] - y[k+2]) / (12 dt)`` passes a
+    tone of ``theta = omega dt`` with the gain ``(8 sin theta - sin 2 theta) / (6 theta) = 1
+    - theta^4/30 + ...``; the three-point ``numpy.gradient`` has ``sin theta / theta = 1 -
+    theta^2/6``.  Applied twice for an acceleration, the three-point error (-0.5 % at 20 Hz
+    on a 1024 Hz record) grows as ``omega^4`` in the force ``m a``: a re-calibration fitted
+    it with a spurious stiffness of some kN/m that no low-frequency record has (an
+    independent generator's no-effect specimen: 1.7 kN/m against none, its held-out gap 60 %
+    above the floor).  Fourth order leaves 1.5e-5 there.
+
+    Parameters
+    ----------
+    y
+        Smooth record, shape ``(n,)``, any unit.
+    dt
+        Sample period [s].
+    """
+    out = np.gradient(y, dt)
+    if y.size >= 5:
+        out[2:-2] = (y[:-4] - 8.0 * y[1:-3] + 8.0 * y[3:-1] - y[4:]) / (12.0 * dt)
+    return out
+
+
 def derivatives(x: NDArray[np.float64], dt: float) -> tuple[NDArray, NDArray]:
-    """Velocity and acceleration of a smooth record by central differences.
+    """Velocity and acceleration of a smooth record (:func:`derivative` twice).
 
     Parameters
     ----------
@@ -152,10 +179,10 @@ def derivatives(x: NDArray[np.float64], dt: float) -> tuple[NDArray, NDArray]:
     Returns
     -------
     tuple of numpy.ndarray
-        Velocity [m/s] and acceleration [m/s^2] (``numpy.gradient``, second order inside).
+        Velocity [m/s] and acceleration [m/s^2].
     """
-    v = np.gradient(x, dt)
-    return v, np.gradient(v, dt)
+    v = derivative(x, dt)
+    return v, derivative(v, dt)
 
 
 def white_noise_rms(x: NDArray[np.float64], dt: float) -> float:

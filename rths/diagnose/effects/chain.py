@@ -333,7 +333,8 @@ class SeriesChain(Model):
                 "reference_penetration": p_r,
             }
             if n != 1.0:  # Hunt-Crossley's alpha [s/m] of k p^n (1 + alpha p')
-                params["backlash"]["hunt_crossley"] = c_e / (k_e * p_r)
+                # a massless body carries no element (k_e = c_e = 0): no damping law either
+                params["backlash"]["hunt_crossley"] = c_e / (k_e * p_r) if k_e > 0.0 else 0.0
         else:
             params["internal_stiffness"] = {
                 "stiffness": k_e,

@@ -8,7 +8,12 @@ displacement -- the noise the model propagates from its drive: the model is driv
 time with a synthetic copy of the estimated displacement noise added (white, the estimated
 RMS, smoothed like the record) and the change of its output is that noise.  A resonant model
 (internal stiffness) propagates far more than a rigid one, which is why the floor is per model.
-``repeats`` independent copies are averaged (seeded: the diagnosis is reproducible).
+``repeats`` independent copies are drawn (seeded: the diagnosis is reproducible) and the
+median of their mean squares is the floor: through a bouncing contact a copy now and then
+shifts an impact by a sample and doubles its mean square (a 300 um clearance of the unit
+tests: the mean of two copies, over six seeds, 123-164 and once 320, which refuted the true
+model), and the floor is the noise a typical copy leaves, not a mean a rare divergence
+dominates.
 A model whose held-out residual lies far below its own floor is refuted (:func:`consistent`).
 """
 
@@ -24,7 +29,7 @@ from rths.diagnose.search.identify import Fit
 __all__ = ["consistent", "noise_floor"]
 
 
-def noise_floor(fit: Fit, channel: Channel, seed: int = 0, repeats: int = 2) -> float:
+def noise_floor(fit: Fit, channel: Channel, seed: int = 0, repeats: int = 3) -> float:
     """Held-out noise floor [unit^2] of ``fit`` on ``channel`` (module docstring).
 
     Parameters
@@ -36,14 +41,15 @@ def noise_floor(fit: Fit, channel: Channel, seed: int = 0, repeats: int = 2) -> 
     seed
         Seed of the synthetic drive noise.
     repeats
-        Independent noise copies averaged.
+        Independent noise copies (their median mean square is taken).
     """
     if channel.name != "force":
         return channel.floor_variance()
     rng = np.random.default_rng(seed)
     sigma_x = channel.noise["drive"]
-    acc, count = 0.0, 0
+    copies = []
     for _ in range(repeats if sigma_x > 0.0 else 0):
+        acc, count = 0.0, 0
         for s, p in zip(channel.segments, fit.prediction, strict=True):
             if not np.any(s.held):
                 continue
@@ -58,10 +64,11 @@ def noise_floor(fit: Fit, channel: Channel, seed: int = 0, repeats: int = 2) -> 
             d = (cols @ fit.beta + fixed + fit.offsets[s.index] - p)[s.held]
             acc += float(np.sum(d * d))
             count += d.size
+        copies.append(acc / max(count, 1))
     sos = channel.segments[0].sos
     assert sos is not None
     force = channel.noise["force"] ** 2 * float(np.sum(impulse_kernel(sos, channel.dt) ** 2))
-    return acc / max(count, 1) + force
+    return (float(np.median(copies)) if copies else 0.0) + force
 
 
 def consistent(held_mse: float, floor: float) -> bool:
