@@ -133,7 +133,8 @@ def ridge_box_lstsq(
     bounds
         ``(lo, hi)`` of ``beta`` (``-inf``/``inf`` where free), shape ``(p,)`` each.
     ordered
-        Pairs ``(i, j)`` with ``beta_i <= beta_j``, each at most once.
+        Pairs ``(i, j)`` with ``beta_i <= beta_j``, each parameter in at most one pair; the
+        answer is exact for one pair (the series chain's), a sequence of merges for more.
     """
     prior, r = ridge
     lo, hi = bounds
