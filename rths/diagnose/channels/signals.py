@@ -5,8 +5,8 @@ Smoothing and differentiation (the specimen channel).  The drive displacement ma
 its second derivative is needed, so every specimen signal goes through the same zero-phase
 low-pass ``h`` (Butterworth, order :data:`SMOOTHING_ORDER`, run forwards and backwards by
 ``scipy.signal.sosfiltfilt``: magnitude ``1/(1 + (f/f_c)^8)``, no phase): the displacement is
-smoothed, ``x_f = h*x``, and differentiated by second-order central differences
-(``numpy.gradient``), which commute with ``h``; the measured force is smoothed by the same
+smoothed, ``x_f = h*x``, and differentiated by fourth-order (five-point) central differences
+(:func:`derivative`), which commute with ``h``; the measured force is smoothed by the same
 ``h``, and so is every model's force output.  For a linear model ``L`` the comparison is then
 ``h*F`` against ``h*L(h*x) = h*h*L(x)``, equal to ``h*L(x)`` to ``1 - |H|``.
 
