@@ -160,9 +160,12 @@ def derivative(y: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
     dt
         Sample period [s].
     """
-    out = np.gradient(y, dt)
-    if y.size >= 5:
-        out[2:-2] = (y[:-4] - 8.0 * y[1:-3] + 8.0 * y[3:-1] - y[4:]) / (12.0 * dt)
+    if y.size < 5:
+        return np.gradient(y, dt)
+    out = np.empty(y.size)
+    out[:2] = np.gradient(y[:3], dt)[:2]
+    out[-2:] = np.gradient(y[-3:], dt)[1:]
+    out[2:-2] = (y[:-4] - 8.0 * y[1:-3] + 8.0 * y[3:-1] - y[4:]) / (12.0 * dt)
     return out
 
 

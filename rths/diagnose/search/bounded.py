@@ -139,10 +139,10 @@ def ridge_box_lstsq(
     prior, r = ridge
     lo, hi = bounds
     beta, off = _ridge_box(x, o, target, (prior, r, None), lo, hi)
-    d = np.linalg.norm(x, axis=0)
     for i, j in ordered:
         if beta[i] <= beta[j]:
             continue
+        d = np.linalg.norm(x, axis=0)  # only when a pair is merged (the search's hot path)
         keep = [k for k in range(beta.size) if k != i]
         m = keep.index(j)
         t = np.eye(beta.size)[:, keep]
