@@ -89,6 +89,7 @@ def _channel_dict(result: ChannelResult) -> dict[str, object]:
         "verdict": c.verdict,
         "effects": [{"name": e, "params": dict(c.final.params.get(e, {}))} for e in c.effects],
         "closed": c.closed,
+        "evidence": c.evidence,
         "nominal_nrmse": c.nrmse(nominal_mse(c)),
         "baseline_nrmse": c.nrmse(c.baseline.held_mse),
         "after_nrmse": c.nrmse(c.final.held_mse),
@@ -201,6 +202,11 @@ class Diagnosis:
             ],
             "gap": {"channel": self.gap_channel, "before": self.before, "after": self.after},
             "shrink": self.shrink,
+            "evidence": (
+                self.channels[self.gap_channel].evidence
+                if self.verdict in EFFECTS and self.gap_channel in self.channels
+                else None
+            ),
             "candidates": [_candidate_dict(k, c) for k, c in self.candidates],
             "channels": {name: _channel_dict(c) for name, c in self.channels.items()},
             "files": {"identification": self.identification, "held_out": self.held_out},

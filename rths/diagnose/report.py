@@ -65,6 +65,8 @@ def table(d: Diagnosis) -> str:
         dec = c.decomposition
         band = f"{dec.band_hz[0]:.3g}-{dec.band_hz[1]:.3g}" if dec.significant else "-"
         effects = " + ".join(c.effects) if c.effects else c.verdict
+        if c.evidence != "replay":
+            effects += f" (by the {c.evidence})"
         lines.append(
             f"{name:12} {c.channel.subsystem:9} {_pct(c.nrmse(nominal_mse(c))):>9} "
             f"{_pct(c.nrmse(c.baseline.held_mse)):>9} {_pct(c.nrmse(c.final.held_mse)):>9} "
@@ -100,6 +102,11 @@ def table(d: Diagnosis) -> str:
         f"gap ({d.gap_channel}, held out): {_pct(d.before)} -> {_pct(d.after)}, closes "
         f"{100 * d.shrink:.1f} % of the reducible gap"
     )
+    if d.gap_channel in d.channels and d.channels[d.gap_channel].evidence == "spectrum":
+        lines.append(
+            "note: named by the held-out spectrum -- no replay follows this contact's impacts "
+            "sample by sample, so the time-domain gap stays open"
+        )
     for name, c in d.channels.items():
         lag = calibration_lag(c.channel, c.baseline.baseline)
         if not c.effects and lag is not None and lag > c.channel.dt:

@@ -41,6 +41,8 @@ __all__ = [
     "Decomposition",
     "decompose",
     "nrmse",
+    "spectral_bands",
+    "welch",
 ]
 
 #: Relative accuracy below which a model counts as exact (fraction of the observed RMS, per
@@ -110,7 +112,7 @@ class Decomposition:
     floor_psd: NDArray[np.float64] = field(default_factory=lambda: np.empty(0), repr=False)
 
 
-def _welch(parts: list[NDArray], dt: float) -> tuple[NDArray, NDArray, float]:
+def welch(parts: list[NDArray], dt: float) -> tuple[NDArray, NDArray, float]:
     """Length-weighted Welch PSD over records and the number of averaged segments.
 
     Held-out samples cut into short runs (a force-driven view scores only where a contact
@@ -138,7 +140,9 @@ def _welch(parts: list[NDArray], dt: float) -> tuple[NDArray, NDArray, float]:
     return f, acc / count, count
 
 
-def _bands(f: NDArray, f_lo: float, f_hi: float) -> list[NDArray]:
+def spectral_bands(f: NDArray, f_lo: float, f_hi: float) -> list[NDArray]:
+    """Index sets of the 1/6-octave bands of ``f`` [Hz] from ``f_lo`` to ``f_hi`` (each at
+    least two bins wide)."""
     edges = [f_lo]
     while edges[-1] < f_hi:
         edges.append(max(edges[-1] * 2 ** (1 / 6), edges[-1] + 2 * (f[1] - f[0])))
@@ -217,8 +221,8 @@ def decompose(
     f_max
         Highest frequency [Hz] tested (the specimen smoother passes nothing above ~1.5 f_c).
     """
-    f, s_r, k = _welch(residual, dt)
-    _, s_o, _ = _welch(observed, dt)
+    f, s_r, k = welch(residual, dt)
+    _, s_o, _ = welch(observed, dt)
     f_lo = max(2.0 * (f[1] - f[0]), 0.1)
     f_hi = min(f_max, f[-1])
     variance = float(np.mean(np.concatenate(observed) ** 2))
@@ -226,7 +230,7 @@ def decompose(
     s_n = np.interp(f, floor[0], floor[1]) + tolerance
     floor_var = float(np.sum(np.interp(f, floor[0], floor[1])) * (f[1] - f[0]))
     score, best, threshold = -math.inf, 0.0, math.inf
-    for idx in [*_bands(f, f_lo, f_hi), np.flatnonzero((f >= f_lo) & (f <= f_hi))]:
+    for idx in [*spectral_bands(f, f_lo, f_hi), np.flatnonzero((f >= f_lo) & (f <= f_hi))]:
         if idx.size == 0:
             continue
         ratio = float(np.sum(s_r[idx]) / np.sum(s_n[idx]))

@@ -6,8 +6,10 @@ floors      the noise floor a model would leave if it were exact (per model)
 calibrated  the actuator's effects judged against the root-by-root calibration of its
             nominal (a delay the common factors absorbed; a mis-calibration that is no effect)
 pricing     the share of the remaining gap an effect closes and whether it buys its parameters
+decomposed  a fit's held-out residual against its channel's noise floor
+spectral    a rattling contact no replay follows, named by its held-out spectrum
 selection   greedy addition of effects per channel; ``unexplained`` when they do not close
-            half of a significant gap
+            half of a significant gap (nor, for the force, of its spectral distance)
 """
 
 from rths.diagnose.search.floors import noise_floor

@@ -78,6 +78,9 @@ class ChannelResult:
     resolution_mse
         Held-out mean square a one-sample shift of the fitted motion leaves [unit^2] (the
         model-form allowance of the actuator channel; 0 where not used).
+    evidence
+        What named the effects: ``replay`` (they close the time-domain gap) or ``spectrum``
+        (a contact no replay follows: :mod:`rths.diagnose.search.spectral`).
     """
 
     channel: Channel = field(repr=False)
@@ -90,6 +93,7 @@ class ChannelResult:
     closed: float
     verdict: str
     resolution_mse: float = 0.0
+    evidence: str = "replay"
 
     @property
     def model_form(self) -> bool:

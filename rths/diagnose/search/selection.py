@@ -50,6 +50,11 @@ the gap without taking on a sample of lag in all (poles slowed by more than that
 delay): a nominal mis-calibrated differently at every pole, which the baseline's common
 factors cannot follow.
 
+A lightly damped contact rattles, and no replay -- the true model's included -- follows its
+impacts sample by sample: when the force channel's gap stays ``unexplained``, the candidates
+already identified are judged by the held-out spectrum instead
+(:mod:`rths.diagnose.search.spectral`; ``evidence = "spectrum"``).
+
 The actuator's effects are also judged against the nominal calibrated root by root
 (:mod:`rths.diagnose.search.calibrated`) when they close less than :data:`MIN_CLOSED` of
 the gap, or when the common factors beside a delay or beside no effect took on more than
@@ -61,8 +66,6 @@ time blocks of every record (:func:`rths.diagnose.search.crossval.cross_fit`).
 """
 
 from __future__ import annotations
-
-import numpy as np
 
 from rths.diagnose.channels.channel import Channel
 from rths.diagnose.effects import (
@@ -76,9 +79,9 @@ from rths.diagnose.effects import (
 )
 from rths.diagnose.effects.model import Theta
 from rths.diagnose.effects.specimen import clearance_resolved
-from rths.diagnose.residuals import Decomposition, decompose
 from rths.diagnose.search.calibrated import finer_calibration, needs_finer
 from rths.diagnose.search.crossval import cross_fit
+from rths.diagnose.search.decomposed import decompose_fit
 from rths.diagnose.search.floors import consistent, noise_floor
 from rths.diagnose.search.identify import Fit, fit_model
 from rths.diagnose.search.pricing import (
@@ -89,6 +92,7 @@ from rths.diagnose.search.pricing import (
     nested_preferred,
 )
 from rths.diagnose.search.results import Candidate, ChannelResult, held_parts, held_runs
+from rths.diagnose.search.spectral import SPECTRAL_CHANNELS, spectral_choice
 
 __all__ = [
     "CROSS_FIT",
@@ -107,33 +111,6 @@ MIN_CLOSED: float = 0.5
 #: Channels whose models are scored by two-fold cross-validation over time blocks (cheap
 #: replays: the actuator's linear filter).
 CROSS_FIT: tuple[str, ...] = ("measured",)
-
-
-def _decompose(channel: Channel, fit: Fit, floor_scale: float = 1.0) -> Decomposition:
-    if channel.name == "force":
-        b = fit.baseline
-        linear = (b["inertance"], b["damping"], b["stiffness"])
-        drive = [s.signals["x"] for s in channel.segments]
-        f_max = 1.5 * float(channel.cutoff or 0.0)
-    elif channel.name == "displacement":
-        linear = None
-        drive = [s.observed for s in channel.segments]
-        f_max = 1.5 * float(channel.cutoff or 0.0)
-    else:
-        linear = None
-        drive = [s.observed for s in channel.segments]
-        f_max = 0.45 / channel.dt
-    f, psd = channel.floor_psd(linear)
-    times = [np.arange(s.observed.size) * s.dt for s in channel.segments]
-    return decompose(
-        held_parts(channel, fit.residuals(channel)),
-        held_parts(channel, [s.observed for s in channel.segments]),
-        held_parts(channel, drive),
-        held_parts(channel, times),
-        channel.dt,
-        (f, psd * floor_scale),
-        f_max,
-    )
 
 
 def _withdraw(candidates: list[Candidate]) -> None:
@@ -186,7 +163,7 @@ def _prune(
             floor = noise_floor(sub, channel, seed)
             left = max(sub.held_mse - floor, 1e-300)
             gain = (left - (current.held_mse - current_floor)) / left
-            at_floor = not _decompose(channel, sub, floor / max(n0, 1e-300)).significant
+            at_floor = not decompose_fit(channel, sub, floor / max(n0, 1e-300)).significant
             if at_floor or not buys(gain, left, excess0, EFFECTS[e].n_params, price):
                 for i, c in enumerate(candidates):
                     if c.accepted and set(c.fit.effects) == set(chosen):
@@ -245,7 +222,7 @@ def select(
     fitter = cross_fit if channel.name in CROSS_FIT else fit_model
     base = fitter(baseline_for(channel.name), channel)
     n0 = noise_floor(base, channel, seed)
-    dec = _decompose(channel, base)
+    dec = decompose_fit(channel, base)
     excess0 = base.held_mse - n0
     candidates: list[Candidate] = []
     if not dec.significant or excess0 <= 0.0:
@@ -342,7 +319,7 @@ def select(
         )
         current, current_floor = cand.fit, cand.floor
         chosen = cand.fit.effects
-        if not _decompose(channel, current, current_floor / max(n0, 1e-300)).significant:
+        if not decompose_fit(channel, current, current_floor / max(n0, 1e-300)).significant:
             break
     current, current_floor, chosen = _prune(
         channel,
@@ -394,7 +371,17 @@ def select(
         _withdraw(candidates)
         chosen, current, current_floor, closed = (), base, n0, 0.0
         verdict = "none"
+    evidence = "replay"
+    if verdict == "unexplained" and channel.name in SPECTRAL_CHANNELS:
+        pick = spectral_choice(channel, base, candidates, price, MIN_CLOSED)
+        if pick is not None:  # a contact no replay follows: named by its spectrum
+            cand, chosen, _ = pick
+            _withdraw(candidates)
+            i = next(j for j, c in enumerate(candidates) if c.fit is cand.fit)
+            candidates[i] = Candidate(cand.fit, cand.floor, cand.closed, cand.gain, True, True)
+            current, current_floor, closed = cand.fit, cand.floor, max(cand.closed, 0.0)
+            verdict, evidence = chosen[0], "spectrum"
     candidates.sort(key=lambda c: (not c.accepted, -c.closed))
     return ChannelResult(
-        channel, base, n0, dec, candidates, chosen, current, closed, verdict, resolution
+        channel, base, n0, dec, candidates, chosen, current, closed, verdict, resolution, evidence
     )
