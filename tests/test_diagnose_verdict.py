@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import os
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -57,6 +58,23 @@ def test_own_lab_friction_is_named_with_its_level_and_the_gap_shrinks():
     assert d.params["friction"] == pytest.approx(200.0, rel=0.05)
     assert d.shrink > 0.8 and d.after < d.before
     assert d.identification == ["run_0.csv"] and d.held_out == ["run_1.csv"]
+
+
+def test_an_effect_outside_the_candidates_is_unexplained():
+    """An asymmetric spring (a force ``k2 x^2``, 30 % of the force's spread, softer on one
+    side: even harmonics) is no candidate effect: every candidate is odd in the motion.  No
+    model closes half of the gap -- neither in time nor, for the force channel, in its
+    held-out spectrum (:mod:`rths.diagnose.search.spectral`) -- so the verdict is
+    ``unexplained``, in the specimen's force channel, with its band."""
+    case = LabCase("none", 0.0, M, C)
+    records = []
+    for r in _records(case):
+        quad = r.measured**2 - np.mean(r.measured**2)
+        records.append(replace(r, force=r.force + 0.3 * np.std(r.force) / np.std(quad) * quad))
+    d = diagnose(records, _nominal(case))
+    assert d.verdict == "unexplained" and d.subsystem == "specimen" and not d.effects
+    assert d.gap_channel == "force" and d.channels["force"].evidence == "replay"
+    assert d.shrink < 0.5 and d.band_hz[1] > d.band_hz[0] > 0.0
 
 
 def test_own_lab_noise_and_miscalibration_only_is_none():

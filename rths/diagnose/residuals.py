@@ -119,7 +119,15 @@ def welch(parts: list[NDArray], dt: float) -> tuple[NDArray, NDArray, float]:
     carries force: a rattling contact leaves runs of a few dozen samples) are joined, each run
     about its own mean, when the runs of at least 64 samples hold less than half of them: the
     joints add a little broadband leakage, where dropping the runs would leave nothing to
-    test."""
+    test.
+
+    Parameters
+    ----------
+    parts
+        Signal parts (one unit), each at least a few samples long.
+    dt
+        Sample period [s].
+    """
     long = [p for p in parts if p.size >= 64]
     total = sum(p.size for p in parts)
     if total >= 128 and sum(p.size for p in long) < 0.5 * total:
@@ -141,8 +149,16 @@ def welch(parts: list[NDArray], dt: float) -> tuple[NDArray, NDArray, float]:
 
 
 def spectral_bands(f: NDArray, f_lo: float, f_hi: float) -> list[NDArray]:
-    """Index sets of the 1/6-octave bands of ``f`` [Hz] from ``f_lo`` to ``f_hi`` (each at
-    least two bins wide)."""
+    """Index sets of the 1/6-octave bands of ``f`` from ``f_lo`` to ``f_hi`` (each at least
+    two bins wide).
+
+    Parameters
+    ----------
+    f
+        Equally spaced frequencies [Hz].
+    f_lo, f_hi
+        Lowest and highest band edge [Hz].
+    """
     edges = [f_lo]
     while edges[-1] < f_hi:
         edges.append(max(edges[-1] * 2 ** (1 / 6), edges[-1] + 2 * (f[1] - f[0])))
