@@ -17,14 +17,14 @@ observation holds and a model output lacks) and of the observation.  A model tha
 right power into every band has ``D`` near 0 whatever the phase of its impacts; the rigid
 baseline, which puts none above the drive's band, has a large one.
 
-When a specimen channel's gap stays ``unexplained``, :func:`spectral_choice` takes the physical
+When the force channel's gap stays ``unexplained``, :func:`spectral_choice` takes the physical
 single candidate that lowers ``D`` most when it closes at least ``min_closed`` of the
 baseline's ``D_0`` and :data:`rths.diagnose.search.pricing.PRICE` per parameter; a candidate
 that holds it and one more effect is added when it closes ``PRICE`` per added parameter of the
 ``D`` left.  The channel then names these effects with ``evidence = "spectrum"``; its shrink
 stays the time-domain share (it tells how far a replay predicts the record: not far).  The
 candidates are those the selection already identified: the parameters are the replay's, which
-a chaotic contact leaves coarse (a clearance within tens of per cent).
+a chaotic contact leaves coarse (three seen generator cases: clearances 23, 35 and 85 % off).
 """
 
 from __future__ import annotations
