@@ -37,6 +37,9 @@ _UNITS = {
     "frequency": "Hz",
 }
 
+#: How the text names a channel's evidence (:attr:`ChannelResult.evidence`).
+_EVIDENCE: dict[str, str] = {"spectrum": "spectrum", "paired": "paired test"}
+
 
 def _params(params: dict[str, float]) -> str:
     return ", ".join(f"{k}={v:.4g} {_UNITS.get(k, '')}".rstrip() for k, v in params.items())
@@ -66,7 +69,7 @@ def table(d: Diagnosis) -> str:
         band = f"{dec.band_hz[0]:.3g}-{dec.band_hz[1]:.3g}" if dec.significant else "-"
         effects = " + ".join(c.effects) if c.effects else c.verdict
         if c.evidence != "replay":
-            effects += f" (by the {c.evidence})"
+            effects += f" (by the {_EVIDENCE.get(c.evidence, c.evidence)})"
         lines.append(
             f"{name:12} {c.channel.subsystem:9} {_pct(c.nrmse(nominal_mse(c))):>9} "
             f"{_pct(c.nrmse(c.baseline.held_mse)):>9} {_pct(c.nrmse(c.final.held_mse)):>9} "
@@ -107,6 +110,13 @@ def table(d: Diagnosis) -> str:
             "note: named by the held-out spectrum -- no replay follows this contact's impacts "
             "sample by sample, so the time-domain gap stays open"
         )
+    for name, c in d.channels.items():
+        if c.evidence == "paired":
+            lines.append(
+                f"note: the {name} channel's baseline reached its noise floor by absorbing "
+                f"this delay (alignment at its one-sample bound); named because it predicts "
+                f"the held-out blocks better than the root-by-root calibration (paired test)"
+            )
     for name, c in d.channels.items():
         lag = calibration_lag(c.channel, c.baseline.baseline)
         if not c.effects and lag is not None and lag > c.channel.dt:

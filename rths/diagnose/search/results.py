@@ -79,8 +79,10 @@ class ChannelResult:
         Held-out mean square a one-sample shift of the fitted motion leaves [unit^2] (the
         model-form allowance of the actuator channel; 0 where not used).
     evidence
-        What named the effects: ``replay`` (they close the time-domain gap) or ``spectrum``
-        (a contact no replay follows: :mod:`rths.diagnose.search.spectral`).
+        What named the effects: ``replay`` (they close the time-domain gap), ``spectrum``
+        (a contact no replay follows: :mod:`rths.diagnose.search.spectral`) or ``paired``
+        (a delay the calibration absorbed to the noise floor, named by a paired test of
+        held-out predictions: :func:`rths.diagnose.search.calibrated.hidden_delay`).
     """
 
     channel: Channel = field(repr=False)

@@ -55,6 +55,10 @@ impacts sample by sample: when the force channel's gap stays ``unexplained``, th
 already identified are judged by the held-out spectrum instead
 (:mod:`rths.diagnose.search.spectral`; ``evidence = "spectrum"``).
 
+A delay the common factors and the alignment absorbed to the noise floor is judged against the
+root-by-root calibration by a paired test of held-out predictions, which needs no floor
+(:func:`rths.diagnose.search.calibrated.hidden_delay`; ``evidence = "paired"``).
+
 The actuator's effects are also judged against the nominal calibrated root by root
 (:mod:`rths.diagnose.search.calibrated`) when they close less than :data:`MIN_CLOSED` of
 the gap, or when the common factors beside a delay or beside no effect took on more than
@@ -79,7 +83,7 @@ from rths.diagnose.effects import (
 )
 from rths.diagnose.effects.model import Theta
 from rths.diagnose.effects.specimen import clearance_resolved
-from rths.diagnose.search.calibrated import finer_calibration, needs_finer
+from rths.diagnose.search.calibrated import finer_calibration, hidden_delay, needs_finer
 from rths.diagnose.search.crossval import cross_fit
 from rths.diagnose.search.decomposed import decompose_fit
 from rths.diagnose.search.floors import consistent, noise_floor
@@ -226,7 +230,15 @@ def select(
     excess0 = base.held_mse - n0
     candidates: list[Candidate] = []
     if not dec.significant or excess0 <= 0.0:
-        return ChannelResult(channel, base, n0, dec, candidates, (), base, 0.0, "none")
+        hidden = hidden_delay(channel, fitter, base, effects, seed, price)
+        if hidden is None:
+            return ChannelResult(channel, base, n0, dec, candidates, (), base, 0.0, "none")
+        fit, floor, gain, _ = hidden  # a delay the calibration absorbed to the floor
+        closed = (excess0 - (fit.held_mse - floor)) / excess0 if excess0 > 0.0 else gain
+        candidates.append(Candidate(fit, floor, closed, gain, True, True))
+        res = base.model.resolution(channel, base.prediction)
+        args = (candidates, fit.effects, fit, closed, fit.effects[0], res, "paired")
+        return ChannelResult(channel, base, n0, dec, *args)
     names = [e for e in effects if e in CHANNEL_EFFECTS[channel.name]]
     # general effects first: a special case starts also from its general fit (NESTS)
     names.sort(key=lambda e: e not in NESTS)
