@@ -38,6 +38,7 @@ from collections.abc import Callable
 
 from rths.diagnose.channels.channel import Channel
 from rths.diagnose.effects import EFFECTS, absorbed_lag, calibration_for
+from rths.diagnose.effects.model import Model
 from rths.diagnose.search.crossval import paired_gain
 from rths.diagnose.search.floors import noise_floor
 from rths.diagnose.search.identify import Fit
@@ -185,9 +186,7 @@ def finer_calibration(
     for effect_set in sets:
         check = calibration_for(channel.name, effect_set)
         assert check is not None
-        check.prepare(channel, base.baseline)
-        roots = [p.name for p in check.space(channel) if p.name.split("_")[0] in _ROOTS]
-        starts = _rootwise_starts(cal0, current, roots)
+        starts = _rootwise_starts(check, channel, base, cal0, current)
         if "actuator_delay" in chosen:
             own = {k: v for k, v in current.theta.items() if k not in _SCALES}
             starts.append({**cal0.theta, **own})
@@ -205,10 +204,15 @@ def finer_calibration(
     return best, model_form
 
 
-def _rootwise_starts(alone_fit: Fit, current: Fit, roots: list[str]) -> list[dict[str, float]]:
-    """Starts of a root-by-root fit with effects: every root at the common factors of
-    ``current`` (the finer model holds that fit) with its own effect parameters, and the
-    root-by-root calibration alone's roots with those parameters."""
+def _rootwise_starts(
+    check: Model, channel: Channel, base: Fit, alone_fit: Fit, current: Fit
+) -> list[dict[str, float]]:
+    """Starts of ``check``, a root-by-root fit with effects (prepared here on ``base``'s
+    re-calibration): every root at the common factors of ``current`` (the finer model holds
+    that fit) with its own effect parameters, and the root-by-root calibration alone's roots
+    with those parameters."""
+    check.prepare(channel, base.baseline)
+    roots = [p.name for p in check.space(channel) if p.name.split("_")[0] in _ROOTS]
     common = {
         r: current.theta.get(_SCALES[1] if r.startswith("damping") else _SCALES[0], 1.0)
         for r in roots
@@ -260,9 +264,7 @@ def hidden_delay(
     cal0 = fitter(alone, channel, base.baseline)
     check = calibration_for(channel.name, ("actuator_delay",))
     assert check is not None
-    check.prepare(channel, base.baseline)
-    roots = [p.name for p in check.space(channel) if p.name.split("_")[0] in _ROOTS]
-    fit = fitter(check, channel, base.baseline, _rootwise_starts(cal0, base, roots))
+    fit = fitter(check, channel, base.baseline, _rootwise_starts(check, channel, base, cal0, base))
     if not fit.model.physical(channel, fit.params):
         return None
     left0 = max(cal0.held_mse - noise_floor(cal0, channel, seed), 1e-300)
