@@ -562,7 +562,7 @@ def test_the_baseline_recalibrates_the_nominal_only_within_its_tolerance():
         assert abs(base[name]) * rms <= NOMINAL_TOLERANCE * spread * 1.05
 
 
-def test_a_model_far_below_its_own_noise_floor_is_refuted():
+def test_a_model_far_below_its_own_noise_floor_has_its_noise_path_refuted():
     """A stiff contact fitted where there is none propagates drive noise into a floor larger
     than its residual: its floor must not be credited as a closed gap (an independent
     generator's rate-limit case: held-out NRMSE 3.7 % against a 6.1 % floor, 'closed' 2040 %
@@ -574,3 +574,26 @@ def test_a_model_far_below_its_own_noise_floor_is_refuted():
     assert consistent(1.0, 1.0) and consistent(1.0, 0.5)  # at or above its floor
     assert consistent(1.0, 1.0 + FLOOR_MARGIN)  # within the floor's uncertainty
     assert not consistent(1.0, 1.01 * (1.0 + FLOOR_MARGIN))
+
+
+def test_a_refuted_floor_is_not_credited_but_the_model_is_judged_by_its_residual():
+    """Closed forms of :func:`credited_floor` with :func:`held_out_gain` (floors as mean
+    squares of NRMSE): the stiff contact above (3.7 % against its 6.1 % floor, the baseline
+    leaving 1.2 % over a 0.5 % floor) closes nothing; one lowering the baseline's residual
+    by a tenth closes that tenth of the gap (not all of it, as its own floor would credit);
+    a series spring 1325x below the baseline's residual but 1.47x below its own floor (an
+    independent generator's true series element at 9.85 Hz, zeta 0.055) closes the gap."""
+    from rths.diagnose.search.floors import credited_floor
+    from rths.diagnose.search.pricing import held_out_gain
+
+    j0, n0 = 0.012**2, 0.005**2
+    j, n = 0.037**2, 0.061**2
+    assert credited_floor(j, n, n0) == n0
+    assert held_out_gain((j0, n0), (j, credited_floor(j, n, n0))) <= 0.0
+    j = 0.9 * j0  # barely better, with a floor 2.5x its residual
+    gain = held_out_gain((j0, n0), (j, credited_floor(j, 2.5 * j, n0)))
+    assert gain == pytest.approx(0.1 * j0 / (j0 - n0), rel=1e-12)
+    j = j0 / 1325.0**2
+    n = (1.47 * math.sqrt(j)) ** 2
+    assert held_out_gain((j0, n0), (j, credited_floor(j, n, n0))) > 0.99
+    assert credited_floor(1.0, 1.5, 0.1) == 1.5  # consistent: its own floor

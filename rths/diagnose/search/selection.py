@@ -11,8 +11,9 @@ Otherwise effects are added one at a time:
    held-out residual ``J_S`` itself: a higher floor of its own is no closing) is added if it
    closes at least :data:`PRICE` per identified parameter (it "buys its parameters") of that
    gap, or of :data:`NESTED_RESOLUTION` of the channel's reducible gap when less remains
-   (:func:`rths.diagnose.search.pricing.buys`), and its parameters are physical and its
-   residual consistent with its own noise floor (:func:`rths.diagnose.search.floors.consistent`);
+   (:func:`rths.diagnose.search.pricing.buys`), and its parameters are physical; a model
+   whose residual lies far below its own noise floor is credited with the current set's
+   floor instead (:func:`rths.diagnose.search.floors.credited_floor`);
 3. while the residual of the set is still significant, each remaining compatible candidate is
    identified *together* with the set (warm-started from the set's and its own single fit)
    and step 2 repeats.
@@ -86,7 +87,7 @@ from rths.diagnose.effects.specimen import clearance_resolved
 from rths.diagnose.search.calibrated import finer_calibration, hidden_delay, needs_finer
 from rths.diagnose.search.crossval import cross_fit
 from rths.diagnose.search.decomposed import decompose_fit
-from rths.diagnose.search.floors import consistent, noise_floor
+from rths.diagnose.search.floors import credited_floor, noise_floor
 from rths.diagnose.search.identify import Fit, fit_model
 from rths.diagnose.search.pricing import (
     NESTED_RESOLUTION,
@@ -274,11 +275,11 @@ def select(
         fit = _best([fitter(m, channel, base.baseline, starts) for m in models], channel)
         if not chosen and len(add) == 1:
             singles[add[0]] = fit
-        floor = noise_floor(fit, channel, seed)
+        floor = credited_floor(fit.held_mse, noise_floor(fit, channel, seed), current_floor)
         remaining = max(current.held_mse - current_floor, 1e-300)
         gain = held_out_gain((current.held_mse, current_floor), (fit.held_mse, floor))
         closed = (excess0 - (fit.held_mse - floor)) / excess0
-        ok = fit.model.physical(channel, fit.params) and consistent(fit.held_mse, floor)
+        ok = fit.model.physical(channel, fit.params)
         cand = Candidate(fit, floor, closed, gain, False, ok)
         candidates.append(cand)
         n_params = sum(EFFECTS[e].n_params for e in add) - sum(EFFECTS[e].n_params for e in drop)
