@@ -183,6 +183,8 @@ def models_for(channel: str, effects: tuple[str, ...]) -> list[Model]:
     if not compatible(effects) or any(e not in allowed for e in effects):
         raise ParameterError(f"no {channel} channel model holds the effects {effects!r}")
     if channel == "measured":
+        if "rate_limit" in effects:  # a limiter on the motion, or on the flow inside the loop
+            return [ActuatorModel(effects, "output"), ActuatorModel(effects, "loop")]
         return [ActuatorModel(effects)]
     if channel == "displacement":
         return [ComplianceModel(effects)]

@@ -39,8 +39,14 @@ costs the piston the speed ``|v| F/(2 P_s A)`` to first order: the signal ``|v| 
 
 Effects: ``actuator_delay`` frees ``tau`` beyond one sample of lag (reported ``delay = tau``
 [s] beyond the nominal; an advance is the nominal's model form, never a delay);
-``rate_limit`` puts a velocity (flow) limiter ``RL`` (Simulink Rate Limiter semantics,
-:func:`plants.lines.rate_limited`) on the motion, the gain moving inside it.
+``rate_limit`` caps the speed of the motion at ``v_max``, the gain moving inside the limit,
+in one of two structures (the one that fits the identification data better is taken): a
+limiter on the output (``limiter="output"``, Simulink Rate Limiter semantics,
+:func:`plants.lines.rate_limited`: a piston held back catches up within a sample once the
+limit lets go) or a limit *inside* the servo loop (``limiter="loop"``,
+:func:`rths.diagnose.effects.kernels.loop_rate_limited`: the valve's flow saturates and the
+piston recovers through the loop's last stage, the re-calibrated TF's slowest real pole --
+a servo-hydraulic loop's first-order flow pole; the output limiter when the TF has none).
 """
 
 from __future__ import annotations
@@ -54,6 +60,7 @@ from scipy import signal
 from plants.lines import rate_limited
 from rths.diagnose.channels.channel import Channel, Segment
 from rths.diagnose.channels.signals import discrete_tf, sampled_tf, shifted
+from rths.diagnose.effects.kernels import loop_rate_limited
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
 
 #: Cache-key prefixes of :meth:`ActuatorModel._through`.
@@ -156,10 +163,13 @@ class ActuatorModel(Model):
     subsystem = "actuator"
     max_grid = 2000  # one replay per pole pair, then cheap shifts
 
-    def __init__(self, effects: tuple[str, ...] = ()) -> None:
+    def __init__(self, effects: tuple[str, ...] = (), limiter: str = "output") -> None:
         super().__init__(effects)
         self.delay = "actuator_delay" in effects
         self.limit = "rate_limit" in effects
+        self.limiter = limiter
+        if self.limit:
+            self.structure = f"limit {'inside the loop' if limiter == 'loop' else 'on the output'}"
         self.polish = self.limit
         self._base: dict[str, float] = {}
 
@@ -321,9 +331,19 @@ class ActuatorModel(Model):
             ]
         )
         if self.limit:
-            moved = rate_limited(float(theta["gain"]) * y, float(theta["velocity_limit"]), seg.dt)
+            g, v_max = float(theta["gain"]), float(theta["velocity_limit"])
+            if self.limiter == "loop":
+                moved = loop_rate_limited(g * y, self._loop_pole(channel, theta), v_max, seg.dt)
+            else:
+                moved = rate_limited(g * y, v_max, seg.dt)
             return csi, moved
         return np.column_stack([y, csi]), np.zeros_like(y)
+
+    def _loop_pole(self, channel: Channel, theta: Theta) -> float:
+        """The re-calibrated TF's slowest real (stable) pole [rad/s]; ``inf`` without one."""
+        roots = np.roots(self._transfer(channel, theta)[1])
+        real = roots[(np.abs(roots.imag) <= 1e-9 * np.abs(roots)) & (roots.real < 0.0)]
+        return float(np.min(-real.real)) if real.size else math.inf
 
     def _peak_velocity(self, channel: Channel) -> float:
         theta = {"shift": 0.0}

@@ -1,4 +1,8 @@
-"""Whole-record simulation kernels of the specimen effects (numba).
+"""Whole-record simulation kernels of the effects (numba).
+
+``loop_rate_limited``
+    A motion whose speed a servo loop's flow limit caps (the actuator's ``rate_limit``): the
+    output follows the linear response and recovers a deficit through the loop's pole.
 
 ``friction_operator``
     Normalised force ``phi`` in [-1, 1] of a friction element driven by a displacement: a
@@ -31,7 +35,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["MAX_SUBSTEPS", "friction_operator", "series_chain"]
+__all__ = ["MAX_SUBSTEPS", "friction_operator", "loop_rate_limited", "series_chain"]
 
 #: Largest ``omega * h`` [rad] per sub-step of the chain (trapezoidal phase error < 2 %).
 _MAX_STEP_PHASE = 0.5
@@ -60,6 +64,57 @@ def _friction_operator(x, delta, half_gap):  # pragma: no cover - numba
         else:
             out[i] = 0.0
     return out
+
+
+@njit(cache=True)
+def _loop_rate_limited(y, decay, max_change):  # pragma: no cover - numba
+    out = np.empty_like(y)
+    x_prev = 0.0
+    y_prev = 0.0
+    for i in range(y.size):
+        step = (y[i] - y_prev) + (y_prev - x_prev) * decay
+        if step > max_change:
+            step = max_change
+        elif step < -max_change:
+            step = -max_change
+        x_prev += step
+        y_prev = y[i]
+        out[i] = x_prev
+    return out
+
+
+def loop_rate_limited(
+    y: NDArray[np.float64], pole: float, velocity_limit: float, dt: float
+) -> NDArray[np.float64]:
+    """The motion [m] of a servo loop whose speed is capped at ``velocity_limit`` [m/s],
+    given its linear (unlimited) response ``y`` [m] sampled every ``dt`` [s], shape ``(n,)``.
+
+    The loop's last stage is first order, ``x' = p (z - x)`` (``p`` = ``pole`` [rad/s], the
+    servo-valve's flow setting the speed: Merritt, Hydraulic Control Systems, Sec. 8.3), so
+    its linear response obeys ``y' = p (z - y)`` and the speed demanded of a lagging piston
+    is ``y' + p (y - x)``.  Exact per sample for a linear step, the deficit ``y - x`` decays
+    by ``exp(-p dt)``, and the flow limit clips the step::
+
+        x_k = x_{k-1} + clip((y_k - y_{k-1}) + (1 - exp(-p dt)) (y_{k-1} - x_{k-1}),
+                             +/- v_max dt)
+
+    ``x = y`` while the limit is idle; ``pole = inf`` is the Simulink rate limiter on the
+    output (:func:`plants.lines.rate_limited`), which recovers a deficit within one sample.
+    Starts at rest.
+
+    Parameters
+    ----------
+    y
+        Linear response [m], shape ``(n,)``.
+    pole
+        The loop's pole ``p`` [rad/s], > 0 (``inf``: recovery within a sample).
+    velocity_limit
+        ``v_max`` [m/s], > 0.
+    dt
+        Sample period [s], > 0.
+    """
+    decay = 1.0 - math.exp(-pole * dt) if math.isfinite(pole) else 1.0
+    return _loop_rate_limited(np.ascontiguousarray(y, dtype=float), decay, velocity_limit * dt)
 
 
 def friction_operator(x: NDArray[np.float64], delta: float, gap: float = 0.0) -> NDArray:
