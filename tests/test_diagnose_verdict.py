@@ -23,6 +23,7 @@ import pytest
 from rths.core.errors import ParameterError
 from rths.diagnose import Options, diagnose, load_nominal, load_record
 from rths.diagnose.data.synthetic import LabCase, band_limited_command, lab_record
+from rths.diagnose.effects import EFFECTS
 
 DT = 1.0 / 1024.0
 M, C = 1589.0, 2 * 0.15 * 1589.0 * 2 * math.pi * 20.0  # zeta 0.15 at 20 Hz (S0 Eq.18 range)
@@ -192,3 +193,23 @@ def test_gap_channels_counts_a_secondary_view_only_when_an_effect_closes_its_gap
     delay = _view(True, ("actuator_delay",), "actuator_delay")
     channels = {"measured": delay, "force": _view(True, (), "none"), "displacement": element}
     assert gap_channels(channels, views) == [delay]  # type: ignore[arg-type]
+
+
+def test_a_displacement_view_with_no_live_held_out_force_is_left_out():
+    """The force-driven ``displacement`` view scores only samples where the force is live;
+    a held-out record whose force is the conditioner's noise alone (an independent
+    generator's case: 80-120 N of specimen force against 43 N of noise) leaves it nothing to
+    hold out.  The view is left out and the diagnosis completes (it raised a ValueError
+    from an empty spectrum)."""
+    from rths.diagnose.channels.build import displacement_channel
+
+    case = LabCase("none", 0.0, M, C)
+    records = _records(case)
+    rng = np.random.default_rng(1)
+    noise = 1e-3 * float(np.std(records[0].force)) * rng.standard_normal(records[1].force.size)
+    records[1] = replace(records[1], force=noise)
+    view = displacement_channel(records, _nominal(case))
+    assert not any(np.any(s.held) for s in view.segments)
+    d = diagnose(records, _nominal(case))
+    assert "displacement" not in d.channels and {"measured", "force"} <= set(d.channels)
+    assert d.verdict in (*EFFECTS, "none", "unexplained")

@@ -7,7 +7,9 @@ Order of work:
 2. the specimen channel's drive: the actuator model's replay of the command when it explains
    the measured displacement to its noise floor (a noise-free drive), else the measured
    displacement (``Options.drive``);
-3. the ``force`` (specimen) channel: baseline and greedy effects;
+3. the ``force`` (specimen) channel: baseline and greedy effects, beside the force-driven
+   ``displacement`` view where the nominal has an inertance and no friction and the force
+   is live (:data:`MIN_VIEW_SAMPLES`) in both the identification and held-out records;
 4. the structure channel of ``rths run`` logs (:mod:`rths.diagnose.structure`).
 
 The verdict is the first effect of the channel with the largest reducible gap (relative to its
@@ -42,13 +44,25 @@ from rths.diagnose.residuals import FLOOR_MARGIN
 from rths.diagnose.search.selection import ChannelResult, select
 from rths.diagnose.structure import structure_gap
 
-__all__ = ["DRIVES", "REPLAY_CUTOFF", "Diagnosis", "Options", "diagnose", "gap_channels"]
+__all__ = [
+    "DRIVES",
+    "MIN_VIEW_SAMPLES",
+    "REPLAY_CUTOFF",
+    "Diagnosis",
+    "Options",
+    "diagnose",
+    "gap_channels",
+]
 
 #: Choices of :attr:`Options.drive`.
 DRIVES: tuple[str, ...] = ("auto", "measured")
 #: Cutoff of the specimen smoother with a replayed (noise-free) drive, as a fraction of the
 #: sampling rate (below the anti-alias band of a DAQ).
 REPLAY_CUTOFF: float = 0.15
+#: Least live samples per role (identification, held out) for the ``displacement`` view: a
+#: spectrum of its residual needs one 64-sample segment (a specimen force buried in the
+#: conditioner's noise leaves the held-out records none: the view is then left out).
+MIN_VIEW_SAMPLES: int = 64
 
 
 @dataclass(frozen=True)
@@ -209,9 +223,10 @@ def _diagnose(records: list[Record], nominal: NominalModel, options: Options) ->
     )
     compliance = None
     if nominal.specimen.inertance > 0.0 and nominal.specimen.friction == 0.0:
-        compliance = select(
-            displacement_channel(records, nominal, held), options.effects, options.seed
-        )
+        view = displacement_channel(records, nominal, held)
+        live = [sum(int(np.sum(getattr(s, r))) for s in view.segments) for r in ("ident", "held")]
+        if min(live) >= MIN_VIEW_SAMPLES:
+            compliance = select(view, options.effects, options.seed)
     specimen = select(
         specimen_channel(records, nominal, cutoff, drive, held),
         options.effects,
