@@ -223,10 +223,12 @@ def _diagnose(records: list[Record], nominal: NominalModel, options: Options) ->
     )
     compliance = None
     if nominal.specimen.inertance > 0.0 and nominal.specimen.friction == 0.0:
-        view = displacement_channel(records, nominal, held)
-        live = [sum(int(np.sum(getattr(s, r))) for s in view.segments) for r in ("ident", "held")]
+        by_force = displacement_channel(records, nominal, held)
+        live = [
+            sum(int(np.sum(getattr(s, r))) for s in by_force.segments) for r in ("ident", "held")
+        ]
         if min(live) >= MIN_VIEW_SAMPLES:
-            compliance = select(view, options.effects, options.seed)
+            compliance = select(by_force, options.effects, options.seed)
     specimen = select(
         specimen_channel(records, nominal, cutoff, drive, held),
         options.effects,

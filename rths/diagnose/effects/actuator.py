@@ -58,6 +58,7 @@ from numpy.typing import NDArray
 from scipy import signal
 
 from plants.lines import rate_limited
+from rths.core.errors import ParameterError
 from rths.diagnose.channels.channel import Channel, Segment
 from rths.diagnose.channels.signals import discrete_tf, sampled_tf, shifted
 from rths.diagnose.effects.kernels import loop_rate_limited
@@ -158,7 +159,16 @@ def _bandwidth(num: tuple[float, ...], den: tuple[float, ...]) -> float | None:
 
 class ActuatorModel(Model):
     """The transfer system's model with any of ``actuator_delay``, ``rate_limit`` (module
-    docstring)."""
+    docstring).
+
+    Parameters
+    ----------
+    effects
+        The actuator effects it holds (none: the re-calibrated baseline).
+    limiter
+        Structure of a ``rate_limit``: ``"output"`` (a rate limiter on the motion) or
+        ``"loop"`` (a flow limit inside the servo loop).
+    """
 
     subsystem = "actuator"
     max_grid = 2000  # one replay per pole pair, then cheap shifts
@@ -167,6 +177,8 @@ class ActuatorModel(Model):
         super().__init__(effects)
         self.delay = "actuator_delay" in effects
         self.limit = "rate_limit" in effects
+        if limiter not in ("output", "loop"):
+            raise ParameterError(f"limiter must be 'output' or 'loop'; got {limiter!r}")
         self.limiter = limiter
         if self.limit:
             self.structure = f"limit {'inside the loop' if limiter == 'loop' else 'on the output'}"
