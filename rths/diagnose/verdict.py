@@ -224,10 +224,9 @@ def _diagnose(records: list[Record], nominal: NominalModel, options: Options) ->
     compliance = None
     if nominal.specimen.inertance > 0.0 and nominal.specimen.friction == 0.0:
         by_force = displacement_channel(records, nominal, held)
-        live = [
-            sum(int(np.sum(getattr(s, r))) for s in by_force.segments) for r in ("ident", "held")
-        ]
-        if min(live) >= MIN_VIEW_SAMPLES:
+        n_ident = sum(int(np.sum(s.ident)) for s in by_force.segments)
+        n_held = sum(int(np.sum(s.held)) for s in by_force.segments)
+        if min(n_ident, n_held) >= MIN_VIEW_SAMPLES:
             compliance = select(by_force, options.effects, options.seed)
     specimen = select(
         specimen_channel(records, nominal, cutoff, drive, held),
