@@ -1,8 +1,8 @@
 """The actuator channel of the diagnosis: cross-validation folds, the orifice-law column, the
 rate limit's "limit held" check, the flow limit inside the loop (against an independent
-integration) and its two structures told apart, the model-form resolution, and one end-to-end delay case of a
-servo-valve with the square-root flow law (``tools/servogen.py``, written without the
-diagnosis code)."""
+integration) and its two structures told apart, the model-form resolution, and one
+end-to-end delay case of a servo-valve with the square-root flow law
+(``tools/servogen.py``, written without the diagnosis code)."""
 
 from __future__ import annotations
 
