@@ -526,3 +526,22 @@ def test_selection_tells_a_loop_limit_from_an_output_limiter(kind: str, structur
     assert r.effects == ("rate_limit",)
     assert r.final.model.structure == structure
     assert r.final.params["rate_limit"]["velocity_limit"] == pytest.approx(0.1, rel=0.01)
+
+
+def test_band_lag_is_the_delay_a_calibration_mimics_over_the_drive():
+    # a pole 10 % slower under a 0.5-2 Hz drive: its extra phase is omega (1/(0.9 W) - 1/W) to
+    # within (omega/W)^2 < 4 % at 10 Hz, so the fitted delay is the group-delay change; a
+    # pole-zero pair at 0.06 Hz mis-set apart adds a phase falling as 1/omega, which mimics
+    # almost no delay over the same band although its DC group delay moves by 0.43 s
+    from rths.diagnose.effects.calibration import band_lag
+
+    f = np.linspace(0.0, 5.0, 51)
+    w = ((f >= 0.5) & (f <= 2.0)).astype(float)
+    one = (np.array([W]), np.array([1.0, W]))
+    slow = (np.array([0.9 * W]), np.array([1.0, 0.9 * W]))
+    assert band_lag(one, slow, (f, w)) == pytest.approx(1 / (0.9 * W) - 1 / W, rel=0.04)
+    assert band_lag(one, slow, None) == pytest.approx(1 / (0.9 * W) - 1 / W, rel=1e-9)
+    pair0 = (np.array([1.0, 0.336]) * 0.4 / 0.336, np.array([1.0, 0.4]))
+    pair1 = (np.array([1.0, 0.366]) * 0.373 / 0.366, np.array([1.0, 0.373]))
+    assert band_lag(pair0, pair1, None) == pytest.approx(0.4248, rel=1e-3)
+    assert abs(band_lag(pair0, pair1, (f, w))) < 1e-3

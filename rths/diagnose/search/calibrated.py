@@ -38,6 +38,8 @@ from collections.abc import Callable
 
 from rths.diagnose.channels.channel import Channel
 from rths.diagnose.effects import EFFECTS, absorbed_lag, calibration_for
+from rths.diagnose.effects.actuator import CALIBRATION_TOLERANCE
+from rths.diagnose.effects.calibration import drive_band
 from rths.diagnose.effects.model import Model
 from rths.diagnose.search.crossval import paired_gain
 from rths.diagnose.search.floors import noise_floor
@@ -48,10 +50,12 @@ __all__ = [
     "AT_LAG_BOUND",
     "HIDDEN_BY_CALIBRATION",
     "PAIRED_Z",
+    "PINNED",
     "calibration_lag",
     "finer_calibration",
     "hidden_delay",
     "needs_finer",
+    "pinned",
 ]
 
 #: Effects a calibration of the nominal's own parameters can mimic in part (a pole's lag: up
@@ -70,6 +74,9 @@ AT_LAG_BOUND: float = 0.95
 PAIRED_Z: float = 3.0
 #: The common re-calibration's factors.
 _SCALES: tuple[str, str] = ("frequency_scale", "damping_scale")
+#: Share of the tolerance within which a common factor counts as at its bound (the bounded
+#: search stops within a few thousandths of a bound).
+PINNED: float = 0.01
 
 
 def calibration_lag(channel: Channel, baseline: dict[str, float]) -> float | None:
@@ -89,7 +96,7 @@ def calibration_lag(channel: Channel, baseline: dict[str, float]) -> float | Non
     if calibration_for(channel.name) is None:
         return None
     act = channel.nominal.actuator
-    return absorbed_lag(act.num, act.den, baseline)
+    return absorbed_lag(act.num, act.den, baseline, drive_band(channel))
 
 
 def needs_finer(
@@ -99,7 +106,8 @@ def needs_finer(
     and either its selected effects close less than ``min_closed`` of the gap, or they hold a
     delay (a delay trades with the common factors in either direction: faster poles beside a
     longer delay mimic poles that are off by different factors), or the common factors beside
-    no effect took on more than one sample of lag
+    no effect sit at a bound of their tolerance (:func:`pinned`) or took on more than one
+    sample of lag
     (:func:`rths.diagnose.effects.calibration.absorbed_lag`: a delay, or part of one, may
     hide in them).
 
@@ -122,8 +130,27 @@ def needs_finer(
         return True  # a delay is named only against the finest calibration of the nominal
     if chosen:
         return False
+    if pinned(current.baseline):
+        return True  # the common factors wanted more than the tolerance: rootwise may not
     lag = calibration_lag(channel, current.baseline)
     return lag is not None and lag > channel.dt
+
+
+def pinned(baseline: dict[str, float]) -> bool:
+    """Whether a common re-calibration sits at a bound of its tolerance (a factor within
+    :data:`PINNED` of ``1 +/- CALIBRATION_TOLERANCE``): the nominal is off by more than the
+    common factors can follow -- a pole-zero pair mis-set apart (an integral controller's slow
+    dipole, 16 % de-cancelled by +/-10 % errors on each) pinned all three factors of an
+    independent generator's case, and its 7-sample delay was put down to model form.
+
+    Parameters
+    ----------
+    baseline
+        The common re-calibration (``gain`` and :data:`_SCALES`).
+    """
+    lo, hi = 1.0 - CALIBRATION_TOLERANCE, 1.0 + CALIBRATION_TOLERANCE
+    factors = [baseline[k] for k in _SCALES if k in baseline]
+    return any(min(f - lo, hi - f) < PINNED * CALIBRATION_TOLERANCE for f in factors)
 
 
 def finer_calibration(
