@@ -38,7 +38,11 @@ _UNITS = {
 }
 
 #: How the text names a channel's evidence (:attr:`ChannelResult.evidence`).
-_EVIDENCE: dict[str, str] = {"spectrum": "spectrum", "paired": "paired test"}
+_EVIDENCE: dict[str, str] = {
+    "spectrum": "spectrum",
+    "paired": "paired test",
+    "coverage": "calibration on every record",
+}
 
 
 def _params(params: dict[str, float]) -> str:
@@ -111,11 +115,18 @@ def table(d: Diagnosis) -> str:
             "sample by sample, so the time-domain gap stays open"
         )
     for name, c in d.channels.items():
+        if c.evidence == "coverage":
+            lines.append(
+                f"note: the {name} channel's held-out gap is calibration: the baseline "
+                f"re-calibrated on every record's time blocks (cross-validated) reaches its "
+                f"noise floor -- the identification records did not cover the held-out ones"
+            )
         if c.evidence == "paired":
             lines.append(
-                f"note: the {name} channel's baseline reached its noise floor by absorbing "
-                f"this delay (alignment at its one-sample bound); named because it predicts "
-                f"the held-out blocks better than the root-by-root calibration (paired test)"
+                f"note: the {name} channel's baseline reached its noise floor or model-form "
+                f"allowance by absorbing this delay (alignment at its one-sample bound); named "
+                f"because it predicts the held-out blocks better than the root-by-root "
+                f"calibration (paired test)"
             )
     for name, c in d.channels.items():
         lag = calibration_lag(c.channel, c.baseline.baseline)

@@ -18,7 +18,8 @@
     measured force (:mod:`rths.diagnose.effects.compliance`).
 
 Every channel's records share one sampling rate; each holds the white-noise levels estimated
-on the records themselves and the identification / held-out masks of
+on the records themselves (and their colour, read where the records start at rest:
+:mod:`rths.diagnose.channels.rest`) and the identification / held-out masks of
 :func:`rths.diagnose.channels.channel.split_roles`.
 """
 
@@ -37,6 +38,7 @@ from rths.diagnose.channels.channel import (
     Segment,
     split_roles,
 )
+from rths.diagnose.channels.rest import rest_spectra
 from rths.diagnose.channels.signals import (
     derivatives,
     impulse_kernel,
@@ -77,6 +79,12 @@ def _check_rates(records: list[Record]) -> float:
 
 def _noise_levels(records: list[Record]) -> dict[str, float]:
     return {k: _noise(records, k) for k in ("measured", "force", "command")}
+
+
+def _with_colour(channel: Channel, records: list[Record]) -> Channel:
+    """``channel`` with its noise colour read at the records' rest (:mod:`.rest`)."""
+    channel.noise_shape.update(rest_spectra(records, channel.noise))
+    return channel
 
 
 def displacement_channel(
@@ -127,7 +135,9 @@ def displacement_channel(
             )
         )
     noise["drive"] = 0.0
-    return Channel("displacement", "specimen", segments, nominal, noise, cutoff)
+    return _with_colour(
+        Channel("displacement", "specimen", segments, nominal, noise, cutoff), records
+    )
 
 
 def force_deviation(record: Record, nominal: NominalModel) -> NDArray[np.float64]:
@@ -230,7 +240,8 @@ def actuator_channel(
             "load_flow": load_flow(motion),
         }
         segments.append(Segment(r.name, i, dt, r.measured, signals, ident, held))
-    return Channel("measured", "actuator", segments, nominal, _noise_levels(records))
+    channel = Channel("measured", "actuator", segments, nominal, _noise_levels(records))
+    return _with_colour(channel, records)
 
 
 def specimen_channel(
@@ -271,4 +282,5 @@ def specimen_channel(
         )
     noise = _noise_levels(records)
     noise["drive"] = noise["measured"] if drive is None else 0.0
-    return Channel("force", "specimen", segments, nominal, noise, cutoff, drive_sos)
+    channel = Channel("force", "specimen", segments, nominal, noise, cutoff, drive_sos)
+    return _with_colour(channel, records)

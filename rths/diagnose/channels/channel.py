@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rths.core.errors import DataError
+from rths.diagnose.channels.rest import NoiseShape
 from rths.diagnose.channels.signals import (
     actuator_replay,
     impulse_kernel,
@@ -87,6 +88,10 @@ class Segment:
         The smoother ``h`` applied to model outputs (specimen channel), else None.
     cache
         Per-model precomputed columns (filled lazily by the models).
+    window
+        For a window of a record (the identification's search windows): the record's whole
+        segment and the window's first sample.  A state with a memory of seconds (a load
+        amplitude) is computed on the whole record and sliced, not restarted at the window.
     """
 
     name: str
@@ -98,6 +103,7 @@ class Segment:
     held: NDArray[np.bool_]
     sos: NDArray[np.float64] | None = None
     cache: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    window: tuple[Segment, int] | None = None
 
     def h(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """A model output through the channel's smoother (identity without one)."""
@@ -125,6 +131,10 @@ class Channel:
     drive_sos
         The light low-pass the specimen channel's drive goes through (:data:`DRIVE_CUTOFF`),
         else None.
+    noise_shape
+        The colour of the ``measured`` and ``force`` noise read at the records' rest
+        (:func:`rths.diagnose.channels.rest.rest_spectra`): a factor >= 1 on the white PSD
+        per frequency; a column without one is white.
     """
 
     name: ChannelName
@@ -134,6 +144,33 @@ class Channel:
     noise: dict[str, float]
     cutoff: float | None = None
     drive_sos: NDArray[np.float64] | None = None
+    noise_shape: dict[str, NoiseShape] = field(default_factory=dict)
+
+    def colour(self, key: str, f: NDArray[np.floating]) -> NDArray[np.float64]:
+        """Factor on the white PSD of column ``key``'s noise at frequencies ``f`` [Hz] (ones
+        for white noise)."""
+        shape = self.noise_shape.get(key)
+        grid: NDArray[np.float64] = np.asarray(f, dtype=np.float64)
+        return np.ones_like(grid) if shape is None else shape.at(grid)
+
+    def coloured(self, key: str, white: NDArray[np.float64]) -> NDArray[np.float64]:
+        """White noise samples ``white`` given column ``key``'s colour (its spectrum times the
+        square root of :meth:`colour`; unchanged for white noise)."""
+        if key not in self.noise_shape:
+            return white
+        f = np.fft.rfftfreq(white.size, self.dt)
+        return np.fft.irfft(np.fft.rfft(white) * np.sqrt(self.colour(key, f)), white.size)
+
+    def force_noise_variance(self) -> float:
+        """Variance [N^2] of the force noise through the channel's smoother (specimen
+        channels; its colour included)."""
+        sos = self.segments[0].sos
+        n, dt = _KERNEL_LENGTH, self.dt
+        k = np.abs(np.fft.rfft(impulse_kernel(sos, dt) if sos is not None else _unit(n), n))
+        f = np.fft.rfftfreq(n, dt)
+        weight = np.full(f.size, 2.0)
+        weight[0] = weight[-1] = 1.0
+        return float(self.noise["force"] ** 2 * np.sum(weight * self.colour("force", f) * k**2) / n)
 
     @property
     def dt(self) -> float:
@@ -154,7 +191,8 @@ class Channel:
         return np.concatenate(parts)
 
     def floor_variance(self, linear: tuple[float, float, float] | None = None) -> float:
-        """Variance of the residual a perfect model would leave (white noise only).
+        """Variance of the residual a perfect model would leave (the noise's colour read at
+        rest included, :attr:`noise_shape`).
 
         Actuator channel: ``s_y^2 + g^2 s_u^2 sum(h_G^2)`` (displacement noise plus command
         noise through the nominal TF).  Specimen channel: ``s_F^2 sum(k_F^2) + s_x^2
@@ -183,20 +221,24 @@ class Channel:
             impulse[0] = 1.0
             k_u = actuator_replay(g.num, g.den, dt, impulse)
             psd = (
-                self.noise["measured"] ** 2
+                self.noise["measured"] ** 2 * self.colour("measured", f)
                 + self.noise["command"] ** 2 * np.abs(np.fft.rfft(k_u)) ** 2
             )
             return np.asarray(f, dtype=np.float64), psd * scale
         sos = self.segments[0].sos
-        if self.name == "displacement":  # unsmoothed: white
+        if self.name == "displacement":  # unsmoothed
             k_h = 1.0 if sos is None else np.abs(np.fft.rfft(impulse_kernel(sos, dt))) ** 2
-            return np.asarray(f, dtype=np.float64), self.noise["measured"] ** 2 * k_h * scale
+            psd = self.noise["measured"] ** 2 * self.colour("measured", f) * k_h
+            return np.asarray(f, dtype=np.float64), psd * scale
         assert sos is not None
         spec = self.nominal.specimen
         lin = linear or (spec.inertance, spec.damping, spec.stiffness)
         k_f = np.abs(np.fft.rfft(impulse_kernel(sos, dt))) ** 2
         k_x = np.abs(np.fft.rfft(impulse_kernel(sos, dt, lin, self.drive_sos))) ** 2
-        psd = self.noise["force"] ** 2 * k_f + self.noise["drive"] ** 2 * k_x
+        psd = (
+            self.noise["force"] ** 2 * self.colour("force", f) * k_f
+            + self.noise["drive"] ** 2 * self.colour("measured", f) * k_x
+        )
         return np.asarray(f, dtype=np.float64), psd * scale
 
 
@@ -239,3 +281,10 @@ def split_roles(
             ident, held = inner, np.zeros(r.n, dtype=bool)
         masks.append((ident, held))
     return masks
+
+
+def _unit(n: int) -> NDArray[np.float64]:
+    """A unit impulse of ``n`` samples."""
+    out = np.zeros(n)
+    out[0] = 1.0
+    return out

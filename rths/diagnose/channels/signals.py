@@ -24,11 +24,12 @@ Replay (DAQ timing convention, :mod:`rths.diagnose.data.records`).  The command 
 from ``t_k`` to ``t_{k+1}`` (zero-order hold) and the displacement is sampled at ``t_k``: with
 the ZOH-exact discrete model ``z_{k+1} = A z_k + B u_k``, ``y_k = C z_k + D u_k``.
 
-Running load amplitude (the ``A`` of S0 Eq.17-18).  ``A = sqrt(2 (LP[x^2] - LP[x]^2))``: the
-square root of twice the running variance of the drive, ``LP`` a causal critically damped
-second-order low-pass (two first-order stages of time constant ``tau``).  For a sine of
-amplitude ``X`` it settles on ``X`` within a few ``tau``, whatever the frequency; it follows
-a non-stationary record with a memory of about ``2 tau``.  The other common reading of an
+Running load amplitude (the ``A`` of S0 Eq.17-18).  ``A = sqrt(2 LP[d^2])``, ``d = x -
+mean(x)`` the motion about the record's mean position: the square root of twice the running
+mean square, ``LP`` a causal critically damped second-order low-pass (two first-order stages
+of time constant ``tau``).  For a sine of amplitude ``X`` it settles on ``X`` within a few
+``tau``, whatever the frequency; it follows a non-stationary record with a memory of about
+``2 tau``.  The other common reading of an
 amplitude, the decaying peak hold of :func:`peak_amplitude` (an envelope detector: it takes a
 new peak at once and lets it fade with time constant ``tau``), follows a growing motion without
 lag; for a non-stationary record the two differ (by up to the peak factor of a random motion),
@@ -360,7 +361,11 @@ def shifted(x: NDArray[np.float64], samples: float) -> NDArray[np.float64]:
 
 
 def running_amplitude(x: NDArray[np.float64], dt: float, tau: float) -> NDArray[np.float64]:
-    """Running load amplitude ``sqrt(2 (LP[x^2] - LP[x]^2))`` [m] (module docstring).
+    """Running load amplitude ``sqrt(2 LP[d^2])`` [m] of the motion about the record's mean
+    position, ``d = x - mean(x)`` (module docstring): exactly the amplitude of a steady sine
+    of any period (the ripple of ``LP[d^2]`` at twice its frequency aside).  A running mean
+    of the same memory, subtracted instead, followed the oscillation itself once ``tau`` was
+    not long beside the period and read 0.92 of a 2 Hz sine's amplitude at ``tau`` = 0.1 s.
 
     Parameters
     ----------
@@ -373,17 +378,13 @@ def running_amplitude(x: NDArray[np.float64], dt: float, tau: float) -> NDArray[
     """
     pole = math.exp(-dt / tau)
     b, a = np.array([1.0 - pole]), np.array([1.0, -pole])
-
-    def lp(y: NDArray[np.float64]) -> NDArray[np.float64]:
-        return signal.lfilter(b, a, signal.lfilter(b, a, y))
-
-    var = lp(x * x) - lp(x) ** 2
-    return np.sqrt(2.0 * np.clip(var, 0.0, None))
+    d = x - np.mean(x)
+    return np.sqrt(2.0 * np.clip(signal.lfilter(b, a, signal.lfilter(b, a, d * d)), 0.0, None))
 
 
 def peak_amplitude(x: NDArray[np.float64], dt: float, tau: float) -> NDArray[np.float64]:
-    """Decaying peak hold ``A_k = max(|d_k|, A_{k-1} exp(-dt/tau))`` [m] of the drive's motion
-    about its running mean, ``d = x - LP[x]`` (``LP`` as in :func:`running_amplitude`).
+    """Decaying peak hold ``A_k = max(|d_k|, A_{k-1} exp(-dt/tau))`` [m] of the motion about
+    the record's mean position, ``d = x - mean(x)`` (as in :func:`running_amplitude`).
 
     Computed without a loop in the log domain, ``log A_k = -k dt/tau + cummax_j (log|d_j| +
     j dt/tau)``.
@@ -395,11 +396,9 @@ def peak_amplitude(x: NDArray[np.float64], dt: float, tau: float) -> NDArray[np.
     dt
         Sample period [s].
     tau
-        Time constant [s] of the fading and of the two stages of ``LP``.
+        Time constant [s] of the fading.
     """
-    pole = math.exp(-dt / tau)
-    b, a = np.array([1.0 - pole]), np.array([1.0, -pole])
-    d = np.abs(x - signal.lfilter(b, a, signal.lfilter(b, a, x)))
+    d = np.abs(x - np.mean(x))
     ramp = np.arange(d.size) * (dt / tau)
     with np.errstate(divide="ignore"):
         held = np.maximum.accumulate(np.log(d) + ramp)

@@ -190,7 +190,7 @@ def models_for(channel: str, effects: tuple[str, ...]) -> list[Model]:
         return [ComplianceModel(effects)]
     element = _ELEMENTS.intersection(effects)
     if not element:
-        return [RigidSpecimen(effects)]
+        return _rigid(effects)
     out: list[Model] = [SeriesChain(effects)]
     if "backlash" in effects and "coulomb_friction" not in effects:
         # a friction device behind a clearance has three structures already (its contact is
@@ -199,5 +199,13 @@ def models_for(channel: str, effects: tuple[str, ...]) -> list[Model]:
     if "coulomb_friction" in effects:
         out.append(SeriesChain(effects, friction_at="drive"))
         if element == {"backlash"}:
-            out.append(RigidSpecimen(effects))  # massless friction behind a clearance
+            out += _rigid(effects)  # massless friction behind a clearance
     return out
+
+
+def _rigid(effects: tuple[str, ...]) -> list[Model]:
+    """The rigid structures of ``effects``: beside a dissipation law both the nominal's
+    damping within its tolerance and a free one (priced by the selection)."""
+    if {"coulomb_friction", "amplitude_damping"}.isdisjoint(effects):
+        return [RigidSpecimen(effects)]
+    return [RigidSpecimen(effects, damping="nominal"), RigidSpecimen(effects)]

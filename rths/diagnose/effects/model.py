@@ -90,6 +90,14 @@ class Model(ABC):
     structure: str = ""
     #: Largest global grid (a larger Cartesian grid is subsampled, seeded).
     max_grid: int = 240
+    #: Linear parameters NOMINAL.toml declares that this structure frees beyond their
+    #: tolerance (a damping a dissipation law may replace); the selection takes it only when
+    #: it buys them against the structure that holds them (``freedoms`` 0) on held-out data.
+    freedoms: int = 0
+    #: The global search and refinement score short windows where the drive moves most
+    #: (:mod:`rths.diagnose.search.identify`); False: the whole identification records, for a
+    #: law whose parameters only the records' whole range of amplitude shows.
+    windowed: bool = True
 
     def __init__(self, effects: tuple[str, ...] = ()) -> None:
         self.effects = tuple(effects)

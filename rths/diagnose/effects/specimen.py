@@ -34,6 +34,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
+from rths.core.errors import ParameterError, format_choices
 from rths.diagnose.channels.channel import Channel, Segment
 from rths.diagnose.channels.signals import (
     TONE_BAND,
@@ -45,6 +46,7 @@ from rths.diagnose.effects.kernels import friction_operator
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
 
 __all__ = [
+    "DAMPINGS",
     "NOMINAL_TOLERANCE",
     "RESOLVED_CLEARANCE",
     "RigidSpecimen",
@@ -184,7 +186,13 @@ def friction_column(seg: Segment, delta: float, gap: float = 0.0) -> NDArray:
 
 def amplitude(seg: Segment, tau: float, peak: float = 0.0) -> NDArray:
     """Load amplitude of the drive [m]: ``(1 - peak)`` running amplitude plus ``peak`` decaying
-    peak hold, both of memory ``tau`` (module docstring; each cached per memory)."""
+    peak hold, both of memory ``tau`` (module docstring; each cached per memory).  On a window
+    of a record (:attr:`rths.diagnose.channels.channel.Segment.window`) the record's own
+    amplitude, sliced: restarted at rest at the window's start it would take several memories
+    to settle, longer than a search window's warm-up."""
+    if seg.window is not None:
+        whole, lo = seg.window
+        return amplitude(whole, tau, peak)[lo : lo + seg.observed.size]
     key = f"amp:{tau!r}"
     if key not in seg.cache:
         seg.cache[key] = running_amplitude(seg.signals["x"], seg.dt, tau)
@@ -217,7 +225,7 @@ def amplitude_space(channel: Channel, grid: bool = True, envelopes: bool = True)
     scale = drive_scale(channel)
     return [
         Param("c2", 1e-3 * scale, 30.0 * scale, grid=8 if grid else 0),
-        Param("memory", MIN_MEMORY, 3.0, grid=3 if grid else 0, start=0.3),
+        Param("memory", MIN_MEMORY, 3.0, grid=6 if grid else 0, start=0.3),
         Param("peak", 0.0, 1.0, log=False, grid=2 if grid and envelopes else 0, start=0.5),
     ]
 
@@ -232,19 +240,45 @@ def friction_space(channel: Channel, backlash: bool, grid: bool = True) -> list[
     return out
 
 
+#: Choices of :class:`RigidSpecimen`'s ``damping`` beside a dissipation law.
+DAMPINGS: tuple[str, ...] = ("free", "nominal")
+
+
 class RigidSpecimen(Model):
-    """The rigid specimen family (module docstring)."""
+    """The rigid specimen family (module docstring).
+
+    Parameters
+    ----------
+    effects
+        The effects the model holds.
+    damping
+        Beside a dissipation law (friction, amplitude-dependent damping): ``"free"`` (the law
+        may replace the viscous share of a nominal fitted to the same loops; one freedom the
+        selection prices, :attr:`rths.diagnose.effects.model.Model.freedoms`) or
+        ``"nominal"`` (NOMINAL.toml's damping within its tolerance, like the baseline's: an
+        identified nominal of the device's linear part).  Without a law the damping is always
+        the nominal's.
+    """
 
     subsystem = "specimen"
     passive_terms = 2  # inertance and damping (S0 Eq.1: m, c >= 0)
 
-    def __init__(self, effects: tuple[str, ...] = ()) -> None:
+    def __init__(self, effects: tuple[str, ...] = (), damping: str = "free") -> None:
+        if damping not in DAMPINGS:
+            raise ParameterError(
+                f"specimen damping must be one of {format_choices(DAMPINGS)}; got {damping!r}"
+            )
         super().__init__(effects)
         self.friction = "coulomb_friction" in effects
         self.backlash = "backlash" in effects
         self.amplitude = "amplitude_damping" in effects
         self.structure = "massless" if self.backlash else "rigid"
         self.polish = self.backlash
+        self.free_damping = (self.friction or self.amplitude) and damping == "free"
+        # the amplitude law's c2 and memory show only over the records' range of amplitude,
+        # which the search windows (where the drive moves most) leave out
+        self.windowed = not self.amplitude
+        self.freedoms = int(self.free_damping)
 
     def _nominal_friction(self, channel: Channel) -> bool:
         return channel.nominal.specimen.friction > 0.0 and not self.friction
@@ -288,15 +322,16 @@ class RigidSpecimen(Model):
     def tolerance(self, channel: Channel) -> NDArray[np.float64]:
         """:data:`NOMINAL_TOLERANCE` for inertance, damping, stiffness and the friction or
         amplitude law NOMINAL.toml declares; an effect's level is free, and so is the damping
-        beside a friction or amplitude effect (a dissipation law replaces the viscous share of
-        a nominal fitted to the same loops: a viscous fit of a friction damper).  When every
+        beside a friction or amplitude effect in the ``"free"`` structure (a dissipation law
+        replaces the viscous share of a nominal fitted to the same loops: a viscous fit of a
+        friction damper).  When every
         identification record is one sine of the same frequency (:func:`single_tone`) the
         inertance keeps its nominal value: its force ``-m w^2 x`` is the stiffness's shape,
         only harmonics (an unmodelled effect's, as often as not) would split them."""
         out = [NOMINAL_TOLERANCE] * 3
         if single_tone(channel):
             out[0] = 0.0  # m and k are one number, k - m w^2, at one drive frequency
-        if self.friction or self.amplitude:
+        if self.free_damping:
             out[1] = math.nan  # a dissipation law replaces the nominal's viscous share
         if self.friction or self._nominal_friction(channel):
             out.append(NOMINAL_TOLERANCE if self._nominal_friction(channel) else math.nan)

@@ -5,8 +5,10 @@ floor_variance`: displacement noise plus command noise through the nominal TF).
 
 Specimen channel: the smoothed force noise, plus -- when the drive is the measured (noisy)
 displacement -- the noise the model propagates from its drive: the model is driven a second
-time with a synthetic copy of the estimated displacement noise added (white, the estimated
-RMS, smoothed like the record) and the change of its output is that noise.  A resonant model
+time with a synthetic copy of the estimated displacement noise added (white at the estimated
+RMS, given the colour read at the records' rest where they hold one --
+:mod:`rths.diagnose.channels.rest` -- and smoothed like the record) and the change of its
+output is that noise.  A resonant model
 (internal stiffness) propagates far more than a rigid one, which is why the floor is per model.
 ``repeats`` independent copies are drawn (seeded: the diagnosis is reproducible) and the
 median of their mean squares is the floor: through a bouncing contact a copy now and then
@@ -24,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from rths.diagnose.channels.channel import Channel, Segment
-from rths.diagnose.channels.signals import derivatives, impulse_kernel, smooth
+from rths.diagnose.channels.signals import derivatives, smooth
 from rths.diagnose.residuals import FLOOR_MARGIN
 from rths.diagnose.search.identify import Fit
 
@@ -57,7 +59,8 @@ def noise_floor(fit: Fit, channel: Channel, seed: int = 0, repeats: int = 3) -> 
                 continue
             sos = channel.drive_sos if channel.drive_sos is not None else s.sos
             assert sos is not None
-            x = s.signals["x"] + smooth(sigma_x * rng.standard_normal(s.observed.size), sos)
+            white = sigma_x * rng.standard_normal(s.observed.size)
+            x = s.signals["x"] + smooth(channel.coloured("measured", white), sos)
             v, a = derivatives(x, s.dt)
             twin = Segment(
                 s.name, s.index, s.dt, s.observed, {"x": x, "v": v, "a": a}, s.ident, s.held, s.sos
@@ -67,10 +70,7 @@ def noise_floor(fit: Fit, channel: Channel, seed: int = 0, repeats: int = 3) -> 
             acc += float(np.sum(d * d))
             count += d.size
         copies.append(acc / max(count, 1))
-    sos = channel.segments[0].sos
-    assert sos is not None
-    force = channel.noise["force"] ** 2 * float(np.sum(impulse_kernel(sos, channel.dt) ** 2))
-    return (float(np.median(copies)) if copies else 0.0) + force
+    return (float(np.median(copies)) if copies else 0.0) + channel.force_noise_variance()
 
 
 def consistent(held_mse: float, floor: float) -> bool:

@@ -6,7 +6,9 @@ least-squares solution, so the search runs over ``theta`` only, in three stages:
 
 1. global: every point of the model's grid (:class:`rths.diagnose.effects.model.Param`:
    orders of magnitude on a log scale) and every warm start is scored on short windows of
-   the identification records (:data:`SEARCH_SECONDS` each, where the drive moves most);
+   the identification records (:data:`SEARCH_SECONDS` each, where the drive moves most; the
+   whole records for a model that is not ``windowed``: an amplitude law needs every
+   amplitude the records hold);
 2. refine (:mod:`rths.diagnose.search.refine`): ``scipy.optimize.least_squares``
    (trust-region reflective, bounded, on the log scale for log parameters) from the
    :data:`REFINE_STARTS` best distinct points, on longer windows (:data:`REFINE_SECONDS`);
@@ -136,7 +138,15 @@ def _window(seg: Segment, seconds: float, edge: int) -> Segment:
         mask,
         np.zeros(hi - lo, dtype=bool),
         seg.sos,
+        window=(seg, lo) if seg.window is None else (seg.window[0], seg.window[1] + lo),
     )
+
+
+def _windows(model: Model, channel: Channel, seconds: float, edge: int) -> list[Segment]:
+    """The search windows of every identification record (:func:`_window`), or the whole
+    identification records when the model is not :attr:`Model.windowed`."""
+    ident = [s for s in channel.segments if np.any(s.ident)]
+    return [_window(s, seconds, edge) for s in ident] if model.windowed else ident
 
 
 def stride_for(channel: Channel) -> int:
@@ -261,7 +271,7 @@ def fit_model(
     if space:
         coords = Coords(space)
         stride = stride_for(channel)
-        windows = [_window(s, SEARCH_SECONDS, edge) for s in channel.segments if np.any(s.ident)]
+        windows = _windows(model, channel, SEARCH_SECONDS, edge)
         search = _Problem(model, channel, windows, stride)
         grid = grid_points(space, [*model.starts(channel), *(starts or [])], model.max_grid)
         costs = np.array([search.cost(t) for t in grid])
@@ -273,7 +283,7 @@ def fit_model(
                 picked.append(z)
             if len(picked) == REFINE_STARTS:
                 break
-        windows = [_window(s, REFINE_SECONDS, edge) for s in channel.segments if np.any(s.ident)]
+        windows = _windows(model, channel, REFINE_SECONDS, edge)
         longer = _Problem(model, channel, windows, stride)
         best, best_cost = None, math.inf
         for z0 in picked:

@@ -6,7 +6,9 @@ floor (:func:`rths.diagnose.residuals.decompose`) the channel is at its noise fl
 Otherwise effects are added one at a time:
 
 1. every candidate effect is identified jointly with the baseline (each of its model
-   structures, the best on the identification data);
+   structures, the best on the identification data; one that frees a parameter NOMINAL.toml
+   holds -- a damping a dissipation law may replace -- only when it buys it on held-out
+   data);
 2. the candidate that closes most of the remaining held-out gap ``J_S - N_S`` (and lowers the
    held-out residual ``J_S`` itself: a higher floor of its own is no closing) is added if it
    closes at least :data:`PRICE` per identified parameter (it "buys its parameters") of that
@@ -56,8 +58,14 @@ impacts sample by sample: when the force channel's gap stays ``unexplained``, th
 already identified are judged by the held-out spectrum instead
 (:mod:`rths.diagnose.search.spectral`; ``evidence = "spectrum"``).
 
-A delay the common factors and the alignment absorbed to the noise floor is judged against the
-root-by-root calibration by a paired test of held-out predictions, which needs no floor
+A specimen gap that would stay ``unexplained`` while the baseline re-calibrated on every
+record's time blocks (cross-validated) reaches the floor is the identification records'
+coverage -- one tone leaves the inertance against the stiffness undetermined -- not an effect:
+``none`` (:mod:`rths.diagnose.search.coverage`; ``evidence = "coverage"``).
+
+A delay the common factors and the alignment absorbed to the noise floor -- or to within the
+model-form allowance -- is judged against the root-by-root calibration by a paired test of
+held-out predictions, which needs no floor
 (:func:`rths.diagnose.search.calibrated.hidden_delay`; ``evidence = "paired"``).
 
 The actuator's effects are also judged against the nominal calibrated root by root
@@ -85,6 +93,7 @@ from rths.diagnose.effects import (
 from rths.diagnose.effects.model import Theta
 from rths.diagnose.effects.specimen import clearance_resolved
 from rths.diagnose.search.calibrated import finer_calibration, hidden_delay, needs_finer
+from rths.diagnose.search.coverage import covered
 from rths.diagnose.search.crossval import cross_fit
 from rths.diagnose.search.decomposed import decompose_fit
 from rths.diagnose.search.floors import credited_floor, noise_floor
@@ -162,7 +171,7 @@ def _prune(
             if not models:
                 continue
             fits = [fitter(m, channel, base.baseline, [dict(current.theta)]) for m in models]
-            sub = _best(fits, channel)
+            sub = _best(fits, channel, current_floor, price)
             if not sub.model.physical(channel, sub.params):
                 continue
             floor = noise_floor(sub, channel, seed)
@@ -190,14 +199,25 @@ def _collapsed(channel: Channel, fit: Fit) -> tuple[str, ...]:
     return ("backlash",) if gap is not None and not clearance_resolved(channel, gap) else ()
 
 
-def _best(fits: list[Fit], channel: Channel | None = None) -> Fit:
+def _best(fits: list[Fit], channel: Channel, floor: float, price: float = PRICE) -> Fit:
     """The structure that fits the identification data best -- among those whose parameters
-    are physical, when ``channel`` is given and any is (a structure that fits better with a
-    clearance below the resolution must not hide one that names a resolved clearance)."""
-    if channel is not None:
-        ok = [f for f in fits if f.model.physical(channel, f.params)]
-        fits = ok or fits
-    return min(fits, key=lambda f: f.ident_mse)
+    are physical, when any is (a structure that fits better with a clearance below the
+    resolution must not hide one that names a resolved clearance).  A structure that frees
+    NOMINAL.toml's own parameters (:attr:`rths.diagnose.effects.model.Model.freedoms`: a
+    damping a dissipation law may replace) always fits the identification data at least as
+    well as the one holding them, so it is taken only when it buys them on held-out data: it
+    closes ``price`` per freed parameter of the gap above ``floor`` [unit^2] (the current
+    set's noise floor) that the held structure leaves."""
+    ok = [f for f in fits if f.model.physical(channel, f.params)]
+    fits = ok or fits
+    held = [f for f in fits if f.model.freedoms == 0]
+    freed = [f for f in fits if f.model.freedoms > 0]
+    if not held or not freed:
+        return min(fits, key=lambda f: f.ident_mse)
+    best = min(held, key=lambda f: f.ident_mse)
+    rich = min(freed, key=lambda f: f.ident_mse)
+    left = max(best.held_mse - floor, 1e-300)
+    return rich if best.held_mse - rich.held_mse >= price * rich.model.freedoms * left else best
 
 
 def select(
@@ -272,7 +292,8 @@ def select(
         if not models:
             return None
         tried.add(tuple(sorted((*kept, *add))))
-        fit = _best([fitter(m, channel, base.baseline, starts) for m in models], channel)
+        fits = [fitter(m, channel, base.baseline, starts) for m in models]
+        fit = _best(fits, channel, current_floor, price)
         if not chosen and len(add) == 1:
             singles[add[0]] = fit
         floor = credited_floor(fit.held_mse, noise_floor(fit, channel, seed), current_floor)
@@ -385,6 +406,22 @@ def select(
         chosen, current, current_floor, closed = (), base, n0, 0.0
         verdict = "none"
     evidence = "replay"
+    if verdict == "none" and not chosen and dec.significant:
+        # a significant gap put down to model form: a delay the calibration absorbed is
+        # judged by the paired test, as at the floor
+        hidden = hidden_delay(channel, fitter, base, effects, seed, price)
+        if hidden is not None:
+            fit, floor, gain, _ = hidden
+            _withdraw(candidates)
+            closed = (excess0 - (fit.held_mse - floor)) / excess0
+            candidates.append(Candidate(fit, floor, closed, gain, True, True))
+            chosen, current, current_floor = fit.effects, fit, floor
+            verdict, evidence = fit.effects[0], "paired"
+    if verdict == "unexplained" and covered(channel, base) is not None:
+        # the identification records' coverage: calibrated on every record, no gap is left
+        _withdraw(candidates)
+        chosen, current, current_floor, closed = (), base, n0, 0.0
+        verdict, evidence = "none", "coverage"
     if verdict == "unexplained" and channel.name in SPECTRAL_CHANNELS:
         pick = spectral_choice(channel, base, candidates, price, MIN_CLOSED)
         if pick is not None:  # a contact no replay follows: named by its spectrum
