@@ -2,6 +2,7 @@
 
 signals   zero-phase smoothing, derivatives, white-noise level, TF replay in the DAQ timing
           convention, fractional shifts, the running load amplitude (S0 Eq.17-18's ``A``)
+rest      the transducers' noise colour, read where the records start at rest
 channel   a channel: segments, noise levels, its noise floor; the identification / held-out split
 build     the ``measured`` (actuator), ``force`` and ``displacement`` (specimen, either way round)
           channels built from records against the nominal

@@ -2,15 +2,26 @@
 (:mod:`rths.diagnose.search.selection`): the share of the remaining held-out gap it closes
 (:func:`held_out_gain`), whether that buys its parameters (:func:`buys`), and the rule that a
 general effect holding a special one as a limit (a backlash whose clearance closes is a series
-spring) must buy its extra parameters against the special one (:func:`nested_preferred`).
+spring) must buy its extra parameters against the special one (:func:`nested_preferred`),
+and which of a set's model structures is taken (:func:`best_structure`: one that frees a
+parameter NOMINAL.toml holds must buy it).
 """
 
 from __future__ import annotations
 
+from rths.diagnose.channels.channel import Channel
 from rths.diagnose.effects import EFFECTS, NESTS
+from rths.diagnose.search.identify import Fit
 from rths.diagnose.search.results import Candidate
 
-__all__ = ["NESTED_RESOLUTION", "PRICE", "buys", "held_out_gain", "nested_preferred"]
+__all__ = [
+    "NESTED_RESOLUTION",
+    "PRICE",
+    "best_structure",
+    "buys",
+    "held_out_gain",
+    "nested_preferred",
+]
 
 #: Fraction of the remaining reducible gap an added effect must close per identified parameter.
 PRICE: float = 0.1
@@ -93,3 +104,36 @@ def nested_preferred(
         if not dominated:
             out.append((g, c))
     return out or trials
+
+
+def best_structure(fits: list[Fit], channel: Channel, floor: float, price: float = PRICE) -> Fit:
+    """The structure that fits the identification data best -- among those whose parameters
+    are physical, when any is (a structure that fits better with a clearance below the
+    resolution must not hide one that names a resolved clearance).  A structure that frees
+    NOMINAL.toml's own parameters (:attr:`rths.diagnose.effects.model.Model.freedoms`: a
+    damping a dissipation law may replace) always fits the identification data at least as
+    well as the one holding them, so it is taken only when it buys them on held-out data: it
+    closes ``price`` per freed parameter of the gap above ``floor`` [unit^2] (the current
+    set's noise floor) that the held structure leaves.
+
+    Parameters
+    ----------
+    fits
+        One fit per model structure of a set of effects.
+    channel
+        Their channel.
+    floor
+        The current set's noise floor [unit^2].
+    price
+        :data:`PRICE` (or the caller's).
+    """
+    ok = [f for f in fits if f.model.physical(channel, f.params)]
+    fits = ok or fits
+    held = [f for f in fits if f.model.freedoms == 0]
+    freed = [f for f in fits if f.model.freedoms > 0]
+    if not held or not freed:
+        return min(fits, key=lambda f: f.ident_mse)
+    best = min(held, key=lambda f: f.ident_mse)
+    rich = min(freed, key=lambda f: f.ident_mse)
+    left = max(best.held_mse - floor, 1e-300)
+    return rich if best.held_mse - rich.held_mse >= price * rich.model.freedoms * left else best

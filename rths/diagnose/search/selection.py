@@ -31,7 +31,7 @@ other effect), the set with the special effect in its place and the addition is 
 from that fit, priced by its net added parameters.
 
 After the forward steps, an effect whose removal costs less than :data:`PRICE` per parameter
-of the gap the rest leaves is dropped again (:func:`_prune`).
+of the gap the rest leaves is dropped again (:func:`rths.diagnose.search.pruning.prune`).
 
 Effects that only act together (friction behind a clearance: neither alone describes the
 device) would stall step 2: when no single effect buys its parameters, every compatible pair
@@ -101,10 +101,12 @@ from rths.diagnose.search.identify import Fit, fit_model
 from rths.diagnose.search.pricing import (
     NESTED_RESOLUTION,
     PRICE,
+    best_structure,
     buys,
     held_out_gain,
     nested_preferred,
 )
+from rths.diagnose.search.pruning import prune, withdraw
 from rths.diagnose.search.results import Candidate, ChannelResult, held_parts, held_runs
 from rths.diagnose.search.spectral import SPECTRAL_CHANNELS, spectral_choice
 
@@ -127,97 +129,11 @@ MIN_CLOSED: float = 0.5
 CROSS_FIT: tuple[str, ...] = ("measured",)
 
 
-def _withdraw(candidates: list[Candidate]) -> None:
-    """Mark every accepted candidate as no longer accepted (its set was replaced)."""
-    for i, c in enumerate(candidates):
-        if c.accepted:
-            candidates[i] = Candidate(c.fit, c.floor, c.closed, c.gain, False, True)
-
-
-def _prune(
-    channel: Channel,
-    fitter,
-    base: Fit,
-    state: tuple[Fit, float],
-    chosen: tuple[str, ...],
-    candidates: list[Candidate],
-    excess0: float,
-    n0: float,
-    seed: int,
-    price: float,
-) -> tuple[Fit, float, tuple[str, ...]]:
-    """Backward elimination after the forward steps: an effect of a set of two or more is
-    dropped when the set without it, re-identified from the set's own parameters, leaves a
-    gap the effect does not close :data:`PRICE` per parameter of.  A later step's joint
-    search often refines an earlier effect's parameters (a contact law's exponent found only
-    with a second effect in the search), and the second effect then took credit for that
-    refinement, not for structure of its own.  An effect is also dropped when the set
-    without it already reaches its noise floor (no significant residual): a gain measured
-    against a remaining gap inside the floor's uncertainty is none."""
-    current, current_floor = state
-    while len(chosen) >= 2:
-        dropped = False
-        for e in chosen:
-            rest = tuple(x for x in chosen if x != e)
-            if not compatible(rest):
-                continue
-            models = [
-                m for m in models_for(channel.name, rest) if m.applicable(channel, base.baseline)
-            ]
-            # the set's own structure without the effect (its contact law, where its friction
-            # sits), when there is one: the question is the effect, not the structure
-            same = [m for m in models if m.structure == current.model.structure]
-            models = same or models
-            if not models:
-                continue
-            fits = [fitter(m, channel, base.baseline, [dict(current.theta)]) for m in models]
-            sub = _best(fits, channel, current_floor, price)
-            if not sub.model.physical(channel, sub.params):
-                continue
-            floor = noise_floor(sub, channel, seed)
-            left = max(sub.held_mse - floor, 1e-300)
-            gain = (left - (current.held_mse - current_floor)) / left
-            at_floor = not decompose_fit(channel, sub, floor / max(n0, 1e-300)).significant
-            if at_floor or not buys(gain, left, excess0, EFFECTS[e].n_params, price):
-                for i, c in enumerate(candidates):
-                    if c.accepted and set(c.fit.effects) == set(chosen):
-                        candidates[i] = Candidate(c.fit, c.floor, c.closed, c.gain, False, True)
-                closed = (excess0 - left) / excess0
-                candidates.append(Candidate(sub, floor, closed, -gain, True, True))
-                current, current_floor, chosen = sub, floor, rest
-                dropped = True
-                break
-        if not dropped:
-            break
-    return current, current_floor, chosen
-
-
 def _collapsed(channel: Channel, fit: Fit) -> tuple[str, ...]:
     """The general effects of ``fit`` (:data:`NESTS`) identified at their special case: a
     backlash whose clearance is below the displacement's resolution (a series spring)."""
     gap = fit.params.get("backlash", {}).get("gap")
     return ("backlash",) if gap is not None and not clearance_resolved(channel, gap) else ()
-
-
-def _best(fits: list[Fit], channel: Channel, floor: float, price: float = PRICE) -> Fit:
-    """The structure that fits the identification data best -- among those whose parameters
-    are physical, when any is (a structure that fits better with a clearance below the
-    resolution must not hide one that names a resolved clearance).  A structure that frees
-    NOMINAL.toml's own parameters (:attr:`rths.diagnose.effects.model.Model.freedoms`: a
-    damping a dissipation law may replace) always fits the identification data at least as
-    well as the one holding them, so it is taken only when it buys them on held-out data: it
-    closes ``price`` per freed parameter of the gap above ``floor`` [unit^2] (the current
-    set's noise floor) that the held structure leaves."""
-    ok = [f for f in fits if f.model.physical(channel, f.params)]
-    fits = ok or fits
-    held = [f for f in fits if f.model.freedoms == 0]
-    freed = [f for f in fits if f.model.freedoms > 0]
-    if not held or not freed:
-        return min(fits, key=lambda f: f.ident_mse)
-    best = min(held, key=lambda f: f.ident_mse)
-    rich = min(freed, key=lambda f: f.ident_mse)
-    left = max(best.held_mse - floor, 1e-300)
-    return rich if best.held_mse - rich.held_mse >= price * rich.model.freedoms * left else best
 
 
 def select(
@@ -293,7 +209,7 @@ def select(
             return None
         tried.add(tuple(sorted((*kept, *add))))
         fits = [fitter(m, channel, base.baseline, starts) for m in models]
-        fit = _best(fits, channel, current_floor, price)
+        fit = best_structure(fits, channel, current_floor, price)
         if not chosen and len(add) == 1:
             singles[add[0]] = fit
         floor = credited_floor(fit.held_mse, noise_floor(fit, channel, seed), current_floor)
@@ -355,7 +271,7 @@ def select(
         chosen = cand.fit.effects
         if not decompose_fit(channel, current, current_floor / max(n0, 1e-300)).significant:
             break
-    current, current_floor, chosen = _prune(
+    current, current_floor, chosen = prune(
         channel,
         fitter,
         base,
@@ -378,7 +294,7 @@ def select(
     if finer is not None:  # the nominal's own parameters, calibrated root by root
         refit, model_form = finer
         if refit is not None or (chosen and model_form):  # the common set is replaced
-            _withdraw(candidates)
+            withdraw(candidates)
         if refit is not None:  # the effects hold on the finer calibration: named
             fit, floor, share, gain = refit
             candidates.append(Candidate(fit, floor, share, gain, True, True))
@@ -402,7 +318,7 @@ def select(
     if verdict == "unexplained" and excess0 <= resolution:
         # the model-form allowance (module docstring) also when the effects chosen close less
         # than MIN_CLOSED of a gap within the baseline's resolution: they explain none of it
-        _withdraw(candidates)
+        withdraw(candidates)
         chosen, current, current_floor, closed = (), base, n0, 0.0
         verdict = "none"
     evidence = "replay"
@@ -412,21 +328,21 @@ def select(
         hidden = hidden_delay(channel, fitter, base, effects, seed, price)
         if hidden is not None:
             fit, floor, gain, _ = hidden
-            _withdraw(candidates)
+            withdraw(candidates)
             closed = (excess0 - (fit.held_mse - floor)) / excess0
             candidates.append(Candidate(fit, floor, closed, gain, True, True))
             chosen, current, current_floor = fit.effects, fit, floor
             verdict, evidence = fit.effects[0], "paired"
     if verdict == "unexplained" and covered(channel, base) is not None:
         # the identification records' coverage: calibrated on every record, no gap is left
-        _withdraw(candidates)
+        withdraw(candidates)
         chosen, current, current_floor, closed = (), base, n0, 0.0
         verdict, evidence = "none", "coverage"
     if verdict == "unexplained" and channel.name in SPECTRAL_CHANNELS:
         pick = spectral_choice(channel, base, candidates, price, MIN_CLOSED)
         if pick is not None:  # a contact no replay follows: named by its spectrum
             cand, chosen, _ = pick
-            _withdraw(candidates)
+            withdraw(candidates)
             i = next(j for j, c in enumerate(candidates) if c.fit is cand.fit)
             candidates[i] = Candidate(cand.fit, cand.floor, cand.closed, cand.gain, True, True)
             current, current_floor, closed = cand.fit, cand.floor, max(cand.closed, 0.0)
