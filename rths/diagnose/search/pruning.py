@@ -50,6 +50,7 @@ def prune(
     refinement, not for structure of its own.  An effect is also dropped when the set
     without it already reaches its noise floor (no significant residual): a gain measured
     against a remaining gap inside the floor's uncertainty is none.
+
     Parameters
     ----------
     channel, fitter
