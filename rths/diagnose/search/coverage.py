@@ -11,9 +11,13 @@ re-calibrated on *every* record reaches the noise floor.  The test (:func:`cover
 re-calibrates the baseline by two-fold cross-validation over time blocks of every record
 (:func:`rths.diagnose.search.crossval.cross_fit`: each sample predicted by the fold that did
 not see it, every fold seeing every excitation) and asks whether its out-of-sample residual
-over all scored samples is significant against the same floor.  It is asked only of a gap that
-would otherwise stay ``unexplained``: an effect that closes half of a held-out gap is named as
-before.
+over all scored samples is significant against the same floor.  It is asked of every
+significant force-channel gap before any candidate effect is tried: a candidate would
+otherwise carry the calibration the baseline may not make on one tone (a near-rigid contact or
+a series spring held the inertance the single-tone rule keeps at its nominal, 7 % low, and
+"closed" the held-out record's gap at another frequency).  An effect the nominal lacks leaves
+a gap no calibration of the nominal's own parameters over all records closes -- an
+amplitude law, friction, a clearance, a resonance in the band -- and is searched as before.
 """
 
 from __future__ import annotations

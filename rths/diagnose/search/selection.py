@@ -58,10 +58,10 @@ impacts sample by sample: when the force channel's gap stays ``unexplained``, th
 already identified are judged by the held-out spectrum instead
 (:mod:`rths.diagnose.search.spectral`; ``evidence = "spectrum"``).
 
-A specimen gap that would stay ``unexplained`` while the baseline re-calibrated on every
-record's time blocks (cross-validated) reaches the floor is the identification records'
-coverage -- one tone leaves the inertance against the stiffness undetermined -- not an effect:
-``none`` (:mod:`rths.diagnose.search.coverage`; ``evidence = "coverage"``).
+A significant specimen gap that the baseline re-calibrated on every record's time blocks
+(cross-validated) closes to the floor is the identification records' coverage -- one tone
+leaves the inertance against the stiffness undetermined -- not an effect: ``none``, before
+any candidate is tried (:mod:`rths.diagnose.search.coverage`; ``evidence = "coverage"``).
 
 A delay the common factors and the alignment absorbed to the noise floor -- or to within the
 model-form allowance -- is judged against the root-by-root calibration by a paired test of
@@ -175,6 +175,10 @@ def select(
         candidates.append(Candidate(fit, floor, closed, gain, True, True))
         res = base.model.resolution(channel, base.prediction)
         args = (candidates, fit.effects, fit, closed, fit.effects[0], res, "paired")
+        return ChannelResult(channel, base, n0, dec, *args)
+    if covered(channel, base) is not None:
+        # the identification records' coverage: calibrated on every record, no gap is left
+        args = (candidates, (), base, 0.0, "none", 0.0, "coverage")
         return ChannelResult(channel, base, n0, dec, *args)
     names = [e for e in effects if e in CHANNEL_EFFECTS[channel.name]]
     # general effects first: a special case starts also from its general fit (NESTS)
@@ -333,11 +337,6 @@ def select(
             candidates.append(Candidate(fit, floor, closed, gain, True, True))
             chosen, current, current_floor = fit.effects, fit, floor
             verdict, evidence = fit.effects[0], "paired"
-    if verdict == "unexplained" and covered(channel, base) is not None:
-        # the identification records' coverage: calibrated on every record, no gap is left
-        withdraw(candidates)
-        chosen, current, current_floor, closed = (), base, n0, 0.0
-        verdict, evidence = "none", "coverage"
     if verdict == "unexplained" and channel.name in SPECTRAL_CHANNELS:
         pick = spectral_choice(channel, base, candidates, price, MIN_CLOSED)
         if pick is not None:  # a contact no replay follows: named by its spectrum
