@@ -232,6 +232,13 @@ class RootwiseActuator(ActuatorModel):
 
     def __init__(self, effects: tuple[str, ...] = ()) -> None:
         super().__init__(effects)
+        # alone, three coordinate sweeps before the refinement (the whole range, then finer
+        # around the best): the roots' factors are ill-conditioned together (a slow pole-zero
+        # pair moves the gain far faster than the other roots; the trust-region step stopped
+        # at 900 times the truth's cost).  With an effect the search starts from this fit
+        # (:mod:`rths.diagnose.search.calibrated`): sweeping the roots before the delay let
+        # them take half a 5-sample delay's lag
+        self.sweeps = 0 if effects else 3
 
     def space(self, channel: Channel) -> list[Param]:
         a = channel.nominal.actuator

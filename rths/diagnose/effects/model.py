@@ -98,6 +98,9 @@ class Model(ABC):
     #: (:mod:`rths.diagnose.search.identify`); False: the whole identification records, for a
     #: law whose parameters only the records' whole range of amplitude shows.
     windowed: bool = True
+    #: Coordinate sweeps over every parameter's range before the refinement
+    #: (:func:`rths.diagnose.search.refine.coordinate_sweep`; 0: none).
+    sweeps: int = 0
 
     def __init__(self, effects: tuple[str, ...] = ()) -> None:
         self.effects = tuple(effects)

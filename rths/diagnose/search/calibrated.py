@@ -162,7 +162,7 @@ def finer_calibration(
     seed: int,
     price: float,
     min_closed: float,
-) -> tuple[tuple[Fit, float, float, float] | None, bool] | None:
+) -> tuple[tuple[Fit, float, float, float] | None, bool, bool] | None:
     """The channel's effects judged against the root-by-root calibration (module docstring).
 
     The set is identified together with the root-by-root calibration, warm-started from the
@@ -189,13 +189,14 @@ def finer_calibration(
     Returns
     -------
     tuple or None
-        None when the channel has no finer calibration; else ``(refit, model_form)``.
+        None when the channel has no finer calibration; else ``(refit, model_form,
+        closes)``.
         ``refit = (fit, floor, closed, gain)`` when the set with the root-by-root calibration
         is physical, closes ``min_closed`` of the gap and buys its parameters against that
         calibration alone (``price`` per parameter of the gap it leaves; an effect the
         common factors did not select must close ``min_closed`` of it), else None.
-        ``model_form``: the root-by-root calibration alone closes ``min_closed`` of the gap
-        without taking on a sample of lag in all
+        ``closes``: the root-by-root calibration alone closes ``min_closed`` of the gap;
+        ``model_form``: it does so without taking on a sample of lag in all
         (:meth:`rths.diagnose.effects.calibration.RootwiseActuator.lagging`: a hidden delay).
     """
     alone = calibration_for(channel.name)
@@ -223,12 +224,17 @@ def finer_calibration(
         floor = noise_floor(fit, channel, seed)
         closed = (excess0 - (fit.held_mse - floor)) / excess0
         gain = (left0 - (fit.held_mse - floor)) / left0
-        need = price * sum(EFFECTS[e].n_params for e in effect_set)
+        n_params = sum(EFFECTS[e].n_params for e in effect_set)
+        # the selection's price (:func:`rths.diagnose.search.pricing.buys`): of what the
+        # calibration leaves, or of NESTED_RESOLUTION of the channel's gap when less is left
+        # (a 1.04-sample delay beside poles at their bounds bought 10 % of a remainder that
+        # was 0.06 % of the gap, within the floor's uncertainty)
+        bought = buys(gain, left0, excess0, n_params, price)
         if not chosen:
-            need = max(need, min_closed)
-        if closed >= min_closed and gain >= need and (best is None or closed > best[2]):
+            bought = bought and gain >= min_closed
+        if closed >= min_closed and bought and (best is None or closed > best[2]):
             best = (fit, floor, closed, gain)
-    return best, model_form
+    return best, model_form, closes
 
 
 def _rootwise_starts(
@@ -258,11 +264,15 @@ def hidden_delay(
     effects: tuple[str, ...],
     seed: int,
     price: float,
+    at_bound: bool = True,
+    excess0: float | None = None,
 ) -> tuple[Fit, float, float, float] | None:
     """A delay the common re-calibration absorbed to the noise floor (module docstring).
 
     Tried only when the channel has a root-by-root calibration, ``actuator_delay`` is a
-    candidate and the baseline's alignment reached its lag bound (one sample).
+    candidate and (``at_bound``) the baseline's alignment reached its lag bound (one sample).
+    Without ``at_bound``: a delay the common factors named, which the root-by-root
+    calibration absorbs while taking on a sample of lag, is judged by the same paired test.
 
     Parameters
     ----------
@@ -275,6 +285,12 @@ def hidden_delay(
         The candidate effects of the diagnosis.
     seed, price
         As for :func:`rths.diagnose.search.selection.select`.
+    at_bound
+        Ask for the baseline's alignment at its lag bound.
+    excess0
+        The channel's reducible gap [m^2] when it is significant (the price is then also
+        :data:`rths.diagnose.search.pricing.NESTED_RESOLUTION` of it); None: at the floor,
+        the calibration's own remainder prices the delay.
 
     Returns
     -------
@@ -286,7 +302,7 @@ def hidden_delay(
     alone = calibration_for(channel.name)
     if alone is None or "actuator_delay" not in effects:
         return None
-    if float(base.theta.get("shift", 0.0)) < AT_LAG_BOUND:
+    if at_bound and float(base.theta.get("shift", 0.0)) < AT_LAG_BOUND:
         return None  # the alignment did not reach its lag bound: no lag wanted beyond it
     cal0 = fitter(alone, channel, base.baseline)
     check = calibration_for(channel.name, ("actuator_delay",))
@@ -298,6 +314,7 @@ def hidden_delay(
     floor = noise_floor(fit, channel, seed)
     gain = (left0 - (fit.held_mse - floor)) / left0
     _, z = paired_gain(channel, cal0, fit)
-    if z < PAIRED_Z or not buys(gain, left0, left0, EFFECTS["actuator_delay"].n_params, price):
+    gap = left0 if excess0 is None else excess0
+    if z < PAIRED_Z or not buys(gain, left0, gap, EFFECTS["actuator_delay"].n_params, price):
         return None
     return fit, floor, gain, z

@@ -11,7 +11,8 @@ least-squares solution, so the search runs over ``theta`` only, in three stages:
    amplitude the records hold);
 2. refine (:mod:`rths.diagnose.search.refine`): ``scipy.optimize.least_squares``
    (trust-region reflective, bounded, on the log scale for log parameters) from the
-   :data:`REFINE_STARTS` best distinct points, on longer windows (:data:`REFINE_SECONDS`);
+   :data:`REFINE_STARTS` best distinct points, on longer windows (:data:`REFINE_SECONDS`),
+   after coordinate sweeps for a model that asks for them (an ill-conditioned surface);
    kinked cost surfaces (dead zones, limiters) are polished by Nelder-Mead;
 3. final: ``beta`` on all identification samples, predictions of every record, held-out
    residuals with each held-out record's offset calibrated on that record (its mean residual).
@@ -36,7 +37,7 @@ from rths.core.errors import NumericalError
 from rths.diagnose.channels.channel import Channel, Segment
 from rths.diagnose.effects.model import Model, Theta
 from rths.diagnose.search.bounded import box_bounds, ridge_box_lstsq
-from rths.diagnose.search.refine import Coords, grid_points, refine
+from rths.diagnose.search.refine import Coords, coordinate_sweep, grid_points, refine
 
 __all__ = [
     "REFINE_SECONDS",
@@ -287,6 +288,8 @@ def fit_model(
         longer = _Problem(model, channel, windows, stride)
         best, best_cost = None, math.inf
         for z0 in picked:
+            if model.sweeps:
+                z0 = coordinate_sweep(longer, coords, z0, model.sweeps)
             z, c = refine(longer, coords, z0, model.polish)
             if c < best_cost:
                 best, best_cost = z, c

@@ -290,14 +290,16 @@ def select(
     closed = (excess0 - (current.held_mse - current_floor)) / excess0
     verdict = chosen[0] if chosen and closed >= MIN_CLOSED else "unexplained"
     resolution = base.model.resolution(channel, base.prediction)
-    finer = None
+    evidence = "replay"
+    finer, lagged = None, False
     if needs_finer(channel, current, chosen, closed, MIN_CLOSED):
         finer = finer_calibration(
             channel, fitter, (base, current), (excess0, n0), effects, seed, price, MIN_CLOSED
         )
     if finer is not None:  # the nominal's own parameters, calibrated root by root
-        refit, model_form = finer
-        if refit is not None or (chosen and model_form):  # the common set is replaced
+        refit, model_form, closes = finer
+        lagged = refit is None and closes and not model_form and "actuator_delay" in chosen
+        if refit is not None or (chosen and model_form) or lagged:  # the common set is replaced
             withdraw(candidates)
         if refit is not None:  # the effects hold on the finer calibration: named
             fit, floor, share, gain = refit
@@ -308,6 +310,19 @@ def select(
         elif chosen and model_form:  # the finer calibration alone closes it: no effect
             chosen, current, current_floor, closed = (), base, n0, 0.0
             verdict = "none"
+        elif lagged:
+            # the finer calibration closes the gap with a sample of lag or more, and the
+            # delay tested against it buys nothing: the paired test decides, as at the floor
+            chosen, current, current_floor, closed = (), base, n0, 0.0
+            verdict = "none"
+            hidden = hidden_delay(
+                channel, fitter, base, effects, seed, price, at_bound=False, excess0=excess0
+            )
+            if hidden is not None:
+                fit, current_floor, gain, _ = hidden
+                closed = (excess0 - (fit.held_mse - current_floor)) / excess0
+                candidates.append(Candidate(fit, current_floor, closed, gain, True, True))
+                chosen, current, verdict, evidence = fit.effects, fit, fit.effects[0], "paired"
         elif not chosen and (excess0 <= resolution or model_form):
             verdict = "none"  # the model-form allowance (module docstring)
     elif not chosen and excess0 <= resolution:
@@ -325,8 +340,7 @@ def select(
         withdraw(candidates)
         chosen, current, current_floor, closed = (), base, n0, 0.0
         verdict = "none"
-    evidence = "replay"
-    if verdict == "none" and not chosen and dec.significant:
+    if verdict == "none" and not chosen and dec.significant and not lagged:
         # a significant gap put down to model form: a delay the calibration absorbed is
         # judged by the paired test, as at the floor
         hidden = hidden_delay(channel, fitter, base, effects, seed, price)
