@@ -288,8 +288,8 @@ def fit_model(
         longer = _Problem(model, channel, windows, stride)
         best, best_cost = None, math.inf
         for z0 in picked:
-            if model.sweeps:
-                z0 = coordinate_sweep(longer, coords, z0, model.sweeps)
+            if model.sweeps:  # on the search windows: a coarse stage
+                z0 = coordinate_sweep(search, coords, z0, model.sweeps)
             z, c = refine(longer, coords, z0, model.polish)
             if c < best_cost:
                 best, best_cost = z, c

@@ -162,12 +162,22 @@ def select(
     """
     fitter = cross_fit if channel.name in CROSS_FIT else fit_model
     base = fitter(baseline_for(channel.name), channel)
+    memo: dict[str, Fit] = {}
+
+    def calibrated() -> Fit:
+        """The root-by-root calibration alone (identified once per channel)."""
+        if "rootwise" not in memo:
+            check = calibration_for(channel.name)
+            assert check is not None
+            memo["rootwise"] = fitter(check, channel, base.baseline)
+        return memo["rootwise"]
+
     n0 = noise_floor(base, channel, seed)
     dec = decompose_fit(channel, base)
     excess0 = base.held_mse - n0
     candidates: list[Candidate] = []
     if not dec.significant or excess0 <= 0.0:
-        hidden = hidden_delay(channel, fitter, base, effects, seed, price)
+        hidden = hidden_delay(channel, fitter, base, effects, seed, price, calibrated=calibrated)
         if hidden is None:
             return ChannelResult(channel, base, n0, dec, candidates, (), base, 0.0, "none")
         fit, floor, gain, _ = hidden  # a delay the calibration absorbed to the floor
@@ -294,7 +304,15 @@ def select(
     finer, lagged = None, False
     if needs_finer(channel, current, chosen, closed, MIN_CLOSED):
         finer = finer_calibration(
-            channel, fitter, (base, current), (excess0, n0), effects, seed, price, MIN_CLOSED
+            channel,
+            fitter,
+            (base, current),
+            (excess0, n0),
+            effects,
+            seed,
+            price,
+            MIN_CLOSED,
+            calibrated,
         )
     if finer is not None:  # the nominal's own parameters, calibrated root by root
         refit, model_form, closes = finer
@@ -316,7 +334,7 @@ def select(
             chosen, current, current_floor, closed = (), base, n0, 0.0
             verdict = "none"
             hidden = hidden_delay(
-                channel, fitter, base, effects, seed, price, at_bound=False, excess0=excess0
+                channel, fitter, base, effects, seed, price, False, excess0, calibrated
             )
             if hidden is not None:
                 fit, current_floor, gain, _ = hidden
@@ -330,7 +348,7 @@ def select(
     elif not chosen and verdict == "unexplained":
         check = calibration_for(channel.name)
         if check is not None:  # the nominal's own parameters, calibrated root by root
-            cal = fitter(check, channel, base.baseline)
+            cal = calibrated()
             closes = excess0 - (cal.held_mse - n0) >= MIN_CLOSED * excess0
             if closes and not check.lagging(channel, cal.theta):
                 verdict = "none"
@@ -343,7 +361,7 @@ def select(
     if verdict == "none" and not chosen and dec.significant and not lagged:
         # a significant gap put down to model form: a delay the calibration absorbed is
         # judged by the paired test, as at the floor
-        hidden = hidden_delay(channel, fitter, base, effects, seed, price)
+        hidden = hidden_delay(channel, fitter, base, effects, seed, price, calibrated=calibrated)
         if hidden is not None:
             fit, floor, gain, _ = hidden
             withdraw(candidates)
