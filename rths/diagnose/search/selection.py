@@ -316,7 +316,7 @@ def select(
         )
     if finer is not None:  # the nominal's own parameters, calibrated root by root
         refit, model_form, closes = finer
-        lagged = refit is None and closes and not model_form and "actuator_delay" in chosen
+        lagged = refit is None and closes and not model_form and chosen == ("actuator_delay",)
         if refit is not None or (chosen and model_form) or lagged:  # the common set is replaced
             withdraw(candidates)
         if refit is not None:  # the effects hold on the finer calibration: named
