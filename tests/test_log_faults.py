@@ -207,13 +207,18 @@ while seen == 0:  # the loop runs and its first chunk is on the disk: woken by e
     ready, _, _ = select.select([writes, ended], [], [], 120)
     assert ready, "the run wrote nothing"
     assert ended not in ready, run.communicate()[1]
+    # held at once, before the log is read: a slow read (a loaded machine) cannot let the
+    # run end meanwhile; held on while the disk fills, so it cannot finish then either
+    os.kill(run.pid, signal.SIGSTOP)
+    _, status = os.waitpid(run.pid, os.WUNTRACED)  # returns once it is stopped (not reaped)
+    assert os.WIFSTOPPED(status), f"the run ended before it was held: status {status}"
     os.read(writes, 1 << 16)  # the events themselves say nothing more: read the log
     try:
         seen = read_topic(log, "rths/loop")["sequence"].size
     except DataError:
         seen = 0
-os.kill(run.pid, signal.SIGSTOP)  # held while the disk fills: it cannot finish meanwhile
-os.waitpid(run.pid, os.WUNTRACED)  # returns once it is stopped (not reaped)
+    if seen == 0:
+        os.kill(run.pid, signal.SIGCONT)
 with open(os.path.join(disk, "filler"), "wb") as f:  # another process fills the disk
     for margin in (1 << 20, 2 << 20, 4 << 20):  # < the 8 MiB reserve: the run must stop
         st = os.statvfs(disk)
@@ -243,11 +248,11 @@ def test_a_real_full_disk_stops_the_run_with_a_whole_log(tmp_path):
     disk = tmp_path / "disk"
     disk.mkdir()
     scenario = tmp_path / "s.toml"
-    # its whole log would fit the disk with the reserve; the run is stopped (SIGSTOP) as soon
-    # as its first rows are on the disk and held while the disk is filled, so it cannot finish
-    # first however fast it runs.  A rate limiter (never reached at 1 m/s) keeps the loop on
-    # its Python path (no compiled step), which leaves the watcher seconds to see them (it
-    # waited for 2000 rows once, and a loaded machine let the run end first now and then).
+    # its whole log would fit the disk with the reserve; the run is stopped (SIGSTOP) at each
+    # write to the disk, before the log is read, until its first rows are there, and held while
+    # the disk is filled, so it cannot finish first however fast it runs (reading the log while
+    # the run went on let a loaded CI machine's run end first).  A rate limiter (never reached
+    # at 1 m/s) keeps the loop on its Python path (no compiled step): seconds of run.
     limited = {r'^preset = "mts_identified".*$': 'preset = "mts_identified"\nvelocity_limit = 1.0'}
     scenario.write_text(short(30.0, **limited))
     script = tmp_path / "fill.py"
