@@ -162,7 +162,7 @@ def finer_calibration(
     seed: int,
     price: float,
     min_closed: float,
-    calibrated: Callable[[], Fit] | None = None,
+    calibrated: Callable[[], Fit],
 ) -> tuple[tuple[Fit, float, float, float] | None, bool, bool] | None:
     """The channel's effects judged against the root-by-root calibration (module docstring).
 
@@ -188,7 +188,7 @@ def finer_calibration(
         :data:`rths.diagnose.search.selection.MIN_CLOSED`.
     calibrated
         Returns the root-by-root calibration alone's fit (the caller's memo: it is shared
-        with :func:`hidden_delay`); None: identified here.
+        with :func:`hidden_delay`).
 
     Returns
     -------
@@ -209,7 +209,7 @@ def finer_calibration(
     base, current = fits
     chosen = current.effects
     excess0, n0 = gap
-    cal0 = calibrated() if calibrated is not None else fitter(alone, channel, base.baseline)
+    cal0 = calibrated()
     closes = excess0 - (cal0.held_mse - n0) >= min_closed * excess0
     model_form = closes and not alone.lagging(channel, cal0.theta)
     left0 = max(cal0.held_mse - noise_floor(cal0, channel, seed), 1e-300)
@@ -268,9 +268,9 @@ def hidden_delay(
     effects: tuple[str, ...],
     seed: int,
     price: float,
+    calibrated: Callable[[], Fit],
     at_bound: bool = True,
     excess0: float | None = None,
-    calibrated: Callable[[], Fit] | None = None,
 ) -> tuple[Fit, float, float, float] | None:
     """A delay the common re-calibration absorbed to the noise floor (module docstring).
 
@@ -290,14 +290,14 @@ def hidden_delay(
         The candidate effects of the diagnosis.
     seed, price
         As for :func:`rths.diagnose.search.selection.select`.
+    calibrated
+        As for :func:`finer_calibration`.
     at_bound
         Ask for the baseline's alignment at its lag bound.
     excess0
         The channel's reducible gap [m^2] when it is significant (the price is then also
         :data:`rths.diagnose.search.pricing.NESTED_RESOLUTION` of it); None: at the floor,
         the calibration's own remainder prices the delay.
-    calibrated
-        As for :func:`finer_calibration`.
 
     Returns
     -------
@@ -311,7 +311,7 @@ def hidden_delay(
         return None
     if at_bound and float(base.theta.get("shift", 0.0)) < AT_LAG_BOUND:
         return None  # the alignment did not reach its lag bound: no lag wanted beyond it
-    cal0 = calibrated() if calibrated is not None else fitter(alone, channel, base.baseline)
+    cal0 = calibrated()
     check = calibration_for(channel.name, ("actuator_delay",))
     assert check is not None
     fit = fitter(check, channel, base.baseline, _rootwise_starts(check, channel, base, cal0, base))

@@ -80,6 +80,8 @@ time blocks of every record (:func:`rths.diagnose.search.crossval.cross_fit`).
 
 from __future__ import annotations
 
+import functools
+
 from rths.diagnose.channels.channel import Channel
 from rths.diagnose.effects import (
     CHANNEL_EFFECTS,
@@ -162,22 +164,20 @@ def select(
     """
     fitter = cross_fit if channel.name in CROSS_FIT else fit_model
     base = fitter(baseline_for(channel.name), channel)
-    memo: dict[str, Fit] = {}
 
+    @functools.cache
     def calibrated() -> Fit:
         """The root-by-root calibration alone (identified once per channel)."""
-        if "rootwise" not in memo:
-            check = calibration_for(channel.name)
-            assert check is not None
-            memo["rootwise"] = fitter(check, channel, base.baseline)
-        return memo["rootwise"]
+        check = calibration_for(channel.name)
+        assert check is not None
+        return fitter(check, channel, base.baseline)
 
     n0 = noise_floor(base, channel, seed)
     dec = decompose_fit(channel, base)
     excess0 = base.held_mse - n0
     candidates: list[Candidate] = []
     if not dec.significant or excess0 <= 0.0:
-        hidden = hidden_delay(channel, fitter, base, effects, seed, price, calibrated=calibrated)
+        hidden = hidden_delay(channel, fitter, base, effects, seed, price, calibrated)
         if hidden is None:
             return ChannelResult(channel, base, n0, dec, candidates, (), base, 0.0, "none")
         fit, floor, gain, _ = hidden  # a delay the calibration absorbed to the floor
@@ -330,17 +330,9 @@ def select(
             verdict = "none"
         elif lagged:
             # the finer calibration closes the gap with a sample of lag or more, and the
-            # delay tested against it buys nothing: the paired test decides, as at the floor
+            # delay tested against it buys nothing: the paired test decides (below)
             chosen, current, current_floor, closed = (), base, n0, 0.0
             verdict = "none"
-            hidden = hidden_delay(
-                channel, fitter, base, effects, seed, price, False, excess0, calibrated
-            )
-            if hidden is not None:
-                fit, current_floor, gain, _ = hidden
-                closed = (excess0 - (fit.held_mse - current_floor)) / excess0
-                candidates.append(Candidate(fit, current_floor, closed, gain, True, True))
-                chosen, current, verdict, evidence = fit.effects, fit, fit.effects[0], "paired"
         elif not chosen and (excess0 <= resolution or model_form):
             verdict = "none"  # the model-form allowance (module docstring)
     elif not chosen and excess0 <= resolution:
@@ -358,10 +350,20 @@ def select(
         withdraw(candidates)
         chosen, current, current_floor, closed = (), base, n0, 0.0
         verdict = "none"
-    if verdict == "none" and not chosen and dec.significant and not lagged:
-        # a significant gap put down to model form: a delay the calibration absorbed is
-        # judged by the paired test, as at the floor
-        hidden = hidden_delay(channel, fitter, base, effects, seed, price, calibrated=calibrated)
+    if verdict == "none" and not chosen and dec.significant:
+        # a significant gap put down to model form (or to the lagging finer calibration): a
+        # delay the calibration absorbed is judged by the paired test, as at the floor
+        hidden = hidden_delay(
+            channel,
+            fitter,
+            base,
+            effects,
+            seed,
+            price,
+            calibrated,
+            not lagged,
+            excess0 if lagged else None,
+        )
         if hidden is not None:
             fit, floor, gain, _ = hidden
             withdraw(candidates)
