@@ -71,7 +71,11 @@ def test_json_keys_follow_the_contract(case_dir, capsys):
 
 
 def test_plots_and_quiet(case_dir, tmp_path, capsys):
-    assert main(_args(case_dir, "--plots", str(tmp_path), "--quiet")) == 0
+    # the figures, not the selection, are under test: the delay alone is a candidate
+    assert (
+        main(_args(case_dir, "--plots", str(tmp_path), "--quiet", "--effects", "actuator_delay"))
+        == 0
+    )
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].startswith("verdict: actuator_delay")
     for name in ("residual_time", "residual_spectrum", "ranking", "overlay"):
@@ -108,6 +112,14 @@ def test_errors_are_one_line_with_exit_code_2(case_dir, tmp_path, capsys):
         "non-uniform sampling",
     )
     _one_line_error(capsys, _args(case_dir, "--effects", "wobble"), "unknown effect 'wobble'")
+    _one_line_error(capsys, _args(case_dir, "--cutoff", "600"), "smoothing cutoff must lie in")
+
+
+def test_a_bad_cutoff_is_refused_before_any_identification(case_dir, capsys, monkeypatch):
+    def no_selection(*args, **kwargs):
+        raise AssertionError("a channel was identified before the cutoff was checked")
+
+    monkeypatch.setattr("rths.diagnose.verdict.select", no_selection)
     _one_line_error(capsys, _args(case_dir, "--cutoff", "600"), "smoothing cutoff must lie in")
 
 

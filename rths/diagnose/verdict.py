@@ -37,6 +37,7 @@ from rths.diagnose.channels.build import (
     specimen_channel,
 )
 from rths.diagnose.channels.channel import DEFAULT_CUTOFF
+from rths.diagnose.channels.signals import smoother
 from rths.diagnose.data.nominal import NominalModel
 from rths.diagnose.data.records import Record
 from rths.diagnose.effects import EFFECTS
@@ -212,6 +213,9 @@ def diagnose(
 
 
 def _diagnose(records: list[Record], nominal: NominalModel, options: Options) -> Diagnosis:
+    if options.cutoff is not None:  # a bad cutoff is refused before any identification
+        for dt in {r.dt for r in records}:
+            smoother(options.cutoff, dt)
     cutoff0 = options.cutoff or DEFAULT_CUTOFF
     held = options.held_out
     transfer = select(
