@@ -213,3 +213,20 @@ def test_a_displacement_view_with_no_live_held_out_force_is_left_out():
     d = diagnose(records, _nominal(case))
     assert "displacement" not in d.channels and {"measured", "force"} <= set(d.channels)
     assert d.verdict in (*EFFECTS, "none", "unexplained")
+
+
+def test_model_form_is_a_significant_none_left_to_the_baseline_not_to_coverage():
+    """``model_form`` (JSON and table): the channel's verdict is ``none`` although its gap is
+    significant -- unless the records' coverage, not the model, explained it."""
+    from types import SimpleNamespace
+
+    from rths.diagnose.search.results import ChannelResult
+
+    def result(significant: bool, verdict: str, evidence: str) -> ChannelResult:
+        dec = SimpleNamespace(significant=significant)
+        return ChannelResult(None, None, 0.0, dec, [], (), None, 0.0, verdict, 0.0, evidence)  # type: ignore[arg-type]
+
+    assert result(True, "none", "replay").model_form
+    assert not result(True, "none", "coverage").model_form
+    assert not result(False, "none", "replay").model_form  # at the floor
+    assert not result(True, "unexplained", "replay").model_form

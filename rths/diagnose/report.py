@@ -72,6 +72,8 @@ def table(d: Diagnosis) -> str:
         dec = c.decomposition
         band = f"{dec.band_hz[0]:.3g}-{dec.band_hz[1]:.3g}" if dec.significant else "-"
         effects = " + ".join(c.effects) if c.effects else c.verdict
+        if c.model_form:  # a significant gap within the baseline's model-form resolution
+            effects += " (model form)"
         if c.evidence != "replay":
             effects += f" (by the {_EVIDENCE.get(c.evidence, c.evidence)})"
         lines.append(
@@ -93,6 +95,12 @@ def table(d: Diagnosis) -> str:
     lines.append("")
     if d.verdict in ("none", "unexplained") and d.subsystem == "none":
         lines.append(f"verdict: {d.verdict}")
+        form = [name for name, c in d.channels.items() if c.model_form]
+        if d.verdict == "none" and form:
+            lines.append(
+                f"  significant gap left to the nominal's model form in: {', '.join(form)} "
+                "(no candidate buys its parameters; see 'model_form' in the JSON)"
+            )
     elif d.verdict == "unexplained":
         lines.append(
             f"verdict: unexplained gap in the {d.subsystem} ({d.gap_channel} channel, "

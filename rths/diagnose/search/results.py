@@ -101,8 +101,13 @@ class ChannelResult:
 
     @property
     def model_form(self) -> bool:
-        """Whether the channel's significant gap was put down to the baseline's model form."""
-        return self.verdict == "none" and self.decomposition.significant
+        """Whether the channel's significant gap was put down to the baseline's model form (not
+        to the identification records' coverage, ``evidence = "coverage"``)."""
+        return (
+            self.verdict == "none"
+            and self.decomposition.significant
+            and self.evidence != "coverage"
+        )
 
     @property
     def excess(self) -> float:
