@@ -325,12 +325,10 @@ def select(
             current, current_floor, closed = fit, floor, share
             chosen = fit.effects
             verdict = chosen[0]
-        elif chosen and model_form:  # the finer calibration alone closes it: no effect
-            chosen, current, current_floor, closed = (), base, n0, 0.0
-            verdict = "none"
-        elif lagged:
-            # the finer calibration closes the gap with a sample of lag or more, and the
-            # delay tested against it buys nothing: the paired test decides (below)
+        elif (chosen and model_form) or lagged:
+            # the finer calibration alone closes it: no effect -- or it closes it with a
+            # sample of lag or more and the delay tested against it buys nothing, and the
+            # paired test decides (below)
             chosen, current, current_floor, closed = (), base, n0, 0.0
             verdict = "none"
         elif not chosen and (excess0 <= resolution or model_form):
