@@ -1,5 +1,6 @@
-"""Two gaps that are no effect: coloured transducer noise (read where the records start at
-rest) and a held-out record at frequencies the identification records did not cover."""
+"""Three gaps that are no effect: coloured transducer noise (read where the records start at
+rest), a held-out record at frequencies the identification records did not cover, and a force
+read a fraction of a sample ahead of its displacement."""
 
 from __future__ import annotations
 
@@ -7,12 +8,13 @@ import math
 
 import numpy as np
 import pytest
-from scipy import signal
+from scipy import interpolate, signal
 
 from rths.diagnose.channels import specimen_channel
 from rths.diagnose.channels.rest import COLOUR_Z, leading_rest, rest_spectra
 from rths.diagnose.data.nominal import ActuatorNominal, NominalModel, SpecimenNominal
 from rths.diagnose.data.records import Record
+from rths.diagnose.effects.specimen import ALIGNMENT_SAMPLES, RigidSpecimen
 from rths.diagnose.search.selection import select
 
 FS = 1024.0
@@ -136,3 +138,53 @@ def test_a_held_out_band_the_identification_did_not_cover_is_calibration():
     assert res.decomposition.significant  # the record hold-out does show a gap
     assert res.verdict == "none" and res.evidence == "coverage"
     assert res.baseline.baseline["inertance"] == pytest.approx(1.07 * m, rel=1e-6)
+
+
+def _shifted_records(rng: np.random.Generator, lead: float, m: float = 570.0, k: float = 3e5):
+    """Four band-limited random records (0.5-12 Hz, 3 mm) of a rigid specimen ``m a + k x``
+    after 0.5 s at rest whose force is read ``lead`` samples ahead of the displacement (a
+    displacement conditioner's group delay beyond the load cell's), 0.5 N of force noise and
+    1.5 um of displacement noise."""
+    band = signal.butter(4, [0.5, 12.0], "bandpass", fs=FS, output="sos")
+    out = []
+    for i in range(4):
+        n = int(8 * FS)
+        t = DT * np.arange(n)
+        x = signal.sosfiltfilt(band, rng.standard_normal(n))
+        s = np.clip(t / 0.5, 0.0, 1.0)
+        x *= 3e-3 / np.std(x) * s**3 * (10.0 - 15.0 * s + 6.0 * s**2)
+        spline = interpolate.CubicSpline(t, x)
+        ahead = t + lead * DT
+        force = m * spline(ahead, 2) + k * spline(ahead) + 0.5 * rng.standard_normal(n)
+        rec = _record(f"r{i}", x, force, 512)
+        noise = 1.5e-6 * rng.standard_normal(rec.n)
+        out.append(Record(rec.name, DT, rec.time, rec.command, rec.measured + noise, rec.force))
+    return out
+
+
+def test_a_force_read_a_fraction_of_a_sample_ahead_is_calibration(monkeypatch):
+    """The force read 0.6 samples ahead of the displacement (conditioners of different group
+    delay: the independent generator's LVDT demodulator against its load cell) is the
+    baseline's calibration, like the actuator channel's one-sample alignment: the channel is
+    at its floor and the alignment is read back to 0.05 samples (its regressor is the
+    nominal force's rate; the first-order remainder ``(w s dt)^2 / 2`` is 1e-3 of the force
+    at 12 Hz, below the noise).  Without the alignment the same residual is a significant gap
+    (the false ``unexplained`` it guards against); a lead of three samples is no calibration:
+    the alignment stops at its one-sample bound and the gap stays."""
+    nominal = NominalModel(UNIT, SpecimenNominal(570.0, 0.0, 3e5))
+    channel = specimen_channel(_shifted_records(np.random.default_rng(5), 0.6), nominal, 30.0)
+    res = select(channel, ("coulomb_friction",))
+    assert res.verdict == "none" and not res.decomposition.significant
+    assert res.baseline.baseline["alignment"] == pytest.approx(0.6 * DT, abs=0.05 * DT)
+
+    far = specimen_channel(_shifted_records(np.random.default_rng(5), 3.0), nominal, 30.0)
+    held = select(far, ("coulomb_friction",))
+    assert held.decomposition.significant
+    assert held.baseline.baseline["alignment"] == pytest.approx(ALIGNMENT_SAMPLES * DT)
+
+    def unaligned(self, channel):
+        return np.zeros(self.prior(channel).size)
+
+    monkeypatch.setattr(RigidSpecimen, "limits", unaligned)
+    again = specimen_channel(_shifted_records(np.random.default_rng(5), 0.6), nominal, 30.0)
+    assert select(again, ("coulomb_friction",)).decomposition.significant

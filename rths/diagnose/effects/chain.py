@@ -17,7 +17,9 @@ c_2)`` (S0 Eq.17-18).  The body inertance ``m`` and a direct inertance ``m_r`` a
 element (a rod, a load-cell adapter) are linear; the rest is searched.  For fixed per-mass
 parameters the force is linear in ``m``.  Friction may also sit at the driven end, ahead of the
 element (a seal, a guide: S0 Eq.1's ``F_r``), as a second structure (``friction_at="drive"``):
-then it is the rigid family's linear term ``F_c phi(x; delta)``.
+then it is the rigid family's linear term ``F_c phi(x; delta)``.  The force's alignment to
+its drive (within one sample) is the rigid baseline's linear term
+(:func:`rths.diagnose.effects.specimen.alignment_column`).
 """
 
 from __future__ import annotations
@@ -32,8 +34,10 @@ from rths.diagnose.channels.channel import Channel, Segment
 from rths.diagnose.effects.kernels import series_chain
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
 from rths.diagnose.effects.specimen import (
+    ALIGNMENT_SAMPLES,
     NOMINAL_PRESLIDING,
     NOMINAL_TOLERANCE,
+    alignment_column,
     amplitude,
     amplitude_space,
     clearance_resolved,
@@ -42,6 +46,7 @@ from rths.diagnose.effects.specimen import (
     friction_resolved,
     rigid_columns,
     single_tone,
+    tonal,
 )
 
 __all__ = [
@@ -272,6 +277,7 @@ class SeriesChain(Model):
             cols.append(friction_column(seg, theta["presliding"]))
         elif channel.nominal.specimen.friction > 0.0 and not self.friction:
             cols.append(friction_column(seg, NOMINAL_PRESLIDING * drive_scale(channel)))
+        cols.append(alignment_column(channel, seg))
         return np.column_stack(cols), np.zeros_like(seg.observed)
 
     def nuisance(self, channel: Channel, seg: Segment, theta: Theta) -> NDArray[np.float64] | None:
@@ -297,6 +303,7 @@ class SeriesChain(Model):
         out = [s.inertance, s.inertance]
         if (s.friction > 0.0 and not self.friction) or (self.friction and not self.on_body):
             out.append(s.friction)
+        out.append(0.0)  # the force's alignment to its drive [samples]
         return np.array(out, dtype=float)
 
     def tolerance(self, channel: Channel) -> NDArray[np.float64]:
@@ -313,9 +320,20 @@ class SeriesChain(Model):
             out.append(math.nan)
         elif channel.nominal.specimen.friction > 0.0 and not self.friction:
             out.append(NOMINAL_TOLERANCE)
+        out.append(math.nan)  # the alignment: bounded by :meth:`limits`
         return np.array(out, dtype=float)
 
+    def limits(self, channel: Channel) -> NDArray[np.float64]:
+        """The force's alignment to its drive within
+        :data:`rths.diagnose.effects.specimen.ALIGNMENT_SAMPLES`, none when every
+        identification record is one tone (the
+        rigid baseline's: :meth:`rths.diagnose.effects.specimen.RigidSpecimen.limits`)."""
+        out = np.full(self.prior(channel).size, np.nan)
+        out[-1] = 0.0 if tonal(channel) else ALIGNMENT_SAMPLES
+        return out
+
     def describe(self, channel: Channel, theta: Theta, beta: NDArray[np.float64]):
+        alignment, beta = float(beta[-1]) * channel.dt, beta[:-1]
         m, m_r = float(beta[0]), float(beta[1]) - float(beta[0])
         w = 2.0 * math.pi * theta["frequency"]
         k_e, c_e = m * w * w, 2.0 * theta["zeta"] * w * m
@@ -324,6 +342,7 @@ class SeriesChain(Model):
             "direct_inertance": m_r,
             "damping": m * max(float(theta["body_damping"]), 0.0),
             "stiffness": m * float(theta["body_stiffness"]),
+            "alignment": alignment,
         }
         if len(beta) > 2 and not self.friction:
             base["friction"] = float(beta[2])

@@ -28,7 +28,10 @@ actuator's, not the specimen's) are not scored.  ``1/m``, ``1/k_e`` and ``g/2`` 
 bounded at zero (a body or element that gives way against the force would be a source; a
 contact stiffer than the noise resolves is a rigid one, ``k_e`` infinite);
 ``c/m``, ``k/m`` and ``tau`` are searched.  The baseline is the body alone (the nominal rigid
-specimen).  Friction and amplitude damping are left to the ``force`` channel's models.
+specimen) with the displacement's alignment to the force within one sample, the force
+channel's calibration seen from the other side (a last column, ``dt/m_n`` times the body's
+velocity: to first order ``x(t - s dt) = x - s dt x'``).  Friction and amplitude damping
+are left to the ``force`` channel's models.
 """
 
 from __future__ import annotations
@@ -42,7 +45,12 @@ from scipy import linalg, signal
 from rths.diagnose.channels.channel import Channel, Segment
 from rths.diagnose.effects.chain import CONTACT_EXPONENT
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
-from rths.diagnose.effects.specimen import RESOLVED_CLEARANCE, clearance_resolved
+from rths.diagnose.effects.specimen import (
+    ALIGNMENT_SAMPLES,
+    RESOLVED_CLEARANCE,
+    clearance_resolved,
+    tonal,
+)
 
 __all__ = ["BLOCK_SECONDS", "ComplianceModel", "blocks"]
 
@@ -166,6 +174,12 @@ class ComplianceModel(Model):
         if key not in seg.cache:
             seg.cache[key] = seg.h(_blockwise(f, seg.dt, (1.0,), (1.0, c, k)))
         cols = [seg.cache[key]]
+        key = f"rate:{c!r}:{k!r}"
+        if key not in seg.cache:  # dt/m_n times the body's velocity: the alignment's regressor
+            inv_m = self.prior(channel)[0]
+            rate = _blockwise(f, seg.dt, (1.0, 0.0), (1.0, c, k))
+            seg.cache[key] = seg.h(seg.dt * inv_m * rate)
+        alignment = seg.cache[key]
         if self.element:
             tau, n = float(theta["tau"]), float(theta.get("exponent", 1.0))
             key = f"elem:{tau!r}:{n!r}"
@@ -185,6 +199,7 @@ class ComplianceModel(Model):
                 law = f0 * np.sign(f) * (np.abs(f) / f0) ** (1.0 / n)
                 seg.cache[key] = seg.h(law * np.gradient(law, seg.dt))
             cols.append(seg.cache[key])
+        cols.append(alignment)
         return np.column_stack(cols), np.zeros_like(f)
 
     def nuisance(self, channel: Channel, seg: Segment, theta: Theta) -> NDArray[np.float64]:
@@ -213,15 +228,27 @@ class ComplianceModel(Model):
             out.append(0.0)
         if self.backlash:
             out += [0.0, 0.0]
+        out.append(0.0)  # the displacement's alignment to the force [samples]
         return np.array(out)
 
+    def limits(self, channel: Channel) -> NDArray[np.float64]:
+        """The alignment within :data:`rths.diagnose.effects.specimen.ALIGNMENT_SAMPLES`, none
+        when every identification record's force is one tone (as the force channel's:
+        :meth:`rths.diagnose.effects.specimen.RigidSpecimen.limits`)."""
+        out = np.full(self.prior(channel).size, np.nan)
+        out[-1] = 0.0 if tonal(channel, "f") else ALIGNMENT_SAMPLES
+        return out
+
     def describe(self, channel: Channel, theta: Theta, beta: NDArray[np.float64]):
+        # x(t - s dt) = x - s dt x': the force read s samples ahead of the displacement
+        alignment, beta = -float(beta[-1]) * channel.dt, beta[:-1]
         inv_m = float(beta[0])
         m = 1.0 / inv_m if inv_m > 0.0 else math.inf
         base = {
             "inertance": m,
             "damping": m * max(float(theta["body_damping"]), 0.0) if inv_m > 0 else 0.0,
             "stiffness": m * float(theta["body_stiffness"]) if inv_m > 0 else 0.0,
+            "alignment": alignment,
         }
         params: dict[str, dict[str, float]] = {}
         if self.element:

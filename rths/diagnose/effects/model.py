@@ -145,6 +145,13 @@ class Model(ABC):
         parameter within it (:mod:`rths.diagnose.search.bounded`)."""
         return np.full(self.prior(channel).size, np.nan)
 
+    def limits(self, channel: Channel) -> NDArray[np.float64]:
+        """Absolute bound ``|beta_j| <= l_j`` of each linear parameter, NaN where none
+        (default none): a calibration whose range is a fixed figure rather than a share of a
+        nominal value (a force's alignment to its drive of at most one sample,
+        :func:`rths.diagnose.effects.specimen.alignment_column`)."""
+        return np.full(self.prior(channel).size, np.nan)
+
     #: How many leading linear parameters ``beta`` cannot be negative (a passive specimen's
     #: inertance and damping: no re-calibration may turn them into a source); default none.
     passive_terms: int = 0

@@ -7,7 +7,9 @@ rigid extensions by friction, amplitude-dependent damping and friction behind a 
         + \\frac{c_1}{A(t) + c_2}\\,\\dot x + b_r
 
 * baseline: ``m, c, k`` (and the nominal friction ``F_r sign(x')`` or amplitude law when
-  NOMINAL.toml declares them) re-calibrated, S0 Eq.1 with a parallel spring;
+  NOMINAL.toml declares them) re-calibrated, S0 Eq.1 with a parallel spring, and the force's
+  alignment to its drive within one sample (:func:`alignment_column`; every model of the
+  channel holds it);
 * ``coulomb_friction``: ``F_c phi``, ``phi`` the elasto-plastic operator of
   :func:`rths.diagnose.effects.kernels.friction_operator` (presliding displacement ``delta``,
   presliding stiffness ``F_c/delta``; ``delta -> 0`` is Coulomb's ``sign(x')`` with memory);
@@ -47,14 +49,17 @@ from rths.diagnose.effects.model import Columns, Model, Param, Theta
 
 __all__ = [
     "DAMPINGS",
+    "ALIGNMENT_SAMPLES",
     "NOMINAL_TOLERANCE",
     "RESOLVED_CLEARANCE",
     "RigidSpecimen",
+    "alignment_column",
     "clearance_resolved",
     "drive_scale",
     "friction_resolved",
     "single_tone",
     "smoothed",
+    "tonal",
 ]
 
 #: Presliding displacement of the nominal friction ``F_r sign(x')``, as a fraction of the
@@ -79,7 +84,21 @@ RESOLVED_CLEARANCE: float = 2.0
 NOMINAL_TOLERANCE: float = 0.2
 
 
-def single_tone(channel: Channel) -> bool:
+def _tones(channel: Channel, key: str) -> list[float]:
+    """The dominant tone [Hz] of every identification record's drive ``key`` (NaN: none;
+    :func:`rths.diagnose.channels.signals.dominant_tone`), cached per segment."""
+    tones = []
+    for seg in channel.segments:
+        if not np.any(seg.ident):
+            continue
+        if "tone" not in seg.cache:
+            f = dominant_tone(seg.signals[key], seg.dt)
+            seg.cache["tone"] = np.array([math.nan if f is None else f])
+        tones.append(float(seg.cache["tone"][0]))
+    return tones
+
+
+def single_tone(channel: Channel, key: str = "x") -> bool:
     """Whether the drive of every identification record is one tone
     (:func:`rths.diagnose.channels.signals.dominant_tone`) and all of them lie within a
     factor :data:`rths.diagnose.channels.signals.TONE_BAND` of each other: inertia and
@@ -89,18 +108,30 @@ def single_tone(channel: Channel) -> bool:
     ----------
     channel
         The specimen channel (drive displacement ``x`` in every segment's signals).
+    key
+        The drive's signal (``"f"``: the force driving the ``displacement`` channel).
     """
-    tones = []
-    for seg in channel.segments:
-        if not np.any(seg.ident):
-            continue
-        if "tone" not in seg.cache:
-            f = dominant_tone(seg.signals["x"], seg.dt)
-            seg.cache["tone"] = np.array([math.nan if f is None else f])
-        tones.append(float(seg.cache["tone"][0]))
+    tones = _tones(channel, key)
     if not tones or not all(math.isfinite(f) and f > 0.0 for f in tones):
         return False
     return max(tones) <= TONE_BAND * min(tones)
+
+
+def tonal(channel: Channel, key: str = "x") -> bool:
+    """Whether the drive of every identification record is one tone, of whatever frequency
+    (a sine per record): a lag then shows only as a phase per record, which a damping (or any
+    law of amplitude and frequency, one value per record) takes as well; only a record that
+    spans frequencies shows a phase growing with them (:func:`alignment_column`).
+
+    Parameters
+    ----------
+    channel
+        The specimen channel.
+    key
+        The drive's signal (``"f"``: the force driving the ``displacement`` channel).
+    """
+    tones = _tones(channel, key)
+    return bool(tones) and all(math.isfinite(f) and f > 0.0 for f in tones)
 
 
 #: Shortest memory [s] of the running load amplitude (a cycle at 10 Hz).
@@ -175,6 +206,38 @@ def rigid_columns(seg: Segment) -> list[NDArray]:
         smoothed(seg, "v", lambda: s["v"]),
         smoothed(seg, "x", lambda: s["x"]),
     ]
+
+
+#: Largest alignment of the force to its drive [samples] the baseline re-calibrates: the
+#: load cell's and the displacement transducer's conditioners delay their signals by
+#: different group delays (an LVDT demodulator's low-pass at some hundred hertz against a
+#: load-cell amplifier's kilohertz: 0.4 ms apart), and a shift of up to one sample is
+#: calibration, never an effect (the issue's contract, like the actuator channel's).
+ALIGNMENT_SAMPLES: float = 1.0
+
+
+def alignment_column(channel: Channel, seg: Segment) -> NDArray:
+    """``dt h d/dt F_n`` [N], ``F_n = m a + c v + k x`` the nominal's linear force on the
+    drive: the regressor of the force's alignment ``s`` [samples] to its drive, to first
+    order ``F(t + s dt) = F(t) + s dt F'(t)`` (its level ``s`` is bounded by
+    :data:`ALIGNMENT_SAMPLES`, :meth:`rths.diagnose.effects.model.Model.limits`).  Positive
+    ``s``: the force is read ahead of the displacement.  The nominal's values stand in for
+    the re-calibrated ones (within their tolerance: a second-order difference).
+
+    Parameters
+    ----------
+    channel
+        The specimen channel (its nominal).
+    seg
+        One record's segment (drive ``x, v, a``).
+    """
+    spec, s = channel.nominal.specimen, seg.signals
+
+    def make() -> NDArray:
+        force = spec.inertance * s["a"] + spec.damping * s["v"] + spec.stiffness * s["x"]
+        return seg.dt * np.gradient(force, seg.dt)
+
+    return smoothed(seg, "alignment", make)
 
 
 def friction_column(seg: Segment, delta: float, gap: float = 0.0) -> NDArray:
@@ -308,6 +371,7 @@ class RigidSpecimen(Model):
             cols.append(friction_column(seg, NOMINAL_PRESLIDING * drive_scale(channel)))
         if self.amplitude or self._nominal_amplitude(channel):
             cols.append(amplitude_column(seg, theta["c2"], theta["memory"], theta.get("peak", 0.0)))
+        cols.append(alignment_column(channel, seg))
         return np.column_stack(cols), np.zeros_like(seg.observed)
 
     def prior(self, channel: Channel) -> NDArray[np.float64]:
@@ -317,6 +381,7 @@ class RigidSpecimen(Model):
             out.append(s.friction)
         if self.amplitude or self._nominal_amplitude(channel):
             out.append(s.amplitude_c1)
+        out.append(0.0)  # the force's alignment to its drive [samples]
         return np.array(out, dtype=float)
 
     def tolerance(self, channel: Channel) -> NDArray[np.float64]:
@@ -337,11 +402,24 @@ class RigidSpecimen(Model):
             out.append(NOMINAL_TOLERANCE if self._nominal_friction(channel) else math.nan)
         if self.amplitude or self._nominal_amplitude(channel):
             out.append(NOMINAL_TOLERANCE if self._nominal_amplitude(channel) else math.nan)
+        out.append(math.nan)  # the alignment: bounded by :meth:`limits`
         return np.array(out, dtype=float)
 
+    def limits(self, channel: Channel) -> NDArray[np.float64]:
+        """The force's alignment to its drive within :data:`ALIGNMENT_SAMPLES`; none when
+        every identification record is one tone (:func:`tonal`): at one frequency a lead ``s``
+        is a damping ``-m w^2 s dt`` (and a stiffness ``c w^2 s dt``), and over sines of
+        several frequencies and amplitudes it trades with an amplitude law's level (fitted
+        beside one on six steady sines it went to its bound and took c1 10 % low, on a
+        stepped sine 18 %; 3 and 8 % without it)."""
+        out = np.full(self.prior(channel).size, np.nan)
+        out[-1] = 0.0 if tonal(channel) else ALIGNMENT_SAMPLES
+        return out
+
     def describe(self, channel: Channel, theta: Theta, beta: NDArray[np.float64]):
-        b = [float(q) for q in beta]
+        b = [float(q) for q in beta[:-1]]
         base = {"inertance": b[0], "damping": b[1], "stiffness": b[2]}
+        base["alignment"] = float(beta[-1]) * channel.dt  # [s]
         params: dict[str, dict[str, float]] = {}
         i = 3
         if self.friction:

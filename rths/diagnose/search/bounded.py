@@ -101,7 +101,8 @@ def box_solve(
             value[j] = lo[j] if below[j] else hi[j]
             continue
         grad = gram @ z - rhs
-        release = fixed & (((z <= lo) & (grad < 0.0)) | ((z >= hi) & (grad > 0.0)))
+        # a box of zero width (a calibration switched off: lo = hi) is never released
+        release = fixed & (lo < hi) & (((z <= lo) & (grad < 0.0)) | ((z >= hi) & (grad > 0.0)))
         if not np.any(release):
             return z
         j = int(np.flatnonzero(release)[np.argmax(np.abs(grad[release]))])

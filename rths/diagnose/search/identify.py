@@ -181,6 +181,7 @@ class _Problem:
         self.records = sorted({s.index for s in self.segments})
         self.prior = model.prior(channel)
         self.tolerance = model.tolerance(channel)
+        self.limits = model.limits(channel)
         self.nonnegative = model.nonnegative(channel) & (self.prior >= 0.0)
 
     def design(self, theta: Theta) -> tuple[NDArray, NDArray, NDArray]:
@@ -201,7 +202,8 @@ class _Problem:
     def solve(self, theta: Theta) -> tuple[NDArray, NDArray, NDArray]:
         """``(residual, beta, offsets)``; ridge ``RIDGE * ||d_j (beta_j - prior_j)||^2``
         with ``d_j`` the column norms (negligible where the data determine ``beta``); the
-        nominal's own parameters within the model's tolerance (:mod:`.bounded`), a passive
+        nominal's own parameters within the model's tolerance (:mod:`.bounded`) and its
+        absolute limits (:meth:`rths.diagnose.effects.model.Model.limits`), a passive
         specimen's inertance and damping not below zero, and the model's ordered pairs
         ``beta_i <= beta_j`` (:attr:`rths.diagnose.effects.model.Model.ordered`): a pair the
         solution violates is solved again with ``beta_i = beta_j`` (with one more linear
@@ -209,6 +211,9 @@ class _Problem:
         x, f, o = self.design(theta)
         target = self.y - f
         lo, hi = box_bounds(self.prior, self.tolerance, x, target)
+        lim = np.isfinite(self.limits)
+        lo[lim] = np.maximum(lo[lim], -self.limits[lim])
+        hi[lim] = np.minimum(hi[lim], self.limits[lim])
         lo[self.nonnegative] = np.maximum(lo[self.nonnegative], 0.0)
         beta, off = ridge_box_lstsq(x, o, target, (self.prior, RIDGE), (lo, hi), self.model.ordered)
         return target - x @ beta - o @ off, beta, off
