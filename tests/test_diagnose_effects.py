@@ -432,6 +432,28 @@ def test_box_solve_is_the_bounded_least_squares_of_scipy():
         assert box_solve(a.T @ a, a.T @ b, lo, hi) == pytest.approx(oracle, abs=1e-7)
 
 
+def test_box_solve_holds_a_zero_width_box_at_its_value():
+    """A calibration switched off (``lo = hi``: the inertance under one tone, the alignment
+    over sines) beside bounded ones.  Oracle: the bounded least squares of the other columns
+    with the held one's term moved to the right-hand side.  It had been released and clamped
+    again in turn up to the loop's limit, and the answer then depended on the limit's parity
+    (an amplitude law's c1 77 against 40 N s)."""
+    from scipy.optimize import lsq_linear
+
+    from rths.diagnose.search.bounded import box_solve
+
+    rng = np.random.default_rng(4)
+    for _ in range(50):
+        a, b = rng.normal(size=(40, 5)), rng.normal(size=40)
+        lo, hi = rng.uniform(-0.3, 0.0, 5), rng.uniform(0.0, 0.3, 5)
+        lo[0], hi[0] = -np.inf, np.inf
+        held = rng.uniform(-0.2, 0.2)
+        lo[4] = hi[4] = held
+        rest = lsq_linear(a[:, :4], b - held * a[:, 4], bounds=(lo[:4], hi[:4]), tol=1e-12).x
+        oracle = np.append(rest, held)
+        assert box_solve(a.T @ a, a.T @ b, lo, hi) == pytest.approx(oracle, abs=1e-7)
+
+
 def test_the_derivative_passes_a_tone_with_the_five_point_stencils_gain():
     """Oracle: the stencil's transfer ``(8 sin t - sin 2t) / (6 t)``, ``t = w dt``, on a
     sampled sine (exact to rounding inside the record); at 20 Hz on 1024 Hz the

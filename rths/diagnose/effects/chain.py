@@ -34,10 +34,10 @@ from rths.diagnose.channels.channel import Channel, Segment
 from rths.diagnose.effects.kernels import series_chain
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
 from rths.diagnose.effects.specimen import (
-    ALIGNMENT_SAMPLES,
     NOMINAL_PRESLIDING,
     NOMINAL_TOLERANCE,
     alignment_column,
+    alignment_limits,
     amplitude,
     amplitude_space,
     clearance_resolved,
@@ -46,7 +46,6 @@ from rths.diagnose.effects.specimen import (
     friction_resolved,
     rigid_columns,
     single_tone,
-    tonal,
 )
 
 __all__ = [
@@ -328,9 +327,7 @@ class SeriesChain(Model):
         :data:`rths.diagnose.effects.specimen.ALIGNMENT_SAMPLES`, none when every
         identification record is one tone (the
         rigid baseline's: :meth:`rths.diagnose.effects.specimen.RigidSpecimen.limits`)."""
-        out = np.full(self.prior(channel).size, np.nan)
-        out[-1] = 0.0 if tonal(channel) else ALIGNMENT_SAMPLES
-        return out
+        return alignment_limits(channel, self.prior(channel).size)
 
     def describe(self, channel: Channel, theta: Theta, beta: NDArray[np.float64]):
         alignment, beta = float(beta[-1]) * channel.dt, beta[:-1]

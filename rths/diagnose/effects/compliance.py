@@ -46,10 +46,9 @@ from rths.diagnose.channels.channel import Channel, Segment
 from rths.diagnose.effects.chain import CONTACT_EXPONENT
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
 from rths.diagnose.effects.specimen import (
-    ALIGNMENT_SAMPLES,
     RESOLVED_CLEARANCE,
+    alignment_limits,
     clearance_resolved,
-    tonal,
 )
 
 __all__ = ["BLOCK_SECONDS", "ComplianceModel", "blocks"]
@@ -235,9 +234,7 @@ class ComplianceModel(Model):
         """The alignment within :data:`rths.diagnose.effects.specimen.ALIGNMENT_SAMPLES`, none
         when every identification record's force is one tone (as the force channel's:
         :meth:`rths.diagnose.effects.specimen.RigidSpecimen.limits`)."""
-        out = np.full(self.prior(channel).size, np.nan)
-        out[-1] = 0.0 if tonal(channel, "f") else ALIGNMENT_SAMPLES
-        return out
+        return alignment_limits(channel, self.prior(channel).size, "f")
 
     def describe(self, channel: Channel, theta: Theta, beta: NDArray[np.float64]):
         # x(t - s dt) = x - s dt x': the force read s samples ahead of the displacement

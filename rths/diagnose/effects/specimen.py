@@ -54,6 +54,7 @@ __all__ = [
     "RESOLVED_CLEARANCE",
     "RigidSpecimen",
     "alignment_column",
+    "alignment_limits",
     "clearance_resolved",
     "drive_scale",
     "friction_resolved",
@@ -212,7 +213,7 @@ def rigid_columns(seg: Segment) -> list[NDArray]:
 #: load cell's and the displacement transducer's conditioners delay their signals by
 #: different group delays (an LVDT demodulator's low-pass at some hundred hertz against a
 #: load-cell amplifier's kilohertz: 0.4 ms apart), and a shift of up to one sample is
-#: calibration, never an effect (the issue's contract, like the actuator channel's).
+#: calibration, never an effect (README, "Baseline"; like the actuator channel's).
 ALIGNMENT_SAMPLES: float = 1.0
 
 
@@ -238,6 +239,15 @@ def alignment_column(channel: Channel, seg: Segment) -> NDArray:
         return seg.dt * np.gradient(force, seg.dt)
 
     return smoothed(seg, "alignment", make)
+
+
+def alignment_limits(channel: Channel, size: int, key: str = "x") -> NDArray[np.float64]:
+    """Absolute limits (:meth:`rths.diagnose.effects.model.Model.limits`) of ``size`` linear
+    parameters whose last is the alignment: :data:`ALIGNMENT_SAMPLES`, or 0 when every
+    identification record's drive ``key`` is one tone (:func:`tonal`); NaN (none) elsewhere."""
+    out = np.full(size, np.nan)
+    out[-1] = 0.0 if tonal(channel, key) else ALIGNMENT_SAMPLES
+    return out
 
 
 def friction_column(seg: Segment, delta: float, gap: float = 0.0) -> NDArray:
@@ -412,9 +422,7 @@ class RigidSpecimen(Model):
         several frequencies and amplitudes it trades with an amplitude law's level (fitted
         beside one on six steady sines it went to its bound and took c1 10 % low, on a
         stepped sine 18 %; 3 and 8 % without it)."""
-        out = np.full(self.prior(channel).size, np.nan)
-        out[-1] = 0.0 if tonal(channel) else ALIGNMENT_SAMPLES
-        return out
+        return alignment_limits(channel, self.prior(channel).size)
 
     def describe(self, channel: Channel, theta: Theta, beta: NDArray[np.float64]):
         b = [float(q) for q in beta[:-1]]
