@@ -135,6 +135,11 @@ class Channel:
         The colour of the ``measured`` and ``force`` noise read at the records' rest
         (:func:`rths.diagnose.channels.rest.rest_spectra`): a factor >= 1 on the white PSD
         per frequency; a column without one is white.
+    alignment
+        Whether a specimen channel's models re-calibrate the force's alignment to its drive
+        (:func:`rths.diagnose.effects.specimen.alignment_limits`); the selection switches it
+        off when it does not buy itself on held-out data
+        (:func:`rths.diagnose.search.alignment.aligned_baseline`).
     """
 
     name: ChannelName
@@ -145,6 +150,7 @@ class Channel:
     cutoff: float | None = None
     drive_sos: NDArray[np.float64] | None = None
     noise_shape: dict[str, NoiseShape] = field(default_factory=dict)
+    alignment: bool = True
 
     def colour(self, key: str, f: NDArray[np.floating]) -> NDArray[np.float64]:
         """Factor on the white PSD of column ``key``'s noise at frequencies ``f`` [Hz] (ones

@@ -244,9 +244,12 @@ def alignment_column(channel: Channel, seg: Segment) -> NDArray:
 def alignment_limits(channel: Channel, size: int, key: str = "x") -> NDArray[np.float64]:
     """Absolute limits (:meth:`rths.diagnose.effects.model.Model.limits`) of ``size`` linear
     parameters whose last is the alignment: :data:`ALIGNMENT_SAMPLES`, or 0 when every
-    identification record's drive ``key`` is one tone (:func:`tonal`); NaN (none) elsewhere."""
+    identification record's drive ``key`` is one tone (:func:`tonal`) or the channel's
+    alignment is off (:attr:`rths.diagnose.channels.channel.Channel.alignment`); NaN (none)
+    elsewhere."""
     out = np.full(size, np.nan)
-    out[-1] = 0.0 if tonal(channel, key) else ALIGNMENT_SAMPLES
+    off = not channel.alignment or tonal(channel, key)
+    out[-1] = 0.0 if off else ALIGNMENT_SAMPLES
     return out
 
 

@@ -1,8 +1,10 @@
 """Greedy selection of a channel's effects on held-out data.
 
 For a channel, ``J_0`` is the held-out mean squared residual of the re-calibrated baseline and
-``N_0`` its noise floor.  When the baseline's held-out residual is not significant against the
-floor (:func:`rths.diagnose.residuals.decompose`) the channel is at its noise floor: no effect.
+``N_0`` its noise floor (a specimen channel's baseline holds the force's alignment to its drive
+only when it buys itself: :func:`rths.diagnose.search.alignment.aligned_baseline`).  When the
+baseline's held-out residual is not significant against the floor
+(:func:`rths.diagnose.residuals.decompose`) the channel is at its noise floor: no effect.
 Otherwise effects are added one at a time:
 
 1. every candidate effect is identified jointly with the baseline (each of its model
@@ -87,13 +89,13 @@ from rths.diagnose.effects import (
     CHANNEL_EFFECTS,
     EFFECTS,
     NESTS,
-    baseline_for,
     calibration_for,
     compatible,
     models_for,
 )
 from rths.diagnose.effects.model import Theta
 from rths.diagnose.effects.specimen import clearance_resolved
+from rths.diagnose.search.alignment import aligned_baseline
 from rths.diagnose.search.calibrated import finer_calibration, hidden_delay, needs_finer
 from rths.diagnose.search.coverage import covered
 from rths.diagnose.search.crossval import cross_fit
@@ -163,7 +165,7 @@ def select(
         of every model holding that effect.
     """
     fitter = cross_fit if channel.name in CROSS_FIT else fit_model
-    base = fitter(baseline_for(channel.name), channel)
+    base = aligned_baseline(channel, fitter, seed, price)
 
     @functools.cache
     def calibrated() -> Fit:
