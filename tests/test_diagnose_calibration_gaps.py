@@ -14,7 +14,8 @@ from rths.diagnose.channels import specimen_channel
 from rths.diagnose.channels.rest import COLOUR_Z, leading_rest, rest_spectra
 from rths.diagnose.data.nominal import ActuatorNominal, NominalModel, SpecimenNominal
 from rths.diagnose.data.records import Record
-from rths.diagnose.effects.specimen import ALIGNMENT_SAMPLES, RigidSpecimen
+from rths.diagnose.effects.alignment import ALIGNMENT_SAMPLES
+from rths.diagnose.effects.specimen import RigidSpecimen
 from rths.diagnose.search.selection import select
 
 FS = 1024.0

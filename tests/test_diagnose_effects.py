@@ -185,7 +185,8 @@ def test_inertance_keeps_its_nominal_only_when_all_identification_is_one_frequen
     """Under sines of one frequency (any amplitudes) ``m a = -m w^2 x``: only ``k - m w^2``
     is determined and the inertance keeps its nominal value; records at 0.5 and 1 Hz
     determine both, and the fit recovers them (to 2 %: the smoother's edges and the ridge)."""
-    from rths.diagnose.effects.specimen import NOMINAL_TOLERANCE, single_tone
+    from rths.diagnose.effects.drive import single_tone
+    from rths.diagnose.effects.specimen import NOMINAL_TOLERANCE
 
     dt = 1.0 / 1024.0
     t = dt * np.arange(1, 10 * 1024 + 1)

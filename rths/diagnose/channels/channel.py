@@ -137,7 +137,7 @@ class Channel:
         per frequency; a column without one is white.
     alignment
         Whether a specimen channel's models re-calibrate the force's alignment to its drive
-        (:func:`rths.diagnose.effects.specimen.alignment_limits`); the selection switches it
+        (:func:`rths.diagnose.effects.alignment.alignment_limits`); the selection switches it
         off when it does not buy itself on held-out data
         (:func:`rths.diagnose.search.alignment.aligned_baseline`).
     """

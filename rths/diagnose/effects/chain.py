@@ -19,7 +19,7 @@ parameters the force is linear in ``m``.  Friction may also sit at the driven en
 element (a seal, a guide: S0 Eq.1's ``F_r``), as a second structure (``friction_at="drive"``):
 then it is the rigid family's linear term ``F_c phi(x; delta)``.  The force's alignment to
 its drive (within one sample) is the rigid baseline's linear term
-(:func:`rths.diagnose.effects.specimen.alignment_column`).
+(:func:`rths.diagnose.effects.alignment.alignment_column`).
 """
 
 from __future__ import annotations
@@ -31,21 +31,19 @@ from numpy.typing import NDArray
 from scipy import linalg, signal
 
 from rths.diagnose.channels.channel import Channel, Segment
+from rths.diagnose.effects.alignment import alignment_column, alignment_limits
+from rths.diagnose.effects.drive import drive_scale, single_tone
 from rths.diagnose.effects.kernels import series_chain
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
 from rths.diagnose.effects.specimen import (
     NOMINAL_PRESLIDING,
     NOMINAL_TOLERANCE,
-    alignment_column,
-    alignment_limits,
     amplitude,
     amplitude_space,
     clearance_resolved,
-    drive_scale,
     friction_column,
     friction_resolved,
     rigid_columns,
-    single_tone,
 )
 
 __all__ = [
@@ -311,7 +309,7 @@ class SeriesChain(Model):
         drive (the element's place) and a friction effect's level are free.  When every
         identification record is one sine of the same frequency the total inertance keeps
         NOMINAL.toml's value, as the rigid baseline's does
-        (:func:`rths.diagnose.effects.specimen.single_tone`): a near-rigid contact had carried
+        (:func:`rths.diagnose.effects.drive.single_tone`): a near-rigid contact had carried
         the inertance the baseline may not re-calibrate there (7 % of it) and "closed" a
         held-out gap at another frequency that was only that calibration."""
         out = [math.nan, 0.0 if single_tone(channel) else NOMINAL_TOLERANCE]
@@ -324,7 +322,7 @@ class SeriesChain(Model):
 
     def limits(self, channel: Channel) -> NDArray[np.float64]:
         """The force's alignment to its drive within
-        :data:`rths.diagnose.effects.specimen.ALIGNMENT_SAMPLES`, none when every
+        :data:`rths.diagnose.effects.alignment.ALIGNMENT_SAMPLES`, none when every
         identification record is one tone (the
         rigid baseline's: :meth:`rths.diagnose.effects.specimen.RigidSpecimen.limits`)."""
         return alignment_limits(channel, self.prior(channel).size)

@@ -43,13 +43,10 @@ from numpy.typing import NDArray
 from scipy import linalg, signal
 
 from rths.diagnose.channels.channel import Channel, Segment
+from rths.diagnose.effects.alignment import alignment_limits
 from rths.diagnose.effects.chain import CONTACT_EXPONENT
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
-from rths.diagnose.effects.specimen import (
-    RESOLVED_CLEARANCE,
-    alignment_limits,
-    clearance_resolved,
-)
+from rths.diagnose.effects.specimen import RESOLVED_CLEARANCE, clearance_resolved
 
 __all__ = ["BLOCK_SECONDS", "ComplianceModel", "blocks"]
 
@@ -231,7 +228,7 @@ class ComplianceModel(Model):
         return np.array(out)
 
     def limits(self, channel: Channel) -> NDArray[np.float64]:
-        """The alignment within :data:`rths.diagnose.effects.specimen.ALIGNMENT_SAMPLES`, none
+        """The alignment within :data:`rths.diagnose.effects.alignment.ALIGNMENT_SAMPLES`, none
         when every identification record's force is one tone (as the force channel's:
         :meth:`rths.diagnose.effects.specimen.RigidSpecimen.limits`)."""
         return alignment_limits(channel, self.prior(channel).size, "f")

@@ -149,7 +149,7 @@ class Model(ABC):
         """Absolute bound ``|beta_j| <= l_j`` of each linear parameter, NaN where none
         (default none): a calibration whose range is a fixed figure rather than a share of a
         nominal value (a force's alignment to its drive of at most one sample,
-        :func:`rths.diagnose.effects.specimen.alignment_column`)."""
+        :func:`rths.diagnose.effects.alignment.alignment_column`)."""
         return np.full(self.prior(channel).size, np.nan)
 
     #: How many leading linear parameters ``beta`` cannot be negative (a passive specimen's

@@ -8,8 +8,8 @@ rigid extensions by friction, amplitude-dependent damping and friction behind a 
 
 * baseline: ``m, c, k`` (and the nominal friction ``F_r sign(x')`` or amplitude law when
   NOMINAL.toml declares them) re-calibrated, S0 Eq.1 with a parallel spring, and the force's
-  alignment to its drive within one sample (:func:`alignment_column`; every model of the
-  channel holds it);
+  alignment to its drive within one sample (:mod:`rths.diagnose.effects.alignment`: every
+  model of the channel holds it, when it buys itself);
 * ``coulomb_friction``: ``F_c phi``, ``phi`` the elasto-plastic operator of
   :func:`rths.diagnose.effects.kernels.friction_operator` (presliding displacement ``delta``,
   presliding stiffness ``F_c/delta``; ``delta -> 0`` is Coulomb's ``sign(x')`` with memory);
@@ -31,7 +31,6 @@ channel's smoother like the observed force.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -39,28 +38,21 @@ from numpy.typing import NDArray
 from rths.core.errors import ParameterError, format_choices
 from rths.diagnose.channels.channel import Channel, Segment
 from rths.diagnose.channels.signals import (
-    TONE_BAND,
-    dominant_tone,
     peak_amplitude,
     running_amplitude,
 )
+from rths.diagnose.effects.alignment import alignment_column, alignment_limits
+from rths.diagnose.effects.drive import drive_scale, single_tone, smoothed
 from rths.diagnose.effects.kernels import friction_operator
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
 
 __all__ = [
     "DAMPINGS",
-    "ALIGNMENT_SAMPLES",
     "NOMINAL_TOLERANCE",
     "RESOLVED_CLEARANCE",
     "RigidSpecimen",
-    "alignment_column",
-    "alignment_limits",
     "clearance_resolved",
-    "drive_scale",
     "friction_resolved",
-    "single_tone",
-    "smoothed",
-    "tonal",
 ]
 
 #: Presliding displacement of the nominal friction ``F_r sign(x')``, as a fraction of the
@@ -85,75 +77,8 @@ RESOLVED_CLEARANCE: float = 2.0
 NOMINAL_TOLERANCE: float = 0.2
 
 
-def _tones(channel: Channel, key: str) -> list[float]:
-    """The dominant tone [Hz] of every identification record's drive ``key`` (NaN: none;
-    :func:`rths.diagnose.channels.signals.dominant_tone`), cached per segment."""
-    tones = []
-    for seg in channel.segments:
-        if not np.any(seg.ident):
-            continue
-        if "tone" not in seg.cache:
-            f = dominant_tone(seg.signals[key], seg.dt)
-            seg.cache["tone"] = np.array([math.nan if f is None else f])
-        tones.append(float(seg.cache["tone"][0]))
-    return tones
-
-
-def single_tone(channel: Channel, key: str = "x") -> bool:
-    """Whether the drive of every identification record is one tone
-    (:func:`rths.diagnose.channels.signals.dominant_tone`) and all of them lie within a
-    factor :data:`rths.diagnose.channels.signals.TONE_BAND` of each other: inertia and
-    stiffness then act at one frequency and only their sum ``k - m w^2`` is determined.
-
-    Parameters
-    ----------
-    channel
-        The specimen channel (drive displacement ``x`` in every segment's signals).
-    key
-        The drive's signal (``"f"``: the force driving the ``displacement`` channel).
-    """
-    tones = _tones(channel, key)
-    if not tones or not all(math.isfinite(f) and f > 0.0 for f in tones):
-        return False
-    return max(tones) <= TONE_BAND * min(tones)
-
-
-def tonal(channel: Channel, key: str = "x") -> bool:
-    """Whether the drive of every identification record is one tone, of whatever frequency
-    (a sine per record): a lag then shows only as a phase per record, which a damping (or any
-    law of amplitude and frequency, one value per record) takes as well; only a record that
-    spans frequencies shows a phase growing with them (:func:`alignment_column`).
-
-    Parameters
-    ----------
-    channel
-        The specimen channel.
-    key
-        The drive's signal (``"f"``: the force driving the ``displacement`` channel).
-    """
-    tones = _tones(channel, key)
-    return bool(tones) and all(math.isfinite(f) and f > 0.0 for f in tones)
-
-
 #: Shortest memory [s] of the running load amplitude (a cycle at 10 Hz).
 MIN_MEMORY: float = 0.1
-
-
-def smoothed(seg: Segment, key: str, make: Callable[[], NDArray]) -> NDArray:
-    """Cached ``h * make()`` on a segment.
-
-    Parameters
-    ----------
-    seg
-        The record's segment (its smoother ``h`` and cache).
-    key
-        Cache key of the signal.
-    make
-        Computes the unsmoothed signal (called once per segment and key).
-    """
-    if key not in seg.cache:
-        seg.cache[key] = seg.h(make())
-    return seg.cache[key]
 
 
 def clearance_resolved(channel: Channel, gap: float) -> bool:
@@ -188,17 +113,6 @@ def friction_resolved(channel: Channel, friction: float) -> bool:
     return friction > RESOLVED_CLEARANCE * float(channel.noise.get("force", 0.0))
 
 
-def drive_scale(channel: Channel) -> float:
-    """Standard deviation of the drive displacement over all records [m] (at least 1 nm).
-
-    Parameters
-    ----------
-    channel
-        A specimen channel (signal ``x``: the smoothed drive).
-    """
-    return max(float(np.std(channel.stack("x"))), 1e-9)
-
-
 def rigid_columns(seg: Segment) -> list[NDArray]:
     """``h a, h v, h x`` of the drive."""
     s = seg.signals
@@ -207,50 +121,6 @@ def rigid_columns(seg: Segment) -> list[NDArray]:
         smoothed(seg, "v", lambda: s["v"]),
         smoothed(seg, "x", lambda: s["x"]),
     ]
-
-
-#: Largest alignment of the force to its drive [samples] the baseline re-calibrates: the
-#: load cell's and the displacement transducer's conditioners delay their signals by
-#: different group delays (an LVDT demodulator's low-pass at some hundred hertz against a
-#: load-cell amplifier's kilohertz: 0.4 ms apart), and a shift of up to one sample is
-#: calibration, never an effect (README, "Baseline"; like the actuator channel's).
-ALIGNMENT_SAMPLES: float = 1.0
-
-
-def alignment_column(channel: Channel, seg: Segment) -> NDArray:
-    """``dt h d/dt F_n`` [N], ``F_n = m a + c v + k x`` the nominal's linear force on the
-    drive: the regressor of the force's alignment ``s`` [samples] to its drive, to first
-    order ``F(t + s dt) = F(t) + s dt F'(t)`` (its level ``s`` is bounded by
-    :data:`ALIGNMENT_SAMPLES`, :meth:`rths.diagnose.effects.model.Model.limits`).  Positive
-    ``s``: the force is read ahead of the displacement.  The nominal's values stand in for
-    the re-calibrated ones (within their tolerance: a second-order difference).
-
-    Parameters
-    ----------
-    channel
-        The specimen channel (its nominal).
-    seg
-        One record's segment (drive ``x, v, a``).
-    """
-    spec, s = channel.nominal.specimen, seg.signals
-
-    def make() -> NDArray:
-        force = spec.inertance * s["a"] + spec.damping * s["v"] + spec.stiffness * s["x"]
-        return seg.dt * np.gradient(force, seg.dt)
-
-    return smoothed(seg, "alignment", make)
-
-
-def alignment_limits(channel: Channel, size: int, key: str = "x") -> NDArray[np.float64]:
-    """Absolute limits (:meth:`rths.diagnose.effects.model.Model.limits`) of ``size`` linear
-    parameters whose last is the alignment: :data:`ALIGNMENT_SAMPLES`, or 0 when every
-    identification record's drive ``key`` is one tone (:func:`tonal`) or the channel's
-    alignment is off (:attr:`rths.diagnose.channels.channel.Channel.alignment`); NaN (none)
-    elsewhere."""
-    out = np.full(size, np.nan)
-    off = not channel.alignment or tonal(channel, key)
-    out[-1] = 0.0 if off else ALIGNMENT_SAMPLES
-    return out
 
 
 def friction_column(seg: Segment, delta: float, gap: float = 0.0) -> NDArray:
@@ -402,10 +272,10 @@ class RigidSpecimen(Model):
         amplitude law NOMINAL.toml declares; an effect's level is free, and so is the damping
         beside a friction or amplitude effect in the ``"free"`` structure (a dissipation law
         replaces the viscous share of a nominal fitted to the same loops: a viscous fit of a
-        friction damper).  When every
-        identification record is one sine of the same frequency (:func:`single_tone`) the
-        inertance keeps its nominal value: its force ``-m w^2 x`` is the stiffness's shape,
-        only harmonics (an unmodelled effect's, as often as not) would split them."""
+        friction damper).  When every identification record is one sine of the same frequency
+        (:func:`rths.diagnose.effects.drive.single_tone`) the inertance keeps its nominal
+        value: its force ``-m w^2 x`` is the stiffness's shape, only harmonics (an unmodelled
+        effect's, as often as not) would split them."""
         out = [NOMINAL_TOLERANCE] * 3
         if single_tone(channel):
             out[0] = 0.0  # m and k are one number, k - m w^2, at one drive frequency
@@ -419,12 +289,13 @@ class RigidSpecimen(Model):
         return np.array(out, dtype=float)
 
     def limits(self, channel: Channel) -> NDArray[np.float64]:
-        """The force's alignment to its drive within :data:`ALIGNMENT_SAMPLES`; none when
-        every identification record is one tone (:func:`tonal`): at one frequency a lead ``s``
-        is a damping ``-m w^2 s dt`` (and a stiffness ``c w^2 s dt``), and over sines of
-        several frequencies and amplitudes it trades with an amplitude law's level (fitted
-        beside one on six steady sines it went to its bound and took c1 10 % low, on a
-        stepped sine 18 %; 3 and 8 % without it)."""
+        """The force's alignment to its drive within
+        :data:`rths.diagnose.effects.alignment.ALIGNMENT_SAMPLES`; none when every
+        identification record is one tone (:func:`rths.diagnose.effects.drive.tonal`): at one
+        frequency a lead ``s`` is a damping ``-m w^2 s dt`` (and a stiffness ``c w^2 s dt``),
+        and over sines of several frequencies and amplitudes it trades with an amplitude law's
+        level (fitted beside one on six steady sines it went to its bound and took c1 10 %
+        low, on a stepped sine 18 %; 3 and 8 % without it)."""
         return alignment_limits(channel, self.prior(channel).size)
 
     def describe(self, channel: Channel, theta: Theta, beta: NDArray[np.float64]):

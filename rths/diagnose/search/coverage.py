@@ -4,7 +4,7 @@ The specimen's baseline is identified on some records and scored on the others
 (:func:`rths.diagnose.channels.channel.split_roles`).  When the identification records hold
 one tone, or one tone and a weak broadband record, the split of ``k - m w^2`` between the
 inertance and the stiffness is barely determined there (at one frequency not at all: the
-inertance then keeps NOMINAL.toml's value, :func:`rths.diagnose.effects.specimen.single_tone`),
+inertance then keeps NOMINAL.toml's value, :func:`rths.diagnose.effects.drive.single_tone`),
 and a held-out record at other frequencies shows the nominal's own mis-calibration as a gap no
 effect closes.  Such a gap is calibration, not structure the nominal lacks: the baseline
 re-calibrated on *every* record reaches the noise floor.  The test (:func:`covered`)
