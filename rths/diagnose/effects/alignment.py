@@ -56,7 +56,17 @@ def alignment_limits(channel: Channel, size: int, key: str = "x") -> NDArray[np.
     parameters whose last is the alignment: :data:`ALIGNMENT_SAMPLES`, or 0 when every
     identification record's drive ``key`` is one tone (:func:`tonal`) or the channel's
     alignment is off (:attr:`rths.diagnose.channels.channel.Channel.alignment`); NaN (none)
-    elsewhere."""
+    elsewhere.
+
+    Parameters
+    ----------
+    channel
+        The specimen channel.
+    size
+        Number of the model's linear parameters.
+    key
+        The drive's signal (``"f"``: the force driving the ``displacement`` channel).
+    """
     out = np.full(size, np.nan)
     off = not channel.alignment or tonal(channel, key)
     out[-1] = 0.0 if off else ALIGNMENT_SAMPLES
