@@ -323,8 +323,8 @@ class SeriesChain(Model):
     def limits(self, channel: Channel) -> NDArray[np.float64]:
         """The force's alignment to its drive within
         :data:`rths.diagnose.effects.alignment.ALIGNMENT_SAMPLES`, none when every
-        identification record is one tone (the
-        rigid baseline's: :meth:`rths.diagnose.effects.specimen.RigidSpecimen.limits`)."""
+        identification record is one tone (the rigid baseline's:
+        :meth:`rths.diagnose.effects.specimen.RigidSpecimen.limits`)."""
         return alignment_limits(channel, self.prior(channel).size)
 
     def describe(self, channel: Channel, theta: Theta, beta: NDArray[np.float64]):

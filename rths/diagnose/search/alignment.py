@@ -1,7 +1,7 @@
 """Whether a specimen channel's force/displacement alignment buys itself.
 
 The baseline of the ``force`` and ``displacement`` channels may re-calibrate a shift of up to
-one sample between force and displacement (:func:`rths.diagnose.effects.specimen.
+one sample between force and displacement (:func:`rths.diagnose.effects.alignment.
 alignment_column`: conditioners of different group delay).  Like every freedom beyond a
 nominal's own parameters, it is kept only when it pays on held-out data: the baseline is
 identified with and without it, and the alignment stays on -- for every model of the channel
@@ -33,9 +33,11 @@ ALIGNED_CHANNELS: tuple[str, ...] = ("force", "displacement")
 
 def aligned_baseline(
     channel: Channel, fitter: Callable[[Model, Channel], Fit], seed: int, price: float
-) -> Fit:
+) -> tuple[Fit, float]:
     """The channel's re-calibrated baseline, with the alignment when it buys itself (module
-    docstring); sets :attr:`rths.diagnose.channels.channel.Channel.alignment` accordingly.
+    docstring), and its held-out noise floor [unit^2]
+    (:func:`rths.diagnose.search.floors.noise_floor`); sets
+    :attr:`rths.diagnose.channels.channel.Channel.alignment` accordingly.
 
     Parameters
     ----------
@@ -51,16 +53,14 @@ def aligned_baseline(
     channel.alignment = True
     aligned = fitter(baseline_for(channel.name), channel)
     if channel.name not in ALIGNED_CHANNELS or aligned.baseline.get("alignment", 0.0) == 0.0:
-        return aligned
+        return aligned, noise_floor(aligned, channel, seed)
     channel.alignment = False
     plain = fitter(baseline_for(channel.name), channel)
     floor = noise_floor(plain, channel, seed)
     if plain.held_mse <= floor:
-        return plain  # at its floor without it: nothing to buy
-    gain = held_out_gain(
-        (plain.held_mse, floor), (aligned.held_mse, noise_floor(aligned, channel, seed))
-    )
-    if gain >= price:
+        return plain, floor  # at its floor without it: nothing to buy
+    aligned_floor = noise_floor(aligned, channel, seed)
+    if held_out_gain((plain.held_mse, floor), (aligned.held_mse, aligned_floor)) >= price:
         channel.alignment = True
-        return aligned
-    return plain
+        return aligned, aligned_floor
+    return plain, floor

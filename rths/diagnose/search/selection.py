@@ -165,7 +165,7 @@ def select(
         of every model holding that effect.
     """
     fitter = cross_fit if channel.name in CROSS_FIT else fit_model
-    base = aligned_baseline(channel, fitter, seed, price)
+    base, n0 = aligned_baseline(channel, fitter, seed, price)
 
     @functools.cache
     def calibrated() -> Fit:
@@ -174,7 +174,6 @@ def select(
         assert check is not None
         return fitter(check, channel, base.baseline)
 
-    n0 = noise_floor(base, channel, seed)
     dec = decompose_fit(channel, base)
     excess0 = base.held_mse - n0
     candidates: list[Candidate] = []
