@@ -109,6 +109,23 @@ def test_rate_limit_that_is_never_reached_is_rejected():
     assert not m.physical(ch, {"rate_limit": {"velocity_limit": 0.1}})
 
 
+def test_a_limit_the_drive_exceeds_by_a_tenth_is_checked_on_the_top_of_its_excess():
+    # peak linear speed 0.187 m/s (above); a limit 10 % below it clips only the crests: no
+    # sample of the linear motion is 20 % above the limit, so the check reads the samples
+    # above half the excess (5 %), where the clipped motion sits on the limit
+    v_max = 0.187 / 1.1
+    ch, m = _sine_channel(v_max)
+    assert m.physical(ch, {"rate_limit": {"velocity_limit": v_max}})
+    # the same claim on an attenuated motion (0.45 of the linear one) is still refused: the
+    # measured speed never comes near the limit
+    ch, m = _sine_channel(None)
+    ch.segments[0].observed = 0.45 * ch.segments[0].observed
+    assert not m.physical(ch, {"rate_limit": {"velocity_limit": v_max}})
+    # and a limit exceeded by 3 % -- within the gain's calibration -- shows nothing of its own
+    ch, m = _sine_channel(0.187 / 1.03)
+    assert not m.physical(ch, {"rate_limit": {"velocity_limit": 0.187 / 1.03}})
+
+
 def test_a_limit_exceeded_by_less_than_the_gain_error_is_held_from_a_small_record():
     # the actuator's gain is 1.1 against the nominal's 1: a 0.1 m/s limit clips a sine whose
     # true peak speed is 0.125 m/s, which the nominal's linear motion puts at 0.114 m/s (only
