@@ -502,6 +502,26 @@ def test_a_rigid_specimen_is_identified_without_a_spurious_stiffness():
     assert base["damping"] == pytest.approx(c, rel=5e-4)
 
 
+def test_an_unanchored_level_takes_what_its_collinear_nominal_term_does_not():
+    """Two identical columns, a nominal parameter (prior 2) and an effect's level (no nominal
+    value), truth 2.2 + 1.0: the data fix only the sum.  With the ridge on the nominal one
+    alone the split is exact (2.0 + 1.2, the nominal untouched: the effect takes the whole
+    remainder); a ridge on both shares the remainder by their equal column energy (2.6 +
+    0.6) -- the bias that left an amplitude law's ``c1`` low and the damping at its bound.
+    Closed forms to 1e-6 (the solver's 1e-12 diagonal)."""
+    from rths.diagnose.search.bounded import ridge_box_lstsq
+
+    v = np.sin(np.linspace(0.0, 20.0, 400))
+    x, o = np.column_stack([v, v]), np.ones((400, 1))
+    y = 3.2 * v
+    lo, hi = np.full(2, -np.inf), np.full(2, np.inf)
+    prior = np.array([2.0, 0.0])
+    beta, _ = ridge_box_lstsq(x, o, y, (prior, np.array([1e-3, 0.0])), (lo, hi))
+    np.testing.assert_allclose(beta, [2.0, 1.2], atol=1e-6)
+    both, _ = ridge_box_lstsq(x, o, y, (prior, 1e-3), (lo, hi))
+    np.testing.assert_allclose(both, [2.6, 0.6], atol=1e-3)
+
+
 def test_an_ordered_pair_is_the_constrained_least_squares_of_scipy():
     """``beta_0 <= beta_1`` with bounds, a free nuisance column and the ridge: the optimum
     of the convex problem, checked against SLSQP on the same objective (1e-6 of the

@@ -303,6 +303,12 @@ class SeriesChain(Model):
         out.append(0.0)  # the force's alignment to its drive [samples]
         return np.array(out, dtype=float)
 
+    def unanchored(self, channel: Channel) -> NDArray[np.bool_]:
+        """A friction effect's level ahead of the element (after the two inertances)."""
+        out = np.zeros(self.prior(channel).size, dtype=bool)
+        out[2] = self.friction and not self.on_body
+        return out
+
     def tolerance(self, channel: Channel) -> NDArray[np.float64]:
         """The total inertance ``m + m_r`` and a nominal friction ahead of the element within
         :data:`rths.diagnose.effects.specimen.NOMINAL_TOLERANCE`; the split between body and

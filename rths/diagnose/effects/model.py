@@ -152,6 +152,14 @@ class Model(ABC):
         :func:`rths.diagnose.effects.alignment.alignment_column`)."""
         return np.full(self.prior(channel).size, np.nan)
 
+    def unanchored(self, channel: Channel) -> NDArray[np.bool_]:
+        """Which linear parameters ``beta`` are an effect's level with no nominal value (a
+        friction force, an amplitude law's ``c1``): the ridge does not pull them (default
+        none).  A pull towards zero would split a level that trades with a nominal parameter
+        (``c1/(A + c2)`` with the viscous damping over a narrow range of amplitude) between
+        the two by their energy, moving the nominal's one beyond what the data ask."""
+        return np.zeros(self.prior(channel).size, dtype=bool)
+
     #: How many leading linear parameters ``beta`` cannot be negative (a passive specimen's
     #: inertance and damping: no re-calibration may turn them into a source); default none.
     passive_terms: int = 0

@@ -114,11 +114,11 @@ def ridge_box_lstsq(
     x: NDArray[np.float64],
     o: NDArray[np.float64],
     target: NDArray[np.float64],
-    ridge: tuple[NDArray[np.float64], float],
+    ridge: tuple[NDArray[np.float64], float | NDArray[np.float64]],
     bounds: tuple[NDArray[np.float64], NDArray[np.float64]],
     ordered: tuple[tuple[int, int], ...] = (),
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """``(beta, offsets)`` minimising ``||target - x beta - o offsets||^2 + r ||d (beta -
+    """``(beta, offsets)`` minimising ``||target - x beta - o offsets||^2 + ||sqrt(r) d (beta -
     prior)||^2`` over ``lo <= beta <= hi`` and the ordered pairs (module docstring), ``d``
     the column norms of ``x``; the nuisance terms ``offsets`` are free and unpenalised.  Solved
     by :func:`box_solve` on unit-norm columns.
@@ -130,14 +130,16 @@ def ridge_box_lstsq(
     target
         The observation less the model's fixed part (shape ``(n,)``).
     ridge
-        ``(prior, r)``: nominal values of ``beta`` (shape ``(p,)``) and the ridge weight.
+        ``(prior, r)``: nominal values of ``beta`` (shape ``(p,)``) and the ridge weight, one
+        for all or one per parameter (shape ``(p,)``; 0: not pulled).
     bounds
         ``(lo, hi)`` of ``beta`` (``-inf``/``inf`` where free), shape ``(p,)`` each.
     ordered
         Pairs ``(i, j)`` with ``beta_i <= beta_j``, each parameter in at most one pair; the
         answer is exact for one pair (the series chain's), a sequence of merges for more.
     """
-    prior, r = ridge
+    prior, r_all = ridge
+    r = np.broadcast_to(np.asarray(r_all, dtype=float), prior.shape)
     lo, hi = bounds
     beta, off = _ridge_box(x, o, target, (prior, r, None), lo, hi)
     for i, j in ordered:
@@ -155,7 +157,9 @@ def ridge_box_lstsq(
         d_m[m] = math.hypot(d[i], d[j])
         if d_m[m] > 0.0:
             prior_m[m] = (d[i] ** 2 * prior[i] + d[j] ** 2 * prior[j]) / d_m[m] ** 2
-        gamma, off = _ridge_box(x @ t, o, target, (prior_m, r, d_m), lo_m, hi_m)
+        r_m = r[keep].copy()
+        r_m[m] = max(r[i], r[j])
+        gamma, off = _ridge_box(x @ t, o, target, (prior_m, r_m, d_m), lo_m, hi_m)
         beta = t @ gamma
     return beta, off
 

@@ -183,6 +183,8 @@ class _Problem:
         self.tolerance = model.tolerance(channel)
         self.limits = model.limits(channel)
         self.nonnegative = model.nonnegative(channel) & (self.prior >= 0.0)
+        # an effect's level NOMINAL.toml gives no value is not pulled (towards zero)
+        self.ridge = np.where(model.unanchored(channel) & (self.prior == 0.0), 0.0, RIDGE)
 
     def design(self, theta: Theta) -> tuple[NDArray, NDArray, NDArray]:
         xs, fs, nuis = [], [], []
@@ -201,7 +203,8 @@ class _Problem:
 
     def solve(self, theta: Theta) -> tuple[NDArray, NDArray, NDArray]:
         """``(residual, beta, offsets)``; ridge ``RIDGE * ||d_j (beta_j - prior_j)||^2``
-        with ``d_j`` the column norms (negligible where the data determine ``beta``); the
+        with ``d_j`` the column norms (negligible where the data determine ``beta``; none on
+        an effect's level, :meth:`rths.diagnose.effects.model.Model.unanchored`); the
         nominal's own parameters within the model's tolerance (:mod:`.bounded`) and its
         absolute limits (:meth:`rths.diagnose.effects.model.Model.limits`), a passive
         specimen's inertance and damping not below zero, and the model's ordered pairs
@@ -215,7 +218,9 @@ class _Problem:
         lo[lim] = np.maximum(lo[lim], -self.limits[lim])
         hi[lim] = np.minimum(hi[lim], self.limits[lim])
         lo[self.nonnegative] = np.maximum(lo[self.nonnegative], 0.0)
-        beta, off = ridge_box_lstsq(x, o, target, (self.prior, RIDGE), (lo, hi), self.model.ordered)
+        beta, off = ridge_box_lstsq(
+            x, o, target, (self.prior, self.ridge), (lo, hi), self.model.ordered
+        )
         return target - x @ beta - o @ off, beta, off
 
     def cost(self, theta: Theta) -> float:
