@@ -507,7 +507,7 @@ def test_an_unanchored_level_takes_what_its_collinear_nominal_term_does_not():
     value), truth 2.2 + 1.0: the data fix only the sum.  With the ridge on the nominal one
     alone the split is exact (2.0 + 1.2, the nominal untouched: the effect takes the whole
     remainder); a ridge on both shares the remainder by their equal column energy (2.6 +
-    0.6) -- the bias that left an amplitude law's ``c1`` low and the damping at its bound.
+    0.6): a level collinear with a nominal parameter came out low and moved the nominal one.
     Closed forms to 1e-6 (the solver's 1e-12 diagonal)."""
     from rths.diagnose.search.bounded import ridge_box_lstsq
 
