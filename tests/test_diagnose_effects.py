@@ -631,12 +631,38 @@ def test_a_refuted_floor_is_not_credited_but_the_model_is_judged_by_its_residual
 
     j0, n0 = 0.012**2, 0.005**2
     j, n = 0.037**2, 0.061**2
-    assert credited_floor(j, n, n0) == n0
-    assert held_out_gain((j0, n0), (j, credited_floor(j, n, n0))) <= 0.0
+    assert credited_floor(j, n, (j0, n0)) == n0
+    assert held_out_gain((j0, n0), (j, credited_floor(j, n, (j0, n0)))) <= 0.0
     j = 0.9 * j0  # barely better, with a floor 2.5x its residual
-    gain = held_out_gain((j0, n0), (j, credited_floor(j, 2.5 * j, n0)))
+    gain = held_out_gain((j0, n0), (j, credited_floor(j, 2.5 * j, (j0, n0))))
     assert gain == pytest.approx(0.1 * j0 / (j0 - n0), rel=1e-12)
     j = j0 / 1325.0**2
     n = (1.47 * math.sqrt(j)) ** 2
-    assert held_out_gain((j0, n0), (j, credited_floor(j, n, n0))) > 0.99
-    assert credited_floor(1.0, 1.5, 0.1) == 1.5  # consistent: its own floor
+    assert held_out_gain((j0, n0), (j, credited_floor(j, n, (j0, n0)))) > 0.99
+    assert credited_floor(1.0, 1.5, (3.0, 0.1)) == 1.5  # consistent: its own floor
+
+
+def test_a_floor_is_credited_no_higher_than_the_residual_drops():
+    """Closed forms of :func:`credited_floor`'s cap (floors as mean squares): an exact model
+    leaving propagated noise ``p`` where it removes a model error ``e`` above the current
+    floor ``n0`` is credited with all of ``e`` while ``p <= e/2`` and with ``2 (e - p)``
+    above; one that lowers the residual by 0.6 % of the gap with a consistent floor just
+    below its residual (the real MTS record's half-cycle law: 82 % credited) closes 1.2 %."""
+    from rths.diagnose.search.floors import credited_floor
+    from rths.diagnose.search.pricing import held_out_gain
+
+    n0, e = 0.01, 1.0
+    j0 = n0 + e
+    for p in (0.0, 0.25, 0.5):
+        j = n0 + p  # exact: only the propagated noise is left
+        floor = credited_floor(j, n0 + p, (j0, n0))
+        assert floor == pytest.approx(n0 + p, rel=1e-12)
+        assert held_out_gain((j0, n0), (j, floor)) == pytest.approx(1.0, rel=1e-12)
+    for p in (0.6, 0.75, 0.9):
+        j = n0 + p
+        gain = held_out_gain((j0, n0), (j, credited_floor(j, n0 + p, (j0, n0))))
+        assert gain == pytest.approx(2.0 * (e - p) / e, rel=1e-12)
+    j = j0 - 0.006 * e
+    gain = held_out_gain((j0, n0), (j, credited_floor(j, j / (1.0 + 1e-3), (j0, n0))))
+    assert gain == pytest.approx(0.012, rel=1e-9)
+    assert credited_floor(0.5, 0.05, (1.0, 0.1)) == 0.05  # below the current floor: its own

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
-from score_diagnosis import main, score_case, summarize
+from score_diagnosis import main, residual_shrink, score_case, summarize
 
 
 def _label(*effects: tuple[str, dict]) -> dict:
@@ -52,6 +52,22 @@ def test_none_and_unexplained_rates():
         "none -> unexplained": 1,
         "rate_limit -> none": 1,
     }
+
+
+def test_residual_shrink_credits_no_floor():
+    """``(J_0 - J_S)/(J_0 - N_0)`` from NRMSEs: baseline 0.5, after 0.3, floor 0.1 give
+    (0.25 - 0.09)/(0.25 - 0.01) = 2/3; no effect named, or a channel at its floor: None."""
+    channel = {"baseline_nrmse": 0.5, "after_nrmse": 0.3, "floor_nrmse": 0.1}
+    result = {
+        **_result("backlash", ("backlash", {"gap": 1e-3})),
+        "gap": {"channel": "force"},
+        "channels": {"force": channel},
+    }
+    assert residual_shrink(result) == pytest.approx(2 / 3, rel=1e-12)
+    assert residual_shrink({**result, "effects": []}) is None
+    at_floor = {**channel, "floor_nrmse": 0.5}
+    assert residual_shrink({**result, "channels": {"force": at_floor}}) is None
+    assert residual_shrink(_result("none")) is None
 
 
 def test_real_data_commands_skip_cleanly_without_data(monkeypatch, capsys):

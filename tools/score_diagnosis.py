@@ -19,7 +19,9 @@ rest are held out).  Reported:
 - parameter errors: ``|identified / true - 1|`` of the headline parameter of every correctly
   named effect (stiffness, gap, friction, delay, velocity_limit, c1), quantiles 50/90 % and the
   share within 10 %;
-- held-out shrink: quantiles of the share of the reducible gap the effects close;
+- held-out shrink: quantiles of the share of the reducible gap the effects close (``shrink``,
+  the effects' own noise floors credited) and of the share by which they lower the held-out
+  residual itself, ``(J_0 - J_S)/(J_0 - N_0)`` on the verdict's channel (``residual``);
 - false ``none`` (an effect present) and false ``unexplained`` rates; time per case.
 
 With ``--json`` the suite's file also holds every case's diagnosis (``results``: the
@@ -113,9 +115,21 @@ def _quantiles(x: list[float]) -> dict[str, float]:
     a = np.asarray(x, dtype=float)
     return {
         "n": float(a.size),
+        "q10": float(np.quantile(a, 0.1)),
         "q50": float(np.quantile(a, 0.5)),
         "q90": float(np.quantile(a, 0.9)),
     }
+
+
+def residual_shrink(result: dict) -> float | None:
+    """Share of the verdict channel's reducible gap ``J_0 - N_0`` by which the effects lower
+    the held-out mean square itself, ``(J_0 - J_S)/(J_0 - N_0)`` (from the channel's held-out
+    NRMSEs: baseline, after, floor); None for a channel at its floor or no effect named."""
+    ch = result.get("channels", {}).get(result.get("gap", {}).get("channel"))
+    if not ch or not result.get("effects"):
+        return None
+    j0, js, n0 = (ch[k] ** 2 for k in ("baseline_nrmse", "after_nrmse", "floor_nrmse"))
+    return (j0 - js) / (j0 - n0) if j0 > n0 else None
 
 
 def score_case(label: dict, result: dict) -> dict:
@@ -142,6 +156,7 @@ def score_case(label: dict, result: dict) -> dict:
         "full_set": set(named) == set(truth) and (bool(truth) or verdict == "none"),
         "errors": errors,
         "shrink": result.get("shrink"),
+        "residual_shrink": residual_shrink(result),
         "false_none": bool(truth) and verdict == "none",
         "false_unexplained": verdict == "unexplained",
         "seconds": result["seconds"],
@@ -168,6 +183,9 @@ def summarize(scores: dict[str, dict]) -> dict:
         "param_error": _quantiles(errs),
         "param_within_10pct": sum(e <= 0.1 for e in errs) / max(len(errs), 1),
         "shrink": _quantiles([x["shrink"] for x in s if x["shrink"] is not None]),
+        "residual_shrink": _quantiles(
+            [x["residual_shrink"] for x in s if x.get("residual_shrink") is not None]
+        ),
         "false_none": sum(x["false_none"] for x in s)
         / max(sum(x["truth"] != ["none"] for x in s), 1),
         "false_unexplained": rate("false_unexplained"),
@@ -207,6 +225,12 @@ def _print_summary(title: str, summary: dict, scores: dict[str, dict]) -> None:
         )
     if sh:
         print(f"held-out shrink: median {100 * sh['q50']:.0f} %, 90 % {100 * sh['q90']:.0f} %")
+    rs = summary.get("residual_shrink")
+    if rs:
+        print(
+            f"held-out residual shrink (no floor credited): median {100 * rs['q50']:.0f} %, "
+            f"10 % quantile {100 * rs['q10']:.0f} %"
+        )
     print(
         f"false none {100 * summary['false_none']:.0f} %, false unexplained "
         f"{100 * summary['false_unexplained']:.0f} %; time per case median {sec['q50']:.1f} s, "

@@ -279,7 +279,7 @@ def _diagnose(records: list[Record], nominal: NominalModel, options: Options) ->
         gap_channel=where.channel.name,
         before=where.nrmse(where.baseline.held_mse),
         after=where.nrmse(where.final.held_mse if explained else where.baseline.held_mse),
-        shrink=max(where.closed, 0.0) if explained else max(where.closed, 0.0),
+        shrink=max(where.closed, 0.0),
         channels=channels,
         identification=ident,
         held_out=held_names,

@@ -17,7 +17,8 @@ Otherwise effects are added one at a time:
    gap, or of :data:`NESTED_RESOLUTION` of the channel's reducible gap when less remains
    (:func:`rths.diagnose.search.pricing.buys`), and its parameters are physical; a model
    whose residual lies far below its own noise floor is credited with the current set's
-   floor instead (:func:`rths.diagnose.search.floors.credited_floor`);
+   floor instead, and no model's floor is credited higher above the current set's than the
+   model lowers the held-out residual (:func:`rths.diagnose.search.floors.credited_floor`);
 3. while the residual of the set is still significant, each remaining compatible candidate is
    identified *together* with the set (warm-started from the set's and its own single fit)
    and step 2 repeats.
@@ -227,7 +228,9 @@ def select(
         fit = best_structure(fits, channel, current_floor, price)
         if not chosen and len(add) == 1:
             singles[add[0]] = fit
-        floor = credited_floor(fit.held_mse, noise_floor(fit, channel, seed), current_floor)
+        floor = credited_floor(
+            fit.held_mse, noise_floor(fit, channel, seed), (current.held_mse, current_floor)
+        )
         remaining = max(current.held_mse - current_floor, 1e-300)
         gain = held_out_gain((current.held_mse, current_floor), (fit.held_mse, floor))
         closed = (excess0 - (fit.held_mse - floor)) / excess0
