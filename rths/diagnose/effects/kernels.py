@@ -10,6 +10,12 @@
     operator of yield displacement ``delta``), optionally behind a clearance ``gap`` (a dead
     zone: the element is unloaded while the clearance is crossed).  Rate independent and exact
     per sample; the force is ``F_c phi``.
+``reversal_amplitude``
+    The load amplitude of a cyclic test read per half cycle: half the excursion between the
+    drive's last two reversals, a reversal being a retreat from the running extremum by more
+    than a hysteresis (an absolute floor and a share of the current amplitude, so that noise
+    and small ripples on a large motion do not count as load reversals).  Piecewise constant,
+    0 until two reversals.
 ``series_chain``
     Force per unit inertance of a drive -> [clearance] -> Kelvin-Voigt element -> body chain:
     the body (inertance ``m``) carries a viscous damping (per sample, e.g. amplitude
@@ -35,7 +41,13 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["MAX_SUBSTEPS", "friction_operator", "loop_rate_limited", "series_chain"]
+__all__ = [
+    "MAX_SUBSTEPS",
+    "friction_operator",
+    "loop_rate_limited",
+    "reversal_amplitude",
+    "series_chain",
+]
 
 #: Largest ``omega * h`` [rad] per sub-step of the chain (trapezoidal phase error < 2 %).
 _MAX_STEP_PHASE = 0.5
@@ -130,6 +142,43 @@ def friction_operator(x: NDArray[np.float64], delta: float, gap: float = 0.0) ->
         Total clearance [m] before the element (0: none).
     """
     return _friction_operator(np.ascontiguousarray(x, dtype=float), float(delta), 0.5 * gap)
+
+
+@njit(cache=True)
+def _reversal_amplitude(d, floor, share):  # pragma: no cover - numba
+    out = np.zeros(d.size)
+    amp, direction, extremum, last, turns = 0.0, 0, d[0], 0.0, 0
+    for k in range(d.size):
+        u = d[k]
+        tol = max(floor, share * amp)
+        if direction == 0:
+            if abs(u - extremum) > tol:
+                direction = 1 if u > extremum else -1
+                extremum = u
+        elif (u - extremum) * direction >= 0.0:
+            extremum = u
+        elif abs(u - extremum) > tol:
+            if turns > 0:
+                amp = 0.5 * abs(extremum - last)
+            last, turns, direction, extremum = extremum, turns + 1, -direction, u
+        out[k] = amp
+    return out
+
+
+def reversal_amplitude(x: NDArray[np.float64], floor: float, share: float) -> NDArray:
+    """Half the excursion between the last two reversals of ``x`` [m] (module docstring),
+    shape ``(n,)``.
+
+    Parameters
+    ----------
+    x
+        Drive displacement [m], shape ``(n,)``.
+    floor
+        Absolute hysteresis [m], > 0: a retreat from the running extremum must exceed it.
+    share
+        Relative hysteresis [-]: the retreat must also exceed ``share`` times the amplitude.
+    """
+    return _reversal_amplitude(np.ascontiguousarray(x, dtype=float), float(floor), float(share))
 
 
 @njit(cache=True)

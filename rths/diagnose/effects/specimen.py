@@ -43,7 +43,7 @@ from rths.diagnose.channels.signals import (
 )
 from rths.diagnose.effects.alignment import alignment_column, alignment_limits
 from rths.diagnose.effects.drive import drive_scale, single_tone, smoothed
-from rths.diagnose.effects.kernels import friction_operator
+from rths.diagnose.effects.kernels import friction_operator, reversal_amplitude
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
 
 __all__ = [
@@ -79,6 +79,13 @@ NOMINAL_TOLERANCE: float = 0.2
 
 #: Shortest memory [s] of the running load amplitude (a cycle at 10 Hz).
 MIN_MEMORY: float = 0.1
+#: Hysteresis of the half-cycle amplitude reading: a reversal is a retreat from the running
+#: extremum by more than this share of the record's displacement standard deviation (its
+#: noise and small ripples are no load reversals: at no hysteresis the measured noise on a
+#: 0.8 Hz, 2.3 mm sine collapsed the reading to a few micrometres) ...
+REVERSAL_FLOOR: float = 0.02
+#: ... and by more than this share of the current amplitude.
+REVERSAL_SHARE: float = 0.05
 
 
 def clearance_resolved(channel: Channel, gap: float) -> bool:
@@ -130,50 +137,64 @@ def friction_column(seg: Segment, delta: float, gap: float = 0.0) -> NDArray:
     )
 
 
-def amplitude(seg: Segment, tau: float, peak: float = 0.0) -> NDArray:
+def amplitude(seg: Segment, tau: float, peak: float = 0.0, reversal: float = 0.0) -> NDArray:
     """Load amplitude of the drive [m]: ``(1 - peak)`` running amplitude plus ``peak`` decaying
-    peak hold, both of memory ``tau`` (module docstring; each cached per memory).  On a window
-    of a record (:attr:`rths.diagnose.channels.channel.Segment.window`) the record's own
-    amplitude, sliced: restarted at rest at the window's start it would take several memories
-    to settle, longer than a search window's warm-up."""
+    peak hold, both of memory ``tau``, blended with the share ``reversal`` of the half-cycle
+    reading (module docstring; each cached).  On a window of a record
+    (:attr:`rths.diagnose.channels.channel.Segment.window`) the record's own amplitude, sliced:
+    restarted at rest at the window's start it would take several memories to settle, longer
+    than a search window's warm-up."""
     if seg.window is not None:
         whole, lo = seg.window
-        return amplitude(whole, tau, peak)[lo : lo + seg.observed.size]
+        return amplitude(whole, tau, peak, reversal)[lo : lo + seg.observed.size]
     key = f"amp:{tau!r}"
     if key not in seg.cache:
         seg.cache[key] = running_amplitude(seg.signals["x"], seg.dt, tau)
-    if peak <= 0.0:
-        return seg.cache[key]
-    hold = f"peak:{tau!r}"
-    if hold not in seg.cache:
-        seg.cache[hold] = peak_amplitude(seg.signals["x"], seg.dt, tau)
-    return (1.0 - peak) * seg.cache[key] + peak * seg.cache[hold]
+    out = seg.cache[key]
+    if peak > 0.0:
+        hold = f"peak:{tau!r}"
+        if hold not in seg.cache:
+            seg.cache[hold] = peak_amplitude(seg.signals["x"], seg.dt, tau)
+        out = (1.0 - peak) * out + peak * seg.cache[hold]
+    if reversal > 0.0:
+        if "reversal" not in seg.cache:
+            d = seg.signals["x"] - np.mean(seg.signals["x"])
+            floor = max(REVERSAL_FLOOR * float(np.std(d)), 1e-12)
+            seg.cache["reversal"] = reversal_amplitude(d, floor, REVERSAL_SHARE)
+        out = (1.0 - reversal) * out + reversal * seg.cache["reversal"]
+    return out
 
 
-def amplitude_column(seg: Segment, c2: float, tau: float, peak: float = 0.0) -> NDArray:
+def amplitude_column(
+    seg: Segment, c2: float, tau: float, peak: float = 0.0, reversal: float = 0.0
+) -> NDArray:
     """``h (x' / (A + c2))`` [1/s]: the regressor of ``c1``."""
     return smoothed(
         seg,
-        f"ad:{c2!r}:{tau!r}:{peak!r}",
-        lambda: seg.signals["v"] / (amplitude(seg, tau, peak) + c2),
+        f"ad:{c2!r}:{tau!r}:{peak!r}:{reversal!r}",
+        lambda: seg.signals["v"] / (amplitude(seg, tau, peak, reversal) + c2),
     )
 
 
 def amplitude_space(channel: Channel, grid: bool = True, envelopes: bool = True) -> list[Param]:
-    """``c2`` [m], the amplitude memory ``tau`` [s] (orders of magnitude around the drive) and
-    the peak-hold share ``peak`` [-] of the amplitude.
+    """``c2`` [m], the amplitude memory ``tau`` [s] (orders of magnitude around the drive), the
+    peak-hold share ``peak`` [-] and the half-cycle share ``reversal`` [-] of the amplitude.
 
     The memory is at least :data:`MIN_MEMORY`: an amplitude is a property of a cycle, and a
     shorter memory would turn the law into a position-dependent damping.  With ``envelopes``
-    the global grid tries both readings of the amplitude (``peak`` 0 and 1); else the share
-    starts half-way and is only refined.
+    the global grid tries the readings of the amplitude (``peak`` 0 and 1, ``reversal`` 0
+    and 1); else the peak share starts half-way and is only refined, and the half-cycle
+    reading is left out (a chain's replay costs).
     """
     scale = drive_scale(channel)
-    return [
+    out = [
         Param("c2", 1e-3 * scale, 30.0 * scale, grid=8 if grid else 0),
         Param("memory", MIN_MEMORY, 3.0, grid=6 if grid else 0, start=0.3),
         Param("peak", 0.0, 1.0, log=False, grid=2 if grid and envelopes else 0, start=0.5),
     ]
+    if envelopes:
+        out.append(Param("reversal", 0.0, 1.0, log=False, grid=2 if grid else 0, start=0.0))
+    return out
 
 
 def friction_space(channel: Channel, backlash: bool, grid: bool = True) -> list[Param]:
@@ -253,7 +274,15 @@ class RigidSpecimen(Model):
         elif self._nominal_friction(channel):
             cols.append(friction_column(seg, NOMINAL_PRESLIDING * drive_scale(channel)))
         if self.amplitude or self._nominal_amplitude(channel):
-            cols.append(amplitude_column(seg, theta["c2"], theta["memory"], theta.get("peak", 0.0)))
+            cols.append(
+                amplitude_column(
+                    seg,
+                    theta["c2"],
+                    theta["memory"],
+                    theta.get("peak", 0.0),
+                    theta.get("reversal", 0.0),
+                )
+            )
         cols.append(alignment_column(channel, seg))
         return np.column_stack(cols), np.zeros_like(seg.observed)
 
@@ -335,6 +364,7 @@ class RigidSpecimen(Model):
                 "c2": theta["c2"],
                 "memory": theta["memory"],
                 "peak": theta["peak"],
+                "reversal": theta["reversal"],
             }
         elif self._nominal_amplitude(channel):
             base["amplitude_c1"], base["amplitude_c2"] = b[i], theta["c2"]
