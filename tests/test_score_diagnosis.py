@@ -83,3 +83,13 @@ def test_a_table_of_an_unknown_format_is_one_line_and_exit_2(tmp_path, capsys):
     assert e.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--table must end in .parquet or .csv" in err[0]
+
+
+def test_an_unreadable_mts_record_is_one_line_and_exit_2(tmp_path, capsys):
+    (tmp_path / "friction-damper").mkdir()
+    (tmp_path / "friction-damper" / "r.json.gz").write_bytes(b"")
+    (tmp_path / "mts-actuator").mkdir()
+    (tmp_path / "mts-actuator" / "0A.txt").write_text("not a logger file\n")
+    assert main(["mts", "--data", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "0A.txt failed" in err[0], err

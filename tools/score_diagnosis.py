@@ -351,7 +351,7 @@ def cmd_mts(args: argparse.Namespace) -> int:
     import subprocess
 
     work = Path(tempfile.mkdtemp(prefix="score_mts_"))
-    subprocess.run(
+    done = subprocess.run(
         [
             sys.executable,
             str(Path(__file__).parent / "mts_to_csv.py"),
@@ -359,9 +359,13 @@ def cmd_mts(args: argparse.Namespace) -> int:
             "--out",
             str(work / "rec_1.csv"),
         ],
-        check=True,
         capture_output=True,
+        text=True,
     )
+    if done.returncode != 0:
+        last = (done.stderr.strip().splitlines() or ["(no message)"])[-1]
+        print(f"score_diagnosis.py: error: converting {src} failed: {last}", file=sys.stderr)
+        return 2
     nominal = (
         Path(__file__).resolve().parents[1]
         / "scenarios"
