@@ -64,7 +64,7 @@ from rths.diagnose.channels.signals import discrete_tf, sampled_tf, shifted
 from rths.diagnose.effects.kernels import loop_rate_limited
 from rths.diagnose.effects.model import Columns, Model, Param, Theta
 
-#: Cache-key prefixes of :meth:`ActuatorModel._through`.
+#: Cache-key prefixes of :meth:`ActuatorModel._through` (its loop columns: "reactive:block:").
 _THROUGH: tuple[str, ...] = ("command:", "reactive:")
 
 __all__ = [
@@ -340,15 +340,25 @@ class ActuatorModel(Model):
             seg.cache["flow"] = out
         return seg.cache["flow"]
 
+    def _loop_columns(self, channel: Channel, seg: Segment, theta: Theta) -> NDArray:
+        """The loop's linear columns beside the replay -- compliance, CSI, orifice law --
+        ``(n, p)``, cached per calibration (the shift does not move them), read-only."""
+        key = f"reactive:block:{self._transfer_key(channel, theta)}"
+        if key not in seg.cache:
+            block = np.hstack(
+                [
+                    self._compliance_column(channel, seg, theta),
+                    self._csi_columns(channel, seg)[0],
+                    self._flow_column(channel, seg),
+                ]
+            )
+            block.flags.writeable = False
+            seg.cache[key] = block
+        return seg.cache[key]
+
     def columns(self, channel: Channel, seg: Segment, theta: Theta) -> Columns:
         y = self._linear(channel, seg, theta)
-        csi = np.hstack(
-            [
-                self._compliance_column(channel, seg, theta),
-                self._csi_columns(channel, seg)[0],
-                self._flow_column(channel, seg),
-            ]
-        )
+        csi = self._loop_columns(channel, seg, theta)
         if self.limit:
             g, v_max = float(theta["gain"]), float(theta["velocity_limit"])
             if self.limiter == "loop":
