@@ -562,3 +562,30 @@ def test_band_lag_is_the_delay_a_calibration_mimics_over_the_drive():
     pair1 = (np.array([1.0, 0.366]) * 0.373 / 0.366, np.array([1.0, 0.373]))
     assert band_lag(pair0, pair1, None) == pytest.approx(0.4248, rel=1e-3)
     assert abs(band_lag(pair0, pair1, (f, w))) < 1e-3
+
+
+def test_loop_columns_are_cached_per_calibration_read_only_and_equal_a_fresh_build():
+    # the compliance column moves with the calibration (the reactive force through the
+    # re-calibrated TF), the CSI and orifice columns do not; a cached block must equal the
+    # block built on an empty cache, for every calibration, and refuse in-place writes
+    n = 1500
+    rng = np.random.default_rng(3)
+    force = [rng.standard_normal(n)]
+    flow = rng.standard_normal(n)
+
+    def fresh():
+        return _channel([np.zeros(n)], [rng.standard_normal(n)], flow=flow, force=force)
+
+    ch = fresh()
+    seg, m = ch.segments[0], ActuatorModel()
+    slow = {"frequency_scale": 0.9, "damping_scale": 1.0, "shift": 0.0}
+    fast = {"frequency_scale": 1.1, "damping_scale": 1.0, "shift": 0.3}
+    first = m._loop_columns(ch, seg, slow)
+    assert m._loop_columns(ch, seg, {**slow, "shift": 0.7}) is first  # the shift: no rebuild
+    other = m._loop_columns(ch, seg, fast)
+    assert not np.allclose(first[:, 0], other[:, 0])  # the compliance column moved
+    assert np.array_equal(first[:, 1:], other[:, 1:])  # CSI and orifice columns did not
+    ch2 = fresh()
+    assert np.array_equal(m._loop_columns(ch2, ch2.segments[0], slow), first)
+    with pytest.raises(ValueError):
+        first[0, 0] = 1.0
