@@ -12,7 +12,9 @@ Otherwise effects are added one at a time:
    holds -- a damping a dissipation law may replace -- only when it buys it on held-out
    data);
 2. the candidate that closes most of the remaining held-out gap ``J_S - N_S`` (and lowers the
-   held-out residual ``J_S`` itself: a higher floor of its own is no closing) is added if it
+   held-out residual ``J_S`` itself: a higher floor of its own is no closing; of those that
+   close it to within :data:`NESTED_RESOLUTION`, the one with the lowest ``J_S``:
+   :func:`rths.diagnose.search.pricing.strongest`) is added if it
    closes at least :data:`PRICE` per identified parameter (it "buys its parameters") of that
    gap, or of :data:`NESTED_RESOLUTION` of the channel's reducible gap when less remains
    (:func:`rths.diagnose.search.pricing.buys`), and its parameters are physical; a model
@@ -110,6 +112,7 @@ from rths.diagnose.search.pricing import (
     buys,
     held_out_gain,
     nested_preferred,
+    strongest,
 )
 from rths.diagnose.search.pruning import prune, withdraw
 from rths.diagnose.search.results import Candidate, ChannelResult, held_parts, held_runs
@@ -281,7 +284,7 @@ def select(
             trials = [t for pair in pairs for t in [trial(pair)] if t is not None]
         if not trials:
             break
-        gain, cand = max(nested_preferred(trials, price), key=lambda t: t[0])
+        gain, cand = strongest(nested_preferred(trials, price))
         candidates[candidates.index(cand)] = Candidate(
             cand.fit, cand.floor, cand.closed, cand.gain, True, True
         )
