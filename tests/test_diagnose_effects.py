@@ -454,6 +454,50 @@ def test_box_solve_is_the_bounded_least_squares_of_scipy():
         assert box_solve(a.T @ a, a.T @ b, lo, hi) == pytest.approx(oracle, abs=1e-7)
 
 
+def test_a_term_the_nominal_leaves_out_is_bounded_in_every_band_where_it_acts():
+    """``zero_term_scale``: ``min_b sqrt(E_y,b / E_c,b)`` over the octave bands holding 5 % of
+    the column's energy.  Oracles: a column and an observation of one tone give the ratio of
+    their amplitudes (the one-band bound ``RMS(y)/RMS(x)``: the two rules agree at one
+    tone); two tones an octave and more apart give the smaller amplitude ratio -- a spring's
+    bound is set where the device's force is smallest against the displacement; a tone
+    holding under 5 % of the column's energy sets no bound; records are summed band by
+    band, and a zero column gives 0.  Tolerance 1e-6: both tones sit on FFT bins (whole
+    cycles), so the Hann window's leakage stays inside the band."""
+    from rths.diagnose.effects.zero_terms import ZERO_TERM_SHARE, zero_term_scale
+
+    n = 8192
+    k = np.arange(n)
+    lo, hi = np.sin(2 * math.pi * 40 * k / n), np.sin(2 * math.pi * 640 * k / n)
+    assert zero_term_scale([2.0 * lo], [7.0 * lo]) == pytest.approx(3.5, rel=1e-6)
+    # a column of equal tones; the observation 10x the column at the low one, 300x at the high
+    assert zero_term_scale([lo + hi], [10.0 * lo + 300.0 * hi]) == pytest.approx(10.0, rel=1e-6)
+    # the low tone holds under ZERO_TERM_SHARE of the column's energy: only the high one bounds
+    small = 0.5 * math.sqrt(ZERO_TERM_SHARE)
+    ratio = zero_term_scale([small * lo + hi], [small * 10.0 * lo + 300.0 * hi])
+    assert ratio == pytest.approx(300.0, rel=1e-6)
+    # two records, one tone each: band by band over the records, the smaller ratio
+    two = zero_term_scale([lo, hi], [10.0 * lo, 300.0 * hi])
+    assert two == pytest.approx(10.0, rel=1e-6)
+    assert zero_term_scale([np.zeros(n)], [lo]) == 0.0
+
+
+def test_box_bounds_take_the_band_scale_for_a_term_the_nominal_sets_to_zero():
+    """The bound of a zero-nominal column is ``t`` times the given band scale; a nominal
+    parameter keeps ``p (1 +/- t)``, a free one stays unbounded; without a scale the
+    one-band rule ``t RMS(y)/RMS(X_j)`` holds (a 4 N observation, a 2 m column: 0.2 * 2)."""
+    from rths.diagnose.search.bounded import box_bounds
+
+    x = np.column_stack([np.full(16, 2.0), np.full(16, 1.0), np.ones(16)])
+    y = np.tile([4.0, -4.0], 8)
+    prior, tol = np.array([0.0, 5.0, 0.0]), np.array([0.2, 0.2, np.nan])
+    lo, hi = box_bounds(prior, tol, x, y, np.array([30.0, 0.0, 0.0]))
+    assert hi[0] == pytest.approx(6.0) and lo[0] == pytest.approx(-6.0)
+    assert (lo[1], hi[1]) == pytest.approx((4.0, 6.0))
+    assert (lo[2], hi[2]) == (-np.inf, np.inf)
+    lo, hi = box_bounds(prior, tol, x, y)
+    assert hi[0] == pytest.approx(0.4)
+
+
 def test_box_solve_holds_a_zero_width_box_at_its_value():
     """A calibration switched off (``lo = hi``: the inertance under one tone, the alignment
     over sines) beside bounded ones.  Oracle: the bounded least squares of the other columns

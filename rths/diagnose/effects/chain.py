@@ -45,6 +45,7 @@ from rths.diagnose.effects.specimen import (
     friction_resolved,
     rigid_columns,
 )
+from rths.diagnose.effects.zero_terms import zero_term_scale
 
 __all__ = [
     "CONTACT_EXPONENT",
@@ -203,8 +204,10 @@ class SeriesChain(Model):
             lo, hi = nominal - t * abs(nominal), nominal + t * abs(nominal)
         else:
             key = "v" if name == "damping" else "x"
-            rms = max(float(np.sqrt(np.mean(channel.stack(key) ** 2))), 1e-300)
-            hi = t * float(np.std(channel.stack("observed"))) / rms
+            hi = t * zero_term_scale(
+                [s.signals[key] for s in channel.segments],
+                [s.observed for s in channel.segments],
+            )
             lo = -hi
         if name == "damping":
             lo = max(lo, 0.0)

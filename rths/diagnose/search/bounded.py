@@ -5,9 +5,10 @@ A model's :meth:`rths.diagnose.effects.model.Model.tolerance` gives, per linear 
 ``beta_j``, a relative tolerance ``t_j`` (NaN: free).  The bound is
 
 * ``|beta_j - p_j| <= t_j |p_j|`` around the nominal value ``p_j`` when it is not zero;
-* ``|beta_j| RMS(X_j) <= t_j RMS(y)`` when the nominal sets the parameter to zero: the term
-  the nominal leaves out may be re-calibrated to at most ``t_j`` of the observation's RMS
-  (its standard deviation: record offsets are nuisance terms).
+* ``|beta_j| <= t_j min_b sqrt(E_y,b / E_j,b)`` when the nominal sets the parameter to zero:
+  the term the nominal leaves out may be re-calibrated to at most ``t_j`` of the observation
+  in every octave band ``b`` where its column acts (:mod:`rths.diagnose.effects.zero_terms`:
+  ``E`` the band energies about the means, record offsets being nuisance terms).
 
 The quadratic ``0.5 z' G z - b' z`` on unit-norm columns is minimised over the box by a small
 active-set loop (the Gram matrix is a few columns wide): free variables solved, the worst
@@ -33,6 +34,7 @@ def box_bounds(
     tolerance: NDArray[np.float64],
     x: NDArray[np.float64],
     y: NDArray[np.float64],
+    zero_scale: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Lower and upper bounds of ``beta`` (module docstring; ``-inf, inf`` where free).
 
@@ -46,6 +48,10 @@ def box_bounds(
         Design matrix ``X`` (shape ``(n, p)``).
     y
         The observation the model is fitted to (shape ``(n,)``), same unit as ``X beta``.
+    zero_scale
+        Per column, :func:`rths.diagnose.effects.zero_terms.zero_term_scale` of the column
+        and the observation over their records (shape ``(p,)``; used where the nominal sets
+        the parameter to zero); None: one band, ``RMS(y) / RMS(X_j)`` over the stacked rows.
     """
     lo = np.full(prior.size, -np.inf)
     hi = np.full(prior.size, np.inf)
@@ -55,8 +61,11 @@ def box_bounds(
         if p != 0.0:
             lo[j], hi[j] = p - t * abs(p), p + t * abs(p)
         else:
-            col = float(np.sqrt(np.mean(x[:, j] ** 2))) if x.shape[0] else 0.0
-            half = t * y_rms / col if col > 0.0 else 0.0
+            if zero_scale is not None:
+                half = t * float(zero_scale[j])
+            else:
+                col = float(np.sqrt(np.mean(x[:, j] ** 2))) if x.shape[0] else 0.0
+                half = t * y_rms / col if col > 0.0 else 0.0
             lo[j], hi[j] = -half, half
     return lo, hi
 

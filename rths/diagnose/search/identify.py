@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 from rths.core.errors import NumericalError
 from rths.diagnose.channels.channel import Channel, Segment
 from rths.diagnose.effects.model import Model, Theta
+from rths.diagnose.effects.zero_terms import zero_term_scale
 from rths.diagnose.search.bounded import box_bounds, ridge_box_lstsq
 from rths.diagnose.search.refine import Coords, coordinate_sweep, grid_points, refine
 
@@ -185,6 +186,17 @@ class _Problem:
         self.nonnegative = model.nonnegative(channel) & (self.prior >= 0.0)
         # an effect's level NOMINAL.toml gives no value is not pulled (towards zero)
         self.ridge = np.where(model.unanchored(channel) & (self.prior == 0.0), 0.0, RIDGE)
+        self.zero_scale: NDArray[np.float64] | None = None
+
+    def _zero_scale(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Per column the bound scale of a term NOMINAL.toml sets to zero
+        (:func:`rths.diagnose.effects.zero_terms.zero_term_scale`, per record over its rows)."""
+        out = np.zeros(x.shape[1])
+        cut = np.cumsum([r.size for r in self.rows])[:-1]
+        observed = np.split(self.y, cut)
+        for j in np.flatnonzero(np.isfinite(self.tolerance) & (self.prior == 0.0)):
+            out[j] = zero_term_scale(np.split(x[:, j], cut), observed)
+        return out
 
     def design(self, theta: Theta) -> tuple[NDArray, NDArray, NDArray]:
         xs, fs, nuis = [], [], []
@@ -213,7 +225,9 @@ class _Problem:
         constraint on a convex problem, an optimum that violates it lies on its boundary)."""
         x, f, o = self.design(theta)
         target = self.y - f
-        lo, hi = box_bounds(self.prior, self.tolerance, x, target)
+        if self.zero_scale is None:  # the bands where each column acts: from the first design
+            self.zero_scale = self._zero_scale(x)
+        lo, hi = box_bounds(self.prior, self.tolerance, x, target, self.zero_scale)
         lim = np.isfinite(self.limits)
         lo[lim] = np.maximum(lo[lim], -self.limits[lim])
         hi[lim] = np.minimum(hi[lim], self.limits[lim])
