@@ -1,6 +1,7 @@
 """A delay the actuator's common re-calibration absorbs to the noise floor: the paired test of
 two cross-validated fits (:func:`rths.diagnose.search.crossval.paired_gain`) and its use by the
-selection (:func:`rths.diagnose.search.calibrated.hidden_delay`)."""
+selection (:func:`rths.diagnose.search.calibrated.hidden_delay`); a delay against the lag the
+calibration's factors can mimic at most (:mod:`rths.diagnose.search.lag`)."""
 
 from __future__ import annotations
 
@@ -184,3 +185,83 @@ def test_a_slow_pole_zero_pair_mis_set_apart_is_calibration_and_a_delay_behind_i
     r = select(_dipole_channel(5.0, 1), ("actuator_delay",))
     assert r.verdict == "actuator_delay"
     assert r.final.params["actuator_delay"]["delay"] == pytest.approx(5 * DT, abs=0.2 * DT)
+
+
+def _bounded(ch: Channel):
+    """The channel's common re-calibration (as the selection identifies it)."""
+    from rths.diagnose.search.alignment import aligned_baseline
+    from rths.diagnose.search.crossval import cross_fit
+    from rths.diagnose.search.pricing import PRICE
+
+    return aligned_baseline(ch, cross_fit, 0, PRICE)[0]
+
+
+def test_the_lag_headroom_of_the_calibration_is_the_tolerance_share_of_the_group_delay():
+    # closed form, a drive far below the poles (0-5 Hz against 20 and 60 Hz): a pole's lag is
+    # its group delay, 1/a for the real pole and 2 zeta/w for the pair (8.0 + 3.7 ms); every
+    # factor at its lag bound adds 1/0.9 - 1 of the real pole's, (1.1/0.9 - 1) of the pair's
+    # and one sample of alignment: 0.89 + 0.82 + 1.0 ms = 2.71 ms from the nominal.  The band
+    # weighting reads the phase over the drive's 0-6 Hz, where a pole's phase atan(x) falls
+    # below its group delay's x by x^2/3 (x = omega/a up to 0.3: 3 % of the poles' 1.7 ms):
+    # the headroom lies within 0.1 ms below the first-order sum (measured 0.055 ms below).  At
+    # the bound itself no room is left (to rounding).
+    from rths.diagnose.search.lag import lag_headroom
+
+    ch = _channel(0.0, 1)
+    a, w = 2 * math.pi * 20.0, 2 * math.pi * 60.0
+    room = (1 / 0.9 - 1) / a + (1.1 / 0.9 - 1) * 2 * 0.7 / w + DT
+    assert room - 0.1e-3 < lag_headroom(ch, {}) < room
+    bound = {"frequency_scale": 0.9, "damping_scale": 1.1, "alignment": DT}
+    assert abs(lag_headroom(ch, bound)) < 1e-9
+
+
+def test_a_delay_beyond_the_calibrations_lag_bound_is_named_with_the_nominals_poles():
+    # an 8-sample delay behind the exact nominal: the baseline takes every factor to its lag
+    # bound (2.7 samples of lag, above) and still leaves a gap; with the nominal's own poles the
+    # delay reaches the noise floor, so the factors buy nothing against it.  Oracle: the
+    # applied delay, 8 ms, to 0.05 sample (2 um of noise on 5 mm over 12 000 held samples);
+    # the poles are the nominal's exactly.
+    from rths.diagnose.search.crossval import cross_fit
+    from rths.diagnose.search.lag import delay_at_lag_bound
+    from rths.diagnose.search.pricing import PRICE
+
+    ch = _channel(8.0, 1)
+    base = _bounded(ch)
+    assert base.theta["frequency_scale"] == pytest.approx(0.9, abs=1e-3)
+    found = delay_at_lag_bound(ch, cross_fit, base, ("actuator_delay",), 0, PRICE)
+    assert found is not None
+    fit, _ = found
+    assert fit.params["actuator_delay"]["delay"] == pytest.approx(8 * DT, abs=0.05 * DT)
+    assert "frequency_scale" not in fit.theta and fit.model.structure == "nominal poles"
+
+
+def test_a_nominal_too_fast_within_the_tolerance_is_short_of_the_lag_bound():
+    # no delay, the truth's roots 7 % slower than the nominal's (within the +/-10 %): the
+    # baseline follows them with room to spare (about 0.3 of the 1.7 ms its factors could add),
+    # so no delay is sought, whatever a delay would fit.
+    from rths.diagnose.search.crossval import cross_fit
+    from rths.diagnose.search.lag import LAG_SLACK, delay_at_lag_bound, lag_headroom
+    from rths.diagnose.search.pricing import PRICE
+
+    ch = _channel(0.0, 1, freq_factor=0.93)
+    base = _bounded(ch)
+    assert lag_headroom(ch, base.baseline) > LAG_SLACK * DT
+    assert delay_at_lag_bound(ch, cross_fit, base, ("actuator_delay",), 0, PRICE) is None
+
+
+def test_a_named_delay_is_reported_with_the_nominals_poles_unless_the_factors_buy_themselves():
+    # a 6-sample delay behind the exact nominal: the factors fitted beside it buy nothing, so
+    # the delay is reported with the nominal's poles (oracle: 6 ms to 0.05 sample).
+    r = select(_channel(6.0, 1), ("actuator_delay",))
+    assert r.verdict == "actuator_delay" and r.final.model.structure == "nominal poles"
+    assert r.final.params["actuator_delay"]["delay"] == pytest.approx(6 * DT, abs=0.05 * DT)
+    # behind a truth 7 % slower than the nominal the nominal's poles leave the slower poles'
+    # magnitude (at x = omega/a a pole's magnitude moves as x^2, its phase as x: a delay takes
+    # on the phase only), far above 2 um of noise: the root-by-root factors buy their
+    # parameters and stay.  Oracle: the delay 6 ms to 0.1 sample (measured 5.97), the real
+    # pole's and the pair's factors 0.93 to 0.01 (measured 0.921 and 0.930).
+    r = select(_channel(6.0, 1, freq_factor=0.93), ("actuator_delay",))
+    assert r.verdict == "actuator_delay" and r.final.model.structure == "rootwise"
+    assert r.final.params["actuator_delay"]["delay"] == pytest.approx(6 * DT, abs=0.1 * DT)
+    assert r.final.theta["pole_0"] == pytest.approx(0.93, abs=0.01)
+    assert r.final.theta["pole_1"] == pytest.approx(0.93, abs=0.01)

@@ -41,6 +41,7 @@ _UNITS = {
 _EVIDENCE: dict[str, str] = {
     "spectrum": "spectrum",
     "paired": "paired test",
+    "lag bound": "lag at the calibration's bound",
     "coverage": "calibration on every record",
 }
 
@@ -135,6 +136,13 @@ def table(d: Diagnosis) -> str:
                 f"allowance by absorbing this delay (alignment at its one-sample bound); named "
                 f"because it predicts the held-out blocks better than the root-by-root "
                 f"calibration (paired test)"
+            )
+        if c.evidence == "lag bound":
+            lines.append(
+                f"note: the {name} channel's baseline took every calibration factor to within "
+                f"a sample of its lag bound; the delay with the nominal's own poles predicts "
+                f"the held-out records as well without them (the factors do not buy their "
+                f"parameters against it)"
             )
     for name, c in d.channels.items():
         lag = calibration_lag(c.channel, c.baseline.baseline)

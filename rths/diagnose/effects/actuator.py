@@ -175,13 +175,21 @@ class ActuatorModel(Model):
     limiter
         Structure of a ``rate_limit``: ``"output"`` (a rate limiter on the motion) or
         ``"loop"`` (a flow limit inside the servo loop).
+    nominal_poles
+        Hold every pole and zero at NOMINAL.toml's values (no common frequency or damping
+        factor; the gain, offsets and loop columns stay calibrated): a delay judged by the
+        lag it needs with the nominal's own dynamics
+        (:mod:`rths.diagnose.search.lag`).
     """
 
     subsystem = "actuator"
     max_grid = 2000  # one replay per pole pair, then cheap shifts
 
-    def __init__(self, effects: tuple[str, ...] = (), limiter: str = "output") -> None:
+    def __init__(
+        self, effects: tuple[str, ...] = (), limiter: str = "output", nominal_poles: bool = False
+    ) -> None:
         super().__init__(effects)
+        self.nominal_poles = nominal_poles
         self.delay = "actuator_delay" in effects
         self.limit = "rate_limit" in effects
         if limiter not in ("output", "loop"):
@@ -189,6 +197,8 @@ class ActuatorModel(Model):
         self.limiter = limiter
         if self.limit:
             self.structure = f"limit {'inside the loop' if limiter == 'loop' else 'on the output'}"
+        if nominal_poles:
+            self.structure = ", ".join([s for s in (self.structure,) if s] + ["nominal poles"])
         self.polish = self.limit
         self._base: dict[str, float] = {}
 
@@ -212,7 +222,7 @@ class ActuatorModel(Model):
     def space(self, channel: Channel) -> list[Param]:
         out = []
         grid = 3 if self.delay else 0  # a delay trades against the poles' lag: search both
-        if self._dynamic(channel):
+        if self._dynamic(channel) and not self.nominal_poles:
             base_f = self._base.get("frequency_scale", 1.0)
             out.append(Param("frequency_scale", *_FREQ_RANGE, grid=grid, start=base_f))
             if self._complex(channel):

@@ -82,7 +82,9 @@ class ChannelResult:
         What named the effects: ``replay`` (they close the time-domain gap), ``spectrum``
         (a contact no replay follows: :mod:`rths.diagnose.search.spectral`) or ``paired``
         (a delay the calibration absorbed to the noise floor, named by a paired test of
-        held-out predictions: :func:`rths.diagnose.search.calibrated.hidden_delay`); or, with
+        held-out predictions: :func:`rths.diagnose.search.calibrated.hidden_delay`) or
+        ``lag bound`` (a delay the calibration took to its lag bound, named with the nominal's
+        own poles: :func:`rths.diagnose.search.lag.delay_at_lag_bound`); or, with
         verdict ``none``, ``coverage`` (a held-out gap the baseline calibrated on every
         record's time blocks closes to the floor: :mod:`rths.diagnose.search.coverage`).
     """

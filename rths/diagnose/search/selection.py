@@ -105,6 +105,7 @@ from rths.diagnose.search.crossval import cross_fit
 from rths.diagnose.search.decomposed import decompose_fit
 from rths.diagnose.search.floors import credited_floor, noise_floor
 from rths.diagnose.search.identify import Fit, fit_model
+from rths.diagnose.search.lag import delay_at_lag_bound, nominal_poles_preferred
 from rths.diagnose.search.pricing import (
     NESTED_RESOLUTION,
     PRICE,
@@ -186,6 +187,9 @@ def select(
         if hidden is None:
             return ChannelResult(channel, base, n0, dec, candidates, (), base, 0.0, "none")
         fit, floor, gain, _ = hidden  # a delay the calibration absorbed to the floor
+        swap = nominal_poles_preferred(channel, fitter, base, fit, seed, price)
+        if swap is not None:  # its poles at the nominal's (:mod:`...search.lag`)
+            fit, floor = swap
         closed = (excess0 - (fit.held_mse - floor)) / excess0 if excess0 > 0.0 else gain
         candidates.append(Candidate(fit, floor, closed, gain, True, True))
         res = base.model.resolution(channel, base.prediction)
@@ -376,6 +380,23 @@ def select(
             candidates.append(Candidate(fit, floor, closed, gain, True, True))
             chosen, current, current_floor = fit.effects, fit, floor
             verdict, evidence = fit.effects[0], "paired"
+    if not chosen and dec.significant and verdict in ("unexplained", "none"):
+        bound = delay_at_lag_bound(channel, fitter, base, effects, seed, price)
+        if bound is not None:  # the calibration took every factor to its lag bound
+            fit, floor = bound
+            withdraw(candidates)
+            closed = (excess0 - (fit.held_mse - floor)) / excess0
+            candidates.append(Candidate(fit, floor, closed, closed, True, True))
+            chosen, current, current_floor = fit.effects, fit, floor
+            verdict, evidence = fit.effects[0], "lag bound"
+    elif "actuator_delay" in chosen:
+        swap = nominal_poles_preferred(channel, fitter, base, current, seed, price)
+        if swap is not None:  # the delay with the nominal's own poles
+            fit, floor = swap
+            withdraw(candidates)
+            closed = (excess0 - (fit.held_mse - floor)) / excess0
+            candidates.append(Candidate(fit, floor, closed, closed, True, True))
+            current, current_floor = fit, floor
     if verdict == "unexplained" and channel.name in SPECTRAL_CHANNELS:
         pick = spectral_choice(channel, base, candidates, price, MIN_CLOSED)
         if pick is not None:  # a contact no replay follows: named by its spectrum
