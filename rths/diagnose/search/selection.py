@@ -79,6 +79,12 @@ the gap, or when the common factors beside a delay or beside no effect took on m
 one sample of lag: a delay the common factors absorbed is named from that fit, and an effect
 that buys nothing against it is calibration.
 
+A channel left ``unexplained`` (or ``none`` by model form) whose baseline took every
+calibration factor to within a sample of its lag bound names the delay identified with the
+nominal's own poles when those factors do not buy their parameters against it, and a delay
+named beside calibrated factors is reported with the nominal's poles unless the factors buy
+themselves (:mod:`rths.diagnose.search.lag`; ``evidence = "lag bound"`` for the first).
+
 Models of channels listed in :data:`CROSS_FIT` are scored by two-fold cross-validation over
 time blocks of every record (:func:`rths.diagnose.search.crossval.cross_fit`).
 """
