@@ -230,9 +230,9 @@ def delay_at_lag_bound(
     refit = nominal_poles_fit(channel, fitter, base, base, ("actuator_delay",))
     if not refit.model.physical(channel, refit.params):
         return None
+    if refit.held_mse > base.held_mse:  # it predicts the held-out records worse: no delay
+        return None
     floor = noise_floor(refit, channel, seed)
     if _factors_buy(refit, floor, base, calibration_factors(base, channel), price, None):
-        return None
-    if refit.held_mse > base.held_mse:  # it predicts the held-out records worse: no delay
         return None
     return refit, floor
